@@ -1,0 +1,15 @@
+"""Multisonar: host driver, golden model and tools for a 24-element ultrasonic ring."""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version as _version
+
+from .constants import TICK_HZ, speed_of_sound
+from .layout import Layout, LayoutError, load_layout
+
+try:
+    __version__ = _version("multisonar")
+except PackageNotFoundError:  # running from a source tree without installation
+    __version__ = "0.0.0+src"
+
+__all__ = ["TICK_HZ", "Layout", "LayoutError", "load_layout", "speed_of_sound", "__version__"]
