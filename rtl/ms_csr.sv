@@ -1,0 +1,152 @@
+// ms_csr: the sonar core's control/status registers as flat, named signals.
+//
+// Wraps the PeakRDL-generated register block (rtl/regs/sonar_regs.rdl -> build/gen/sv) so
+// the rest of the RTL never touches its hwif structs, and holds the phasing-delay table in
+// block RAM (the regblock treats it as external memory).
+//
+// Bus: PeakRDL "passthrough" protocol. A request is accepted on a clock with req high and
+// no stall; rd_ack / wr_ack answer one or more clocks later (a register access answers on
+// the next clock, a delay-table access one clock after the RAM read). Unmapped addresses
+// and writes to read-only registers answer with rd_err / wr_err.
+//
+// Counters (events, pulses, overflows) increment on one-clock strobes from the core and
+// clear together on CTRL.clear_counters; the overflow counter saturates instead of wrapping.
+module ms_csr
+  import sonar_regs_pkg::*;
+#(
+  parameter int unsigned NUM_CH  = ms_layout_pkg::NUM_CH,
+  parameter int unsigned DELAY_W = 16,
+  parameter int unsigned ADDR_W  = 11,
+  // fixed by the register map (regfile VS[8] in sonar_regs.rdl); CAPS.num_vs reports it
+  localparam int unsigned NUM_VS = 8
+) (
+  input  logic                          clk_i,
+  input  logic                          rst_i,
+  // register bus (passthrough)
+  input  logic                          bus_req_i,
+  input  logic                          bus_req_is_wr_i,
+  input  logic [ADDR_W-1:0]             bus_addr_i,
+  input  logic [31:0]                   bus_wr_data_i,
+  input  logic [31:0]                   bus_wr_biten_i,
+  output logic                          bus_req_stall_wr_o,
+  output logic                          bus_req_stall_rd_o,
+  output logic                          bus_rd_ack_o,
+  output logic                          bus_rd_err_o,
+  output logic [31:0]                   bus_rd_data_o,
+  output logic                          bus_wr_ack_o,
+  output logic                          bus_wr_err_o,
+  // settings to the core
+  output logic                          enable_o,
+  output logic                          apply_o,           // one-clock strobe
+  output logic                          clear_counters_o,  // one-clock strobe
+  output logic [15:0]                   burst_half_period_o,
+  output logic [7:0]                    burst_cycles_o,
+  output logic [7:0]                    glitch_min_o,
+  output logic [NUM_VS-1:0][NUM_CH-1:0] vs_tx_mask_o,
+  output logic [NUM_VS-1:0][NUM_CH-1:0] vs_rx_mask_o,
+  output logic [NUM_VS-1:0][1:0]        vs_mode_o,
+  output logic [NUM_VS-1:0][2:0]        vs_order_o,
+  output logic [NUM_VS-1:0][3:0]        vs_miss_limit_o,
+  output logic [NUM_VS-1:0][15:0]       vs_t_v_o,
+  output logic [NUM_VS-1:0][15:0]       vs_t_n_o,
+  output logic [NUM_VS-1:0][19:0]       vs_t_dead_o,
+  output logic [NUM_VS-1:0][23:0]       vs_max_tof_o,
+  // phasing-delay table read port for the core: entry vs*32 + element, data one clock later
+  input  logic [7:0]                    delay_raddr_i,
+  output logic [DELAY_W-1:0]            delay_rdata_o,
+  // status and event strobes from the core
+  input  logic                          running_i,
+  input  logic [3:0]                    cfg_error_i,
+  input  logic [3:0]                    cfg_error_vs_i,
+  input  logic [11:0]                   fifo_level_i,
+  input  logic                          event_i,
+  input  logic                          overflow_i,
+  input  logic                          pulse_i
+);
+  sonar_regs__in_t  hwif_in;
+  sonar_regs__out_t hwif_out;
+
+  sonar_regs u_regs (
+    .clk                  (clk_i),
+    .rst                  (rst_i),
+    .s_cpuif_req          (bus_req_i),
+    .s_cpuif_req_is_wr    (bus_req_is_wr_i),
+    .s_cpuif_addr         (bus_addr_i),
+    .s_cpuif_wr_data      (bus_wr_data_i),
+    .s_cpuif_wr_biten     (bus_wr_biten_i),
+    .s_cpuif_req_stall_wr (bus_req_stall_wr_o),
+    .s_cpuif_req_stall_rd (bus_req_stall_rd_o),
+    .s_cpuif_rd_ack       (bus_rd_ack_o),
+    .s_cpuif_rd_err       (bus_rd_err_o),
+    .s_cpuif_rd_data      (bus_rd_data_o),
+    .s_cpuif_wr_ack       (bus_wr_ack_o),
+    .s_cpuif_wr_err       (bus_wr_err_o),
+    .hwif_in              (hwif_in),
+    .hwif_out             (hwif_out)
+  );
+
+  // delay-table handshake (see the RAM below); declared first because the hwif_in block uses it
+  logic                 delay_rd_pending_q, delay_wr_pending_q;
+  logic [DELAY_W-1:0]   delay_rdata_a;
+
+  // ---- status, counters and the delay-table answers: one process drives all of hwif_in
+  // (Verilator treats the struct as one variable).
+  always_comb begin
+    hwif_in.STATUS.running.next      = running_i;
+    hwif_in.STATUS.cfg_error.next    = cfg_error_i;
+    hwif_in.STATUS.cfg_error_vs.next = cfg_error_vs_i;
+    hwif_in.STATUS.fifo_level.next   = fifo_level_i;
+    hwif_in.EVENTS.count.incr        = event_i;
+    hwif_in.EVENTS.count.hwclr       = hwif_out.CTRL.clear_counters.value;
+    hwif_in.OVERFLOWS.count.incr     = overflow_i;
+    hwif_in.OVERFLOWS.count.hwclr    = hwif_out.CTRL.clear_counters.value;
+    hwif_in.PULSES.count.incr        = pulse_i;
+    hwif_in.PULSES.count.hwclr       = hwif_out.CTRL.clear_counters.value;
+    hwif_in.DELAY.rd_ack             = delay_rd_pending_q;
+    hwif_in.DELAY.rd_data            = 32'(delay_rdata_a);
+    hwif_in.DELAY.wr_ack             = delay_wr_pending_q;
+  end
+
+  assign enable_o            = hwif_out.CTRL.enable.value;
+  assign apply_o             = hwif_out.CTRL.apply.value;
+  assign clear_counters_o    = hwif_out.CTRL.clear_counters.value;
+  assign burst_half_period_o = hwif_out.BURST.half_period.value;
+  assign burst_cycles_o      = hwif_out.BURST.cycles.value;
+  assign glitch_min_o        = hwif_out.RX_FILTER.glitch_min.value;
+
+  for (genvar v = 0; v < NUM_VS; v++) begin : g_vs
+    assign vs_tx_mask_o[v]    = hwif_out.VS[v].TX_MASK.mask.value;
+    assign vs_rx_mask_o[v]    = hwif_out.VS[v].RX_MASK.mask.value;
+    assign vs_mode_o[v]       = hwif_out.VS[v].MODE.mode.value;
+    assign vs_order_o[v]      = hwif_out.VS[v].MODE.order.value;
+    assign vs_miss_limit_o[v] = hwif_out.VS[v].MODE.miss_limit.value;
+    assign vs_t_v_o[v]        = hwif_out.VS[v].WINDOW.t_v.value;
+    assign vs_t_n_o[v]        = hwif_out.VS[v].WINDOW.t_n.value;
+    assign vs_t_dead_o[v]     = hwif_out.VS[v].T_DEAD.ticks.value;
+    assign vs_max_tof_o[v]    = hwif_out.VS[v].MAX_TOF.ticks.value;
+  end
+
+  // ---- phasing-delay table: external memory of the regblock, kept in block RAM.
+  // The RAM stores DELAY_W bits per entry; the upper bits of a bus write are dropped (the
+  // host validator refuses delays that do not fit) and read back as zero.
+
+  ms_ram_dp #(.WIDTH(DELAY_W), .DEPTH(256)) u_delay_ram (
+    .clk_i     (clk_i),
+    .we_a_i    (hwif_out.DELAY.req & hwif_out.DELAY.req_is_wr),
+    .addr_a_i  (hwif_out.DELAY.addr[9:2]),
+    .wdata_a_i (hwif_out.DELAY.wr_data[DELAY_W-1:0]),
+    .rdata_a_o (delay_rdata_a),
+    .addr_b_i  (delay_raddr_i),
+    .rdata_b_o (delay_rdata_o)
+  );
+
+  always_ff @(posedge clk_i) begin
+    if (rst_i) begin
+      delay_rd_pending_q <= 1'b0;
+      delay_wr_pending_q <= 1'b0;
+    end else begin
+      delay_rd_pending_q <= hwif_out.DELAY.req & ~hwif_out.DELAY.req_is_wr;
+      delay_wr_pending_q <= hwif_out.DELAY.req &  hwif_out.DELAY.req_is_wr;
+    end
+  end
+endmodule

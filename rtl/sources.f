@@ -1,0 +1,8 @@
+# All RTL of the project in compile order, one path per line; $GEN is build/gen.
+# Lint, cocotb tests and (later) synthesis read this one list.
+$GEN/rtl/ms_layout_pkg.sv
+$GEN/sv/sonar_regs_pkg.sv
+$GEN/sv/sonar_regs.sv
+rtl/common/ms_ram_dp.sv
+rtl/rx/ms_rx_conditioner.sv
+rtl/ms_csr.sv
