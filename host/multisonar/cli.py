@@ -1,0 +1,122 @@
+"""The ``multisonar`` command line.
+
+Subcommands whose issue has not landed yet say so and exit with status 2, instead of
+pretending to work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable, Sequence
+
+from . import __version__
+from .constants import TICK_HZ, speed_of_sound
+from .layout import DEFAULT_LAYOUT, LayoutError, load_layout
+
+
+def _cmd_version(args: argparse.Namespace) -> int:
+    regmap = "not generated (run 'make regs')"
+    try:
+        from .generated import sonar_regs as R
+
+        reg = R.REGISTERS["VERSION"]
+        regmap = f"{reg.fields['REGMAP'].get(reg.reset)} (gateware {reg.fields['MAJOR'].get(reg.reset)}.{reg.fields['MINOR'].get(reg.reset)})"
+    except ImportError:
+        pass
+    print(f"multisonar {__version__}")
+    print(f"register map revision {regmap}")
+    print(f"tick rate {TICK_HZ} Hz")
+    return 0
+
+
+def _cmd_layout(args: argparse.Namespace) -> int:
+    import math
+
+    lay = load_layout(args.layout)
+    c = speed_of_sound(args.temperature)
+    print(f"layout {lay.name} ({lay.source}): {lay.n} elements, speed of sound {c:.2f} m/s at {args.temperature} degC")
+    print(f"{'id':>3} {'x [m]':>9} {'y [m]':>9} {'axis [deg]':>10} {'to next [mm]':>12}")
+    for i, ((x, y), a, s) in enumerate(zip(lay.positions, lay.axes, lay.spacing())):
+        print(f"{i:>3} {x:>9.4f} {y:>9.4f} {math.degrees(a):>10.1f} {s * 1e3:>12.1f}")
+    return 0
+
+
+def _cmd_regs(args: argparse.Namespace) -> int:
+    try:
+        from .generated import sonar_regs as R
+    except ImportError:
+        print("multisonar: the register map is not generated; run 'make regs'", file=sys.stderr)
+        return 2
+    print(f"{'address':>8}  {'register':<14} {'array':<8} fields")
+    for reg in R.REGISTERS.values():
+        arr = "x".join(map(str, reg.dims)) if reg.dims else ""
+        fields = ", ".join(f"{f.name.lower()}[{f.lsb + f.width - 1}:{f.lsb}]" for f in reg.fields.values())
+        print(f"  0x{reg.address:04X}  {reg.name:<14} {arr:<8} {fields}")
+    for mem in R.MEMORIES.values():
+        print(f"  0x{mem.address:04X}  {mem.name:<14} {mem.entries}x{mem.width}b (memory)")
+    return 0
+
+
+def _not_built(issue: int, what: str) -> Callable[[argparse.Namespace], int]:
+    def run(args: argparse.Namespace) -> int:
+        print(f"multisonar {args.command}: not built yet ({what}; issue #{issue})", file=sys.stderr)
+        return 2
+
+    return run
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="multisonar", description="Multisonar: 24-element ultrasonic ring — tools, golden model and host driver.")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    p = sub.add_parser("version", help="package, register-map and tick-rate versions")
+    p.set_defaults(func=_cmd_version)
+
+    p = sub.add_parser("layout", help="print the sensor layout")
+    p.add_argument("--layout", default=DEFAULT_LAYOUT, help="layout name or YAML path [%(default)s]")
+    p.add_argument("--temperature", type=float, default=20.0, help="air temperature, degC [%(default)s]")
+    p.set_defaults(func=_cmd_layout)
+
+    p = sub.add_parser("regs", help="print the register map")
+    p.set_defaults(func=_cmd_regs)
+
+    p = sub.add_parser("demo", help="run the main simulation on the default scene")
+    p.add_argument("--out", default="build/demo", help="output folder [%(default)s]")
+    p.add_argument("--scene", default="corridor", help="scene name or YAML path [%(default)s]")
+    p.add_argument("--seconds", type=float, default=None, help="sonar time to simulate (default: the scene's)")
+    p.set_defaults(func=_cmd_demo)
+
+    for name, issue, what in [
+        ("info", 6, "device info over USB"),
+        ("configure", 6, "configure virtual sensors on a device"),
+        ("stream", 6, "stream time-of-flight frames"),
+        ("record", 6, "record frames to a file"),
+        ("plot", 6, "plot a recording"),
+        ("experiment", 7, "the paper's experiments on the full-system twin"),
+    ]:
+        p = sub.add_parser(name, help=f"{what} (not built yet: issue #{issue})")
+        p.set_defaults(func=_not_built(issue, what))
+    return ap
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from .demo import run_demo
+
+    return run_demo(args.scene, args.out, seconds=args.seconds)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except (LayoutError, ValueError, FileNotFoundError) as e:
+        print(f"multisonar {args.command}: error: {e}", file=sys.stderr)
+        return 1
+    except BrokenPipeError:  # output piped into `head` and closed early
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
