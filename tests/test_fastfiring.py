@@ -1,0 +1,309 @@
+"""Tick-exact fast-firing model: windows, interlacing, tracking, safety, sharing, wrap-around."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from multisonar.constants import seconds_to_ticks, speed_of_sound
+from multisonar.fastfiring import (EVENT_FIELDS, FastFiringModel, PointEchoSource, SyntheticEchoSource, ToFEvent)
+from multisonar.layout import load_layout
+from multisonar.fastfiring import MISS_MAX
+from multisonar.schedule import Schedule, VirtualSensor
+
+LAYOUT = load_layout()
+C20 = speed_of_sound(20.0)
+MS = 48_000
+
+
+def model(*sensors, source, **kw):
+    return FastFiringModel(Schedule(LAYOUT, list(sensors)), source, **kw)
+
+
+def expected_period(te: int, order: int, tv=24000, tn=24000, D=72000) -> tuple[int, int]:
+    """Independent restatement of the contract (docs/fast_firing.md section 4)."""
+    for n in range(order, 0, -1):
+        ts = (te - tv - D) // n
+        if ts > 0 and (n + 1) * ts >= te + tn:
+            return n, ts
+    return 0, te + tn
+
+
+@pytest.mark.parametrize("order", [0, 1, 2, 3, 4])
+@pytest.mark.parametrize("dist", [0.8, 1.2, 2.0, 3.0, 4.0])
+def test_static_wall_rate_and_windows(dist, order):
+    src = SyntheticEchoSource(dist, ringdown_ticks=60000)
+    m = model(VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=order), source=src)
+    res = m.run(250 * MS)
+    te = src.tof_ticks(dist, 0)
+    n, ts = expected_period(te, order)
+    p = res.pulses
+    assert p[0].init and not any(q.init for q in p[1:])
+    track = p[1:]
+    assert len(track) >= 10
+    assert all(q.order == n and q.period == ts for q in track)
+    assert set(np.diff([q.t0 for q in track])) == {ts}  # sample rate 1/T_s exactly, in ticks
+    assert not any(e.window_empty for e in res.events)  # every window holds its echo
+    for q in track:  # interlacing: window k opens after pulse k+n fired and closes before k+n+1
+        i = q.seq
+        if i + n + 1 < len(p):
+            for _, ws, we in q.windows:
+                assert p[i + n].t0 + 72000 <= ws and we <= p[i + n + 1].t0
+    samples = [e for e in res.samples() if not e.init_ping]
+    assert {e.tof for e in samples} == {te}
+    assert len(samples) == 3 * sum(1 for q in track if q.windows[0][2] + 25 <= m.now)
+
+
+def test_init_ping_open_window_and_first_echo():
+    src = SyntheticEchoSource({0: [1.0, 2.5], 1: 1.4}, ringdown_ticks=60000)
+    m = model(VirtualSensor("s", tx=[0], rx=[0, 1, 2], order=1), source=src, max_echoes_per_window=4)
+    res = m.run(30 * MS)
+    ping = res.pulses[0]
+    R = m.cfg[0].max_tof
+    assert ping.init and ping.windows == ((0, 72000, R), (1, 72000, R), (2, 72000, R))
+    ev = [e for e in res.events if e.seq == 0]
+    assert [(e.rx, e.tof, e.first_echo) for e in ev if e.in_window] == [
+        (0, src.tof_ticks(1.0, 0), True), (1, src.tof_ticks(1.4, 0), True), (0, src.tof_ticks(2.5, 0), False)]
+    assert [(e.rx, e.window_empty, e.tof) for e in ev if not e.in_window] == [(2, True, R)]
+    assert all(e.init_ping for e in ev)
+    # the ring-down on element 0 (inside the dead zone) was never reported
+    assert m.predicted_tof(0, 0) == src.tof_ticks(1.0, 0) and m.predicted_tof(0, 2) is None
+
+
+def test_no_echo_repeats_init_pings():
+    m = model(VirtualSensor("s", tx=[4], rx=[4, 5], order=2), source=SyntheticEchoSource({}))
+    res = m.run(100 * MS)
+    R = m.cfg[0].max_tof
+    # the next ping waits for the open window's result: close tick = R - 1 + (1 + glitch_min)
+    assert all(p.init for p in res.pulses) and set(np.diff([p.t0 for p in res.pulses])) == {R + 24}
+    assert all(e.window_empty and e.init_ping for e in res.events)
+
+
+def test_init_only_mode():
+    m = model(VirtualSensor("s", tx=[4], rx=[4], mode="init"), source=SyntheticEchoSource(1.0))
+    res = m.run(120 * MS)
+    assert all(p.init for p in res.pulses) and len(res.pulses) == 5
+    assert len(res.samples()) == 5
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_tracks_approaching_reflector_at_2mps(order):
+    src = SyntheticEchoSource(3.2, velocity_mps=2.0)  # 3.2 m -> 1.2 m in 1 s
+    m = model(VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=order), source=src)
+    res = m.run(1000 * MS)
+    assert sum(p.init for p in res.pulses) == 1  # never lost lock
+    assert not any(e.window_empty for e in res.events)
+    t0 = {p.seq: p.t0 for p in res.pulses}
+    samples = res.samples(rx=0)
+    for e in samples:  # exact ToF of the reflector at that pulse
+        assert e.tof == src.tof_ticks(3.2, t0[e.seq]) - 0
+    assert samples[-1].tof < src.tof_ticks(1.35, 0)
+    # rate increases as it approaches (period follows the prediction)
+    periods = [p.period for p in res.pulses[1:]]
+    assert periods[-1] < periods[0]
+
+
+def test_prediction_is_constant_velocity_and_clamped():
+    src = SyntheticEchoSource(2.5, velocity_mps=1.5)
+    m = model(VirtualSensor("s", tx=[0], rx=[0], order=2, vmax=1000), source=src)
+    m.run(200 * MS)
+    st = m.sensors[0].rx[0]
+    k = m.sensors[0].seq
+    assert st.v == -1000 or st.v == 0  # clamped at vmax (true change is ~2000 ticks/pulse)
+    lo, hi = m.cfg[0].te_limits()
+    assert m.predicted_tof(0, 0) == max(lo, min(hi, st.tof + (k - st.seq) * st.v))
+
+
+@pytest.mark.parametrize("order,K", [(1, 3), (2, 2), (3, 4)])
+def test_safety_obstacle_steps_in_front_of_tracked_wall(order, K):
+    step = 300 * MS
+    src = SyntheticEchoSource(3.0, step_tick=step, step_ranges_m=1.1)
+    m = model(VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=order, miss_limit=K), source=src)
+    res = m.run(600 * MS)
+    after = [p for p in res.pulses if p.t0 >= step]
+    reinit = next(p for p in after if p.init)
+    # every tracking pulse fired since the step ran into an empty window; the init ping went
+    # out as soon as the K-th consecutive empty window of a receiver closed (or right after
+    # the sensor's own older windows let it).
+    tracked_after = [p for p in after if p.t0 < reinit.t0]
+    empties = defaultdict(list)
+    for e in res.events:
+        if e.window_empty and not e.init_ping and e.tick <= reinit.t0:
+            empties[e.rx].append(e)
+    kth_close = min(v[K - 1].tick for v in empties.values() if len(v) >= K)
+    # own pending windows were cancelled; the ping only waits until no echo of an earlier
+    # pulse (within max range) can reach its open window
+    cfg = m.cfg[0]
+    assert reinit.due == kth_close
+    assert reinit.t0 == max(reinit.due, tracked_after[-1].t0 + cfg.max_tof - cfg.blank)
+    assert len(tracked_after) <= K + order + 1
+    # no event for the cancelled windows: every reported empty window belongs to a pulse
+    # fired before the re-init decision
+    assert all(e.tick <= kth_close for e in res.events if e.window_empty and not e.init_ping and e.tick > step)
+    # the new range is reported by the init ping and then tracked
+    new_tof = src.tof_ticks(1.1, 0)
+    init_samples = [e for e in res.samples() if e.init_ping and e.tick > step]
+    assert {e.tof for e in init_samples} == {new_tof}
+    later = [e for e in res.samples() if not e.init_ping and e.tick > init_samples[0].tick]
+    assert later and {e.tof for e in later} == {new_tof}
+
+
+def test_sequence_numbers_of_pulses_in_flight_and_wrap():
+    src = SyntheticEchoSource(1.0)
+    m = model(VirtualSensor("s", tx=[0], rx=[0], order=1), source=src)
+    res = m.run(1200 * MS)
+    assert len(res.pulses) > 300  # > 2**8 pulses: seq wraps
+    t0 = {p.seq: p.t0 for p in res.pulses}
+    seqs = [e.seq for e in res.samples()]
+    assert max(seqs) == 255 and seqs.count(0) >= 2
+    # every event carries the sequence number of the pulse whose echo it is: pulses k+1 was
+    # already in flight when the echo of k arrived, yet tof = edge - t0(k)
+    for e in res.samples():
+        if e.init_ping:
+            continue
+        k = max(q for q in t0 if q & 0xFF == e.seq and t0[q] < e.tick)
+        assert e.tof == src.tof_ticks(1.0, 0)
+        later = [q for q in t0 if t0[q] < e.tick - 25 and q > k]
+        assert later, "order-1 interlacing: the next pulse fired before this echo"
+
+
+def test_miss_counter_saturates_at_width():
+    assert MISS_MAX == 15
+
+
+def test_event_word_round_trip_and_widths():
+    e = ToFEvent(tick=5, sensor=7, seq=255, rx=23, tof=(1 << 24) - 1, in_window=True, first_echo=False,
+                 window_empty=True, init_ping=True)
+    w = e.pack()
+    assert w < 1 << 44 and ToFEvent.unpack(w, tick=5) == e
+    spans = sorted((lsb, lsb + width) for lsb, width in EVENT_FIELDS.values())
+    assert all(a[1] == b[0] for a, b in zip(spans, spans[1:]))
+    with pytest.raises(ValueError):
+        e._replace(tof=1 << 24).pack()
+
+
+def test_timestamp_wrap_does_not_change_results():
+    def go(start):
+        m = model(VirtualSensor("s", tx=[0], rx=[23, 0], order=2), source=SyntheticEchoSource(1.7), start_tick=start)
+        r = m.run(120 * MS)
+        return ([(p.t0 - start, p.seq, p.period) for p in r.pulses],
+                [(e.tick - start,) + tuple(e[1:]) for e in r.events])
+
+    assert go(0) == go((1 << 32) - 500_000)
+
+
+def test_glitch_filter_and_edge_rules():
+    class Src:
+        def fire(self, t0, el, d):
+            base = t0 + 300_000
+            return [(0, base, 10),  # glitch: shorter than glitch_min -> ignored
+                    (0, base + 40, 100), (0, base + 150, 100),  # gap 10 < 24 -> one run, one edge
+                    (0, base + 400, 30), (0, base + 430, 50),  # touching pulses -> one edge
+                    (1, base, 200), (1, base + 100, 200),  # overlapping -> one edge at base
+                    (2, base + 500, 24)]  # exactly glitch_min -> accepted
+
+    m = model(VirtualSensor("s", tx=[12], rx=[0, 1, 2], mode="init"), source=Src(), max_echoes_per_window=8)
+    res = m.run(20 * MS)
+    got = [(e.rx, e.tof, e.tick - e.tof) for e in res.events if e.in_window]
+    # tick = edge + 1 + glitch_min (rx conditioner latency); tof = edge - t0
+    assert got == [(1, 300_000, 25), (0, 300_040, 25), (0, 300_400, 25), (2, 300_500, 25)]
+
+
+def test_point_source_multi_receiver():
+    src = PointEchoSource(LAYOUT, (1.5, 0.3))
+    m = model(VirtualSensor("s", tx=[23, 0, 1], rx=[22, 23, 0, 1, 2], order=2), source=src)
+    res = m.run(300 * MS)
+    assert sum(p.init for p in res.pulses) == 1 and not any(e.window_empty for e in res.events)
+    tofs = {e.rx: e.tof for e in res.samples()}
+    assert len(tofs) == 5 and tofs[1] < tofs[23]  # reflector is to the left (+y)
+
+
+# ---------------------------------------------------------------------------------------
+# several sensors share the ring: no window ever overlaps a window or a blanking interval
+# of another pulse on the same element
+# ---------------------------------------------------------------------------------------
+
+def check_no_conflicts(pulses, cancelled=()):
+    cut = {(s, k, rx): t for s, k, rx, t in cancelled}  # a cancelled window ends when cancelled
+    per_el = defaultdict(list)
+    for p in pulses:
+        for e, a, b in p.windows:
+            b = min(b, cut.get((p.sensor, p.seq, e), b))
+            if b > a:  # a window cancelled before it opened never existed
+                per_el[e].append((a, b, "w", p.sensor, p.seq))
+        for e, a, b in p.blanks:
+            per_el[e].append((a, b, "b", p.sensor, p.seq))
+    for e, ivs in per_el.items():
+        ivs.sort()
+        wins = [iv for iv in ivs if iv[2] == "w"]
+        for x, y in zip(wins, wins[1:]):
+            assert x[1] <= y[0], f"windows overlap on element {e}: {x} {y}"
+        blanks = [iv for iv in ivs if iv[2] == "b"]
+        for w in wins:
+            for b in blanks:
+                assert not (b[0] < w[1] and w[0] < b[1]), f"blank {b} overlaps window {w} on element {e}"
+
+
+sensor_st = st.fixed_dictionaries({
+    "tx0": st.integers(0, 23), "k": st.integers(1, 3),
+    "rx": st.lists(st.integers(0, 23), min_size=1, max_size=4, unique=True),
+    "order": st.integers(0, 4), "mode": st.sampled_from(["track", "track", "track", "init"]),
+    "phase": st.integers(0, 20 * MS), "range": st.floats(0.5, 4.0), "K": st.integers(1, 4),
+})
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(sensor_st, min_size=2, max_size=4), st.floats(-2.0, 2.0))
+def test_property_multiple_sensors_never_conflict(cfgs, vel):
+    sensors = [VirtualSensor(f"s{i}", tx=[(c["tx0"] + j) % 24 for j in range(c["k"])], rx=c["rx"], order=c["order"],
+                             mode=c["mode"], phase=c["phase"], miss_limit=c["K"]) for i, c in enumerate(cfgs)]
+    ranges = {rx: cfgs[0]["range"] + 0.05 * (rx % 3) for rx in range(24)}
+    src = SyntheticEchoSource(ranges, velocity_mps=vel, ringdown_ticks=50000)
+    m = FastFiringModel(Schedule(LAYOUT, sensors, check_plan=False), src)
+    res = m.run(150 * MS)
+    check_no_conflicts(res.pulses, res.cancelled)
+    # every issued pulse waited for its due tick
+    assert all(p.t0 >= p.due for p in res.pulses)
+    # triggers are the issued pulses' tx elements at t0 + delay
+    assert len(res.triggers) == sum(len(m.cfg[p.sensor].tx) for p in res.pulses)
+
+
+def test_shared_receiver_defers_deterministically():
+    # two sensors listen on the same element at the same range: the higher id is deferred
+    src = SyntheticEchoSource(1.5)
+    a = VirtualSensor("a", tx=[0], rx=[0, 1], order=1)
+    b = VirtualSensor("b", tx=[2], rx=[1, 2], order=1)
+    r1 = model(a, b, source=src).run(200 * MS)
+    r2 = model(a, b, source=src).run(200 * MS)
+    assert r1.pulses == r2.pulses and r1.events == r2.events
+    check_no_conflicts(r1.pulses, r1.cancelled)
+    assert any(p.t0 > p.due for p in r1.pulses if p.sensor == 1)
+    assert r1.pulses[0].sensor == 0 and r1.pulses[0].t0 == 0
+    assert len(r1.samples(sensor=0)) > 10 and len(r1.samples(sensor=1)) > 10
+
+
+class _PerTickRetry(FastFiringModel):
+    """What the RTL does: a blocked pulse is retried on the very next tick."""
+
+    def _conflict(self, t, blanks, wins):
+        r = super()._conflict(t, blanks, wins)
+        return None if r is None else t + 1
+
+
+def test_deferral_jump_equals_per_tick_retry():
+    import copy
+
+    src = SyntheticEchoSource({0: 1.3, 1: 1.3, 2: 2.1, 3: 0.9}, ringdown_ticks=50000)
+    sensors = [VirtualSensor("a", tx=[0], rx=[0, 1], order=1), VirtualSensor("b", tx=[2], rx=[1, 2], order=2),
+               VirtualSensor("c", tx=[3], rx=[3, 2], order=1, phase=3000)]
+    fast_m = FastFiringModel(Schedule(LAYOUT, sensors), src)
+    fast_m.run(86 * MS)  # past the (long, mutually deferred) init pings
+    slow_m = copy.deepcopy(fast_m)
+    slow_m.__class__ = _PerTickRetry
+    fast, slow = fast_m.run(5 * MS), slow_m.run(5 * MS)
+    assert any(p.t0 > p.due for p in fast.pulses)
+    assert fast.pulses == slow.pulses and fast.events == slow.events and fast.triggers == slow.triggers
