@@ -602,8 +602,8 @@ def _point_core(C, R, axis, tol, max_gdop, fov=None):
     ok = ok0 & okm & (_norm(p) > 0.0)
     # the polished point must still satisfy rho <= R_i (upper nappe, |x - c_i| = R_i - rho)
     ang = np.arctan2(p[..., 1], p[..., 0])
-    deg_all = deg if N == 2 else deg  # a degenerate best pair means all pairs are degenerate
-    pre = np.where((pre == OK) & deg_all, DEGEN, pre).astype(np.int8)
+    # a degenerate best pair means all pairs are degenerate
+    pre = np.where((pre == OK) & deg, DEGEN, pre).astype(np.int8)
     idx, reason = _select(p, ok, rms, gd, ang, axis, 2, N, tol, max_gdop, pre, scale, fov)
     x = p[ar, idx]
     return x, rms[ar, idx], gd[ar, idx], reason
@@ -616,9 +616,16 @@ def solve_point_batch(receivers, path_lengths, source=(0.0, 0.0), *, axis=None,
     source (2,) or (M,2), axis None, scalar or (M,) (rad, NaN = none). Returns arrays; reason
     codes index :data:`REASONS`."""
     C, R, S, bad, _ = _prepare(receivers, path_lengths, source, 2, "solve_point")
+    out_x, out_res, out_gd, out_reason = _run_chunked(_point_core, C, R, S, axis, tol, max_gdop, fov)
+    return _finish_point(out_x, out_res, out_gd, out_reason, bad, S)
+
+
+def _run_chunked(core, C, R, S, axis, tol, max_gdop, fov):
+    """Run a two-receiver-family solver core over the batch in chunks (bounded memory), in
+    the source's frame. Returns (solution (M,2), rms, gdop, reason codes)."""
     M = R.shape[0]
     ax = _axis_array(axis, C, M)
-    out_x = np.zeros((M, 2))
+    out = np.zeros((M, 2))
     out_res = np.zeros(M)
     out_gd = np.zeros(M)
     out_reason = np.zeros(M, np.int8)
@@ -626,9 +633,8 @@ def solve_point_batch(receivers, path_lengths, source=(0.0, 0.0), *, axis=None,
         for k in range(0, M, _CHUNK):
             sl = slice(k, min(M, k + _CHUNK))
             Cr = C[sl] - S[sl][:, None, :]
-            x, res, gd, rsn = _point_core(Cr, R[sl], ax[sl], tol, max_gdop, fov)
-            out_x[sl], out_res[sl], out_gd[sl], out_reason[sl] = x, res, gd, rsn
-    return _finish_point(out_x, out_res, out_gd, out_reason, bad, S)
+            out[sl], out_res[sl], out_gd[sl], out_reason[sl] = core(Cr, R[sl], ax[sl], tol, max_gdop, fov)
+    return out, out_res, out_gd, out_reason
 
 
 def _finish_point(x, res, gd, reason, bad, S):
@@ -702,18 +708,7 @@ def solve_wall_batch(receivers, path_lengths, source=(0.0, 0.0), *, axis=None,
                 fov: float = DEFAULT_FOV) -> WallBatch:
     """Vectorised :func:`solve_wall` (same conventions as :func:`solve_point_batch`)."""
     C, R, S, bad, _ = _prepare(receivers, path_lengths, source, 2, "solve_wall")
-    M = R.shape[0]
-    ax = _axis_array(axis, C, M)
-    out_m = np.zeros((M, 2))
-    out_res = np.zeros(M)
-    out_gd = np.zeros(M)
-    out_reason = np.zeros(M, np.int8)
-    with np.errstate(all="ignore"):
-        for k in range(0, M, _CHUNK):
-            sl = slice(k, min(M, k + _CHUNK))
-            Cr = C[sl] - S[sl][:, None, :]
-            m, res, gd, rsn = _wall_core(Cr, R[sl], ax[sl], tol, max_gdop, fov)
-            out_m[sl], out_res[sl], out_gd[sl], out_reason[sl] = m, res, gd, rsn
+    out_m, out_res, out_gd, out_reason = _run_chunked(_wall_core, C, R, S, axis, tol, max_gdop, fov)
     reason = np.where(bad, BADIN, out_reason).astype(np.int8)
     fin = np.all(np.isfinite(out_m), axis=1) & np.isfinite(out_res)
     reason = np.where((reason == OK) & ~fin, NOCONV, reason).astype(np.int8)
