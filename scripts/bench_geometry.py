@@ -10,7 +10,7 @@ Noisy (sigma_path = c * 1 us, i.i.d. per receiver): RMS error of the valid answe
 the Cramer-Rao bound sqrt(mean(CRB variance)) from the Jacobian at the truth, per range bin.
 Solves per second: noise-free batch, one core.
 
-    .venv/bin/python scripts/bench_geometry.py [--cases 1000000] [--cyl-cases 200000] [--plot out.png]
+    .venv/bin/python scripts/bench_geometry.py [--cases 1000000] [--cyl-cases 1000000] [--plot out.png]
 """
 
 from __future__ import annotations
@@ -127,7 +127,7 @@ def run_cylinder(rng, M):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--cases", type=int, default=1_000_000, help="cases for point and wall")
-    ap.add_argument("--cyl-cases", type=int, default=200_000, help="cases for the cylinder (slower, iterative)")
+    ap.add_argument("--cyl-cases", type=int, default=1_000_000, help="cases for the cylinder (slower, iterative)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--plot", help="write a PNG of error vs CRB per range bin")
     args = ap.parse_args(argv)
