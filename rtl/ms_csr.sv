@@ -51,6 +51,11 @@ module ms_csr
   output logic [NUM_VS-1:0][15:0]       vs_t_n_o,
   output logic [NUM_VS-1:0][19:0]       vs_t_dead_o,
   output logic [NUM_VS-1:0][23:0]       vs_max_tof_o,
+  output logic [NUM_VS-1:0][19:0]       vs_t_xtalk_o,
+  output logic [NUM_VS-1:0][1:0]        vs_xtalk_nb_o,
+  output logic [NUM_VS-1:0][15:0]       vs_vmax_o,
+  output logic [NUM_VS-1:0][7:0]        vs_burst_cycles_o,
+  output logic [NUM_VS-1:0][23:0]       vs_phase_o,
   // phasing-delay table read port for the core: entry vs*32 + element, data one clock later
   input  logic [7:0]                    delay_raddr_i,
   output logic [DELAY_W-1:0]            delay_rdata_o,
@@ -124,6 +129,11 @@ module ms_csr
     assign vs_t_n_o[v]        = hwif_out.VS[v].WINDOW.t_n.value;
     assign vs_t_dead_o[v]     = hwif_out.VS[v].T_DEAD.ticks.value;
     assign vs_max_tof_o[v]    = hwif_out.VS[v].MAX_TOF.ticks.value;
+    assign vs_t_xtalk_o[v]    = hwif_out.VS[v].XTALK.t_xtalk.value;
+    assign vs_xtalk_nb_o[v]   = hwif_out.VS[v].XTALK.nb.value;
+    assign vs_vmax_o[v]       = hwif_out.VS[v].TRACK.vmax.value;
+    assign vs_burst_cycles_o[v] = hwif_out.VS[v].TRACK.burst_cycles.value;
+    assign vs_phase_o[v]      = hwif_out.VS[v].PHASE.ticks.value;
   end
 
   // ---- phasing-delay table: external memory of the regblock, kept in block RAM.

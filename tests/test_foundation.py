@@ -119,3 +119,21 @@ def test_cli_entry_point_installed():
     exe = Path(__import__("sys").executable).parent / "multisonar"
     r = subprocess.run([str(exe), "version"], capture_output=True, text=True)
     assert r.returncode == 0 and "tick rate 48000000 Hz" in r.stdout
+
+
+def test_scheduler_fields_match_the_register_map():
+    """Every CSR field the golden scheduler fills exists in the RDL with the same width."""
+    from multisonar.regmap import check_field_widths, schedule_writes
+    from multisonar.schedule import Schedule, VirtualSensor
+
+    check_field_widths()
+    sched = Schedule(load_layout(), [VirtualSensor("front", tx=[23, 0, 1], rx=[23, 0, 1], order=2),
+                                     VirtualSensor("left", tx=[6], rx=[5, 6, 7])])
+    writes = dict(schedule_writes(sched))
+    from multisonar.generated import sonar_regs as R
+
+    mode = R.REGISTERS["VS_MODE"]
+    assert mode.fields["ORDER"].get(writes[mode.addr(0)]) == 2
+    assert mode.fields["MODE"].get(writes[mode.addr(7)]) == 0  # unused table entries are off
+    tx = R.REGISTERS["VS_TX_MASK"]
+    assert writes[tx.addr(0)] == (1 << 23) | 1 | 2

@@ -88,7 +88,9 @@ async def read_write_fields_and_outputs(dut):
         "vs_mode_o": ("VS_MODE", "MODE"), "vs_order_o": ("VS_MODE", "ORDER"),
         "vs_miss_limit_o": ("VS_MODE", "MISS_LIMIT"), "vs_t_v_o": ("VS_WINDOW", "T_V"),
         "vs_t_n_o": ("VS_WINDOW", "T_N"), "vs_t_dead_o": ("VS_T_DEAD", "TICKS"),
-        "vs_max_tof_o": ("VS_MAX_TOF", "TICKS"),
+        "vs_max_tof_o": ("VS_MAX_TOF", "TICKS"), "vs_t_xtalk_o": ("VS_XTALK", "T_XTALK"),
+        "vs_xtalk_nb_o": ("VS_XTALK", "NB"), "vs_vmax_o": ("VS_TRACK", "VMAX"),
+        "vs_burst_cycles_o": ("VS_TRACK", "BURST_CYCLES"), "vs_phase_o": ("VS_PHASE", "TICKS"),
     }
     for port, (rname, fname) in per_vs.items():
         field = R.REGISTERS[rname].fields[fname]
