@@ -14,9 +14,9 @@
 module ms_csr
   import sonar_regs_pkg::*;
 #(
-  parameter int unsigned NUM_CH  = ms_layout_pkg::NUM_CH,
-  parameter int unsigned DELAY_W = 16,
-  parameter int unsigned ADDR_W  = 11,
+  parameter int NUM_CH  = ms_layout_pkg::NUM_CH,
+  parameter int DELAY_W = 16,
+  parameter int ADDR_W  = 11,
   // fixed by the register map (regfile VS[8] in sonar_regs.rdl); CAPS.num_vs reports it
   localparam int unsigned NUM_VS = 8
 ) (

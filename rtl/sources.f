@@ -6,3 +6,6 @@ $GEN/sv/sonar_regs.sv
 rtl/common/ms_ram_dp.sv
 rtl/rx/ms_rx_conditioner.sv
 rtl/ms_csr.sv
+rtl/event/ms_event_fifo.sv
+rtl/tx/ms_tx_channel.sv
+rtl/tx/ms_tx_phaser.sv

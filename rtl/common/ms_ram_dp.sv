@@ -5,9 +5,9 @@
 // presented on the previous edge (one clock of read latency, read-before-write on port A).
 // Written in the plain style Yosys maps to ECP5 DP16KD / iCE40 SB_RAM40_4K.
 module ms_ram_dp #(
-  parameter int unsigned WIDTH = 32,
-  parameter int unsigned DEPTH = 256,
-  parameter int unsigned AW    = $clog2(DEPTH)
+  parameter int WIDTH = 32,
+  parameter int DEPTH = 256,
+  parameter int AW    = $clog2(DEPTH)
 ) (
   input  logic             clk_i,
   input  logic             we_a_i,

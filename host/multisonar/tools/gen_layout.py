@@ -23,8 +23,8 @@ def _banner(layout: Layout, comment: str) -> str:
 def sv_package(layout: Layout) -> str:
     return (_banner(layout, "//")
             + "package ms_layout_pkg;\n"
-            + f"  localparam int unsigned NUM_CH = {layout.n};\n"
-            + f"  localparam int unsigned TICK_HZ = {TICK_HZ};\n"
+            + f"  localparam int NUM_CH = {layout.n};\n"
+            + f"  localparam int TICK_HZ = {TICK_HZ};\n"
             + "endpackage\n")
 
 
