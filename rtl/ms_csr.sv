@@ -59,6 +59,10 @@ module ms_csr
   // phasing-delay table read port for the core: entry vs*32 + element, data one clock later
   input  logic [7:0]                    delay_raddr_i,
   output logic [DELAY_W-1:0]            delay_rdata_o,
+  // event FIFO head (first-word-fall-through) read through EVT_LO / EVT_HI
+  input  logic                          evt_rvalid_i,
+  input  logic [63:0]                   evt_rdata_i,
+  output logic                          evt_pop_o,         // a read of EVT_HI took the head
   // status and event strobes from the core
   input  logic                          running_i,
   input  logic [3:0]                    cfg_error_i,
@@ -93,6 +97,10 @@ module ms_csr
   // delay-table handshake (see the RAM below); declared first because the hwif_in block uses it
   logic                 delay_rd_pending_q, delay_wr_pending_q;
   logic [DELAY_W-1:0]   delay_rdata_a;
+  // event readout: the head is sampled on the request clock and answered on the next one
+  logic                 evt_lo_ack_q, evt_hi_ack_q;
+  logic [31:0]          evt_lo_q;
+  logic [31:0]          evt_hi_q;  // {valid, bits 62:32}
 
   // ---- status, counters and the delay-table answers: one process drives all of hwif_in
   // (Verilator treats the struct as one variable).
@@ -110,6 +118,32 @@ module ms_csr
     hwif_in.DELAY.rd_ack             = delay_rd_pending_q;
     hwif_in.DELAY.rd_data            = 32'(delay_rdata_a);
     hwif_in.DELAY.wr_ack             = delay_wr_pending_q;
+    hwif_in.EVT_LO.rd_ack            = evt_lo_ack_q;
+    hwif_in.EVT_LO.rd_data.data      = evt_lo_q;
+    hwif_in.EVT_HI.rd_ack            = evt_hi_ack_q;
+    hwif_in.EVT_HI.rd_data.valid     = evt_hi_q[31];
+    hwif_in.EVT_HI.rd_data.data      = evt_hi_q[30:0];
+  end
+
+  assign evt_pop_o = hwif_out.EVT_HI.req & ~hwif_out.EVT_HI.req_is_wr & evt_rvalid_i;
+
+  // Bit 63 of an event word is always zero (docs/fast_firing.md section 6), so EVT_HI carries
+  // bits 62:32 and uses its top bit for "valid".
+  logic unused_evt_bit63;
+  assign unused_evt_bit63 = evt_rdata_i[63];
+
+  always_ff @(posedge clk_i) begin
+    if (rst_i) begin
+      evt_lo_ack_q <= 1'b0;
+      evt_hi_ack_q <= 1'b0;
+      evt_lo_q     <= '0;
+      evt_hi_q     <= '0;
+    end else begin
+      evt_lo_ack_q <= hwif_out.EVT_LO.req & ~hwif_out.EVT_LO.req_is_wr;
+      evt_hi_ack_q <= hwif_out.EVT_HI.req & ~hwif_out.EVT_HI.req_is_wr;
+      if (hwif_out.EVT_LO.req) evt_lo_q <= evt_rvalid_i ? evt_rdata_i[31:0] : 32'd0;
+      if (hwif_out.EVT_HI.req) evt_hi_q <= evt_rvalid_i ? {1'b1, evt_rdata_i[62:32]} : 32'd0;
+    end
   end
 
   assign enable_o            = hwif_out.CTRL.enable.value;

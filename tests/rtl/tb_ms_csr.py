@@ -10,7 +10,7 @@ from __future__ import annotations
 import random
 
 import cocotb
-from cocotb.triggers import ClockCycles, FallingEdge
+from cocotb.triggers import ClockCycles, FallingEdge, Timer
 
 from multisonar import TICK_HZ, load_layout
 from multisonar.generated import sonar_regs as R
@@ -21,7 +21,7 @@ from tbutil import reset, start_clock
 async def setup(dut) -> PassthroughMaster:
     start_clock(dut.clk_i)
     for name in ("running_i", "cfg_error_i", "cfg_error_vs_i", "fifo_level_i", "event_i",
-                 "overflow_i", "pulse_i", "delay_raddr_i"):
+                 "overflow_i", "pulse_i", "delay_raddr_i", "evt_rvalid_i", "evt_rdata_i"):
         getattr(dut, name).value = 0
     bus = PassthroughMaster(dut, dut.clk_i)
     await reset(dut.clk_i, dut.rst_i)
@@ -171,3 +171,43 @@ async def delay_table_bus_and_core_port(dut):
         dut.delay_raddr_i.value = i
         await FallingEdge(dut.clk_i)
         assert int(dut.delay_rdata_o.value) == values[i], f"core port entry {i}"
+
+
+@cocotb.test()
+async def event_readout_pops_on_high_word(dut):
+    """EVT_LO/EVT_HI show the FIFO head; reading EVT_HI pops it exactly once, and an empty
+    FIFO reads as valid=0 without popping."""
+    bus = await setup(dut)
+    rng = random.Random(3)
+    queue = [rng.getrandbits(45) for _ in range(20)]  # bits 44:0 as the core writes them
+    pops = 0
+
+    async def fifo_model():
+        nonlocal pops
+        pop_seen = False
+        while True:
+            await FallingEdge(dut.clk_i)
+            if pop_seen:  # a FIFO pops at the clock edge that sampled the strobe
+                assert queue, "pop with an empty FIFO"
+                queue.pop(0)
+                pops += 1
+            dut.evt_rvalid_i.value = int(bool(queue))
+            dut.evt_rdata_i.value = queue[0] if queue else 0
+            await Timer(1, "ns")  # after the bus master's writes of this falling edge settle
+            pop_seen = bool(int(dut.evt_pop_o.value))
+
+    cocotb.start_soon(fifo_model())
+    await ClockCycles(dut.clk_i, 2)
+    hi = R.REGISTERS["EVT_HI"].fields
+    expect = list(queue)
+    got = []
+    for _ in range(25):
+        lo = await bus.read(R.EVT_LO_ADDR)
+        h = await bus.read(R.EVT_HI_ADDR)
+        if not hi["VALID"].get(h):
+            assert lo == 0 and h == 0
+            continue
+        got.append((hi["DATA"].get(h) << 32) | lo)
+    assert got == expect and pops == len(expect)
+    r = await bus.write_raw(R.EVT_HI_ADDR, 0)
+    assert r.error, "EVT_HI is read-only"
