@@ -52,7 +52,7 @@ PY_REGS      := host/multisonar/generated/sonar_regs.py
 GEN_OUTPUTS  := $(GEN)/rtl/ms_layout_pkg.sv $(GEN)/sv/sonar_regs.sv $(GEN)/sv/sonar_regs_pkg.sv \
                 $(GEN)/firmware/sonar_regs.h $(GEN)/firmware/ms_layout.h $(PY_REGS)
 
-$(STAMPS)/gen: $(RDL) $(LAYOUT_FILE) host/multisonar/tools/gen_layout.py \
+$(STAMPS)/gen: $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl $(LAYOUT_FILE) host/multisonar/tools/gen_layout.py \
                host/multisonar/tools/peakrdl_pyconst.py host/multisonar/layout.py $(STAMPS)/venv
 	@echo "gen: layout parameters and register map ($(RDL)) -> $(GEN)/, $(PY_REGS)"
 	@$(VPY) -m multisonar.tools.gen_layout --layout $(LAYOUT) --out $(GEN) >/dev/null
@@ -60,9 +60,32 @@ $(STAMPS)/gen: $(RDL) $(LAYOUT_FILE) host/multisonar/tools/gen_layout.py \
 	    --module-name sonar_regs --package-name sonar_regs_pkg --default-reset rst \
 	    --err-if-bad-addr --err-if-bad-rw
 	@$(VENV)/bin/peakrdl c-header $(RDL) -I $(GEN)/rdl -o $(GEN)/firmware/sonar_regs.h
+	@$(VENV)/bin/peakrdl regblock rtl/regs/soc_regs.rdl -o $(GEN)/sv --cpuif passthrough \
+	    --module-name soc_regs --package-name soc_regs_pkg --default-reset rst \
+	    --err-if-bad-addr --err-if-bad-rw
+	@$(VENV)/bin/peakrdl c-header $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl -I $(GEN)/rdl \
+	    -t ms_soc_map --instantiate -o $(GEN)/firmware/ms_soc_map.h
 	@mkdir -p $(dir $(PY_REGS)) && touch $(dir $(PY_REGS))/__init__.py
 	@$(VENV)/bin/peakrdl pyconst $(RDL) -I $(GEN)/rdl -o $(PY_REGS)
 	@touch $@
+
+# ---------------------------------------------------------------- firmware images
+# RV32IM + picolibc. RAM (32 KiB at 0) is split into image/rodata (24 KiB) and data/stack.
+FW_CC      := riscv64-unknown-elf-gcc
+FW_CFLAGS  := -march=rv32im -mabi=ilp32 -Os -g --specs=picolibc.specs -Wall -Wextra -Werror \
+              -I$(GEN)/firmware -Ifirmware/app
+FW_LDFLAGS := -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0x6000 \
+              -Wl,--defsym=__ram=0x6000 -Wl,--defsym=__ram_size=0x2000 -Wl,--gc-sections
+FW_WORDS   := 8192
+.PRECIOUS: $(BUILD)/fw/%.elf
+
+$(BUILD)/fw/%.elf: firmware/app/%.c $(wildcard firmware/app/*.h) $(STAMPS)/gen
+	@mkdir -p $(@D)
+	$(FW_CC) $(FW_CFLAGS) $< -o $@ $(FW_LDFLAGS)
+
+$(BUILD)/fw/%.hex: $(BUILD)/fw/%.elf
+	riscv64-unknown-elf-objcopy -O binary $< $(@:.hex=.bin)
+	$(VPY) -m multisonar.tools.bin2memh $(@:.hex=.bin) $@ --words $(FW_WORDS)
 
 # ---------------------------------------------------------------- public targets
 .PHONY: help setup regs lint test test-fast demo bench clean distclean
@@ -81,12 +104,13 @@ regs: $(STAMPS)/gen
 
 # Lint each module as its own top so every one is checked standalone.
 # rtl/sources.f lists the RTL in compile order; waivers live in rtl/lint/waivers.vlt.
-RTL_SOURCES = $(shell sed -e 's/\#.*//' -e '/^[[:space:]]*$$/d' rtl/sources.f | sed 's|^\$$GEN|$(GEN)|')
+PICORV32    = $(shell $(VPY) -c 'import pythondata_cpu_picorv32 as p; print(p.data_location)' 2>/dev/null)
+RTL_SOURCES = $(shell sed -e 's/\#.*//' -e '/^[[:space:]]*$$/d' rtl/sources.f | sed -e 's|^\$$GEN|$(GEN)|' -e 's|^\$$PICORV32|$(PICORV32)|')
 LINT_TOPS   = $(shell sed -n 's/^[[:space:]]*module[[:space:]]\+\([a-z0-9_]\+\).*/\1/p' $(filter rtl/%,$(RTL_SOURCES)))
 
 lint: $(STAMPS)/gen
 	@for top in $(LINT_TOPS); do \
-	    verilator --lint-only -Wall --quiet rtl/lint/waivers.vlt $(RTL_SOURCES) --top-module $$top \
+	    verilator --lint-only -Wall --quiet --timescale 1ns/1ps rtl/lint/waivers.vlt $(RTL_SOURCES) --top-module $$top \
 	        || { echo "lint: $$top has warnings" >&2; exit 1; }; \
 	done
 	@echo "lint: clean ($(words $(LINT_TOPS)) modules: $(LINT_TOPS))"

@@ -27,11 +27,20 @@ def selected_simulator() -> str:
 
 def rtl_sources() -> list[Path]:
     """All RTL in compile order, from rtl/sources.f (the list lint and synthesis read)."""
+    import pythondata_cpu_picorv32
+
+    roots = {"$GEN/": GEN, "$PICORV32/": Path(pythondata_cpu_picorv32.data_location)}
     out = []
     for line in (ROOT / "rtl" / "sources.f").read_text().splitlines():
         line = line.split("#", 1)[0].strip()
-        if line:
-            out.append(GEN / line.removeprefix("$GEN/") if line.startswith("$GEN/") else ROOT / line)
+        if not line:
+            continue
+        for prefix, base in roots.items():
+            if line.startswith(prefix):
+                out.append(base / line.removeprefix(prefix))
+                break
+        else:
+            out.append(ROOT / line)
     missing = [p for p in out if not p.exists()]
     if missing:
         raise FileNotFoundError(f"RTL sources missing (run 'make regs' to generate): {missing}")
@@ -40,7 +49,7 @@ def rtl_sources() -> list[Path]:
 
 def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = None,
                parameters: Mapping[str, object] | None = None, icarus_ok: bool = True,
-               extra_env: Mapping[str, str] | None = None) -> None:
+               extra_env: Mapping[str, str] | None = None, extra_sources: Sequence[Path] = ()) -> None:
     """Build ``top`` and run the cocotb tests in tests/rtl/<tb_module>.py; fail on any failure."""
     from cocotb_tools.check_results import get_results
     from cocotb_tools.runner import get_runner
@@ -48,7 +57,7 @@ def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = Non
     sim = selected_simulator()
     if sim == "icarus" and not icarus_ok:
         pytest.skip(f"{top} uses SystemVerilog (unpacked structs in generated code) that Icarus 11 cannot compile")
-    srcs = list(sources) if sources is not None else rtl_sources()
+    srcs = (list(sources) if sources is not None else rtl_sources()) + list(extra_sources)
     build_dir = ROOT / "build" / "sim" / f"{top}-{sim}"
     waves = os.environ.get("WAVES", "0") == "1"
     build_args: list[str] = []

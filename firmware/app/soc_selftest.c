@@ -1,0 +1,41 @@
+/* SoC self-test, run by tests/rtl/test_ms_soc.py: reports through the SIM_OUT mailbox.
+ * 1st boot: identify the sonar core, exercise mul/div, the timer and the host FIFO, then hang
+ * on purpose with a short watchdog timeout. 2nd boot (after the watchdog reset of the CPU):
+ * report the reset count and finish. The sequence of reported words is the test's oracle. */
+#include "ms_hw.h"
+
+#define MAGIC_HELLO 0x5E1F0000u
+#define MAGIC_HANG 0xDEAD0001u
+#define MAGIC_BACK 0xA1160000u
+#define MAGIC_DONE 0x00000D0Eu
+
+int main(void) {
+    uint32_t resets = MS_SOC(WDT_RESETS);
+    ms_report(MAGIC_HELLO | resets);
+    if (MS_SOC(SCRATCH) == 0) {
+        ms_report(MS_SONAR(ID));
+        ms_report(MS_SONAR(TICK_HZ));
+        volatile uint32_t a = 123456789u, b = 1000u;
+        volatile int32_t n = -77777;
+        ms_report(a * 7u);
+        ms_report(a / b);
+        ms_report(a % b);
+        ms_report((uint32_t)(n / 7));
+        uint64_t t0 = ms_cycles();
+        uint64_t t1 = ms_cycles();
+        ms_report((uint32_t)(t1 > t0));
+        for (uint32_t i = 0; i < 5; i++) MS_SOC(HOST_TX) = 0xC0DE0000u + i;
+        ms_report(MS_SOC(HOST_STATUS) & 0xFFFu);
+        MS_SOC(SCRATCH) = 1u;
+        MS_SOC(WDT_TIMEOUT) = 3000u;
+        ms_wdt_kick();
+        ms_report(MAGIC_HANG);
+        for (;;) {
+        }
+    }
+    MS_SOC(WDT_TIMEOUT) = 0u;
+    ms_report(MAGIC_BACK | resets);
+    ms_report(MAGIC_DONE);
+    for (;;) {
+    }
+}

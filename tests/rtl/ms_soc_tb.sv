@@ -1,0 +1,49 @@
+// Testbench top for the SoC: ms_soc with the sonar core's register block (ms_csr) on its
+// sonar port, so firmware reads the real generated registers.
+module ms_soc_tb #(
+  parameter string INIT_FILE = ""
+) (
+  input  logic        clk_i,
+  input  logic        rst_i,
+  input  logic        host_rd_i,
+  output logic        host_rvalid_o,
+  output logic [32:0] host_rdata_o,
+  output logic        sim_out_strobe_o,
+  output logic [31:0] sim_out_o,
+  output logic        trap_o,
+  output logic        bus_err_o
+);
+  logic        req, req_is_wr, stall_wr, stall_rd, rd_ack, rd_err, wr_ack, wr_err;
+  logic [10:0] addr;
+  logic [31:0] wr_data, wr_biten, rd_data;
+
+  ms_soc #(.INIT_FILE(INIT_FILE)) u_soc (
+    .clk_i, .rst_i,
+    .sonar_req_o (req), .sonar_req_is_wr_o (req_is_wr), .sonar_addr_o (addr),
+    .sonar_wr_data_o (wr_data), .sonar_wr_biten_o (wr_biten),
+    .sonar_req_stall_wr_i (stall_wr), .sonar_req_stall_rd_i (stall_rd),
+    .sonar_rd_ack_i (rd_ack), .sonar_rd_err_i (rd_err), .sonar_rd_data_i (rd_data),
+    .sonar_wr_ack_i (wr_ack), .sonar_wr_err_i (wr_err),
+    .host_rd_i, .host_rvalid_o, .host_rdata_o,
+    .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o
+  );
+
+  /* verilator lint_off PINCONNECTEMPTY */
+  ms_csr u_csr (
+    .clk_i, .rst_i,
+    .bus_req_i (req), .bus_req_is_wr_i (req_is_wr), .bus_addr_i (addr),
+    .bus_wr_data_i (wr_data), .bus_wr_biten_i (wr_biten),
+    .bus_req_stall_wr_o (stall_wr), .bus_req_stall_rd_o (stall_rd),
+    .bus_rd_ack_o (rd_ack), .bus_rd_err_o (rd_err), .bus_rd_data_o (rd_data),
+    .bus_wr_ack_o (wr_ack), .bus_wr_err_o (wr_err),
+    .enable_o (), .apply_o (), .clear_counters_o (), .burst_half_period_o (), .burst_cycles_o (),
+    .glitch_min_o (), .vs_tx_mask_o (), .vs_rx_mask_o (), .vs_mode_o (), .vs_order_o (),
+    .vs_miss_limit_o (), .vs_t_v_o (), .vs_t_n_o (), .vs_t_dead_o (), .vs_max_tof_o (),
+    .vs_t_xtalk_o (), .vs_xtalk_nb_o (), .vs_vmax_o (), .vs_burst_cycles_o (), .vs_phase_o (),
+    .delay_raddr_i (8'd0), .delay_rdata_o (),
+    .evt_rvalid_i (1'b0), .evt_rdata_i (64'd0), .evt_pop_o (),
+    .running_i (1'b0), .cfg_error_i (4'd0), .cfg_error_vs_i (4'd0), .fifo_level_i (12'd0),
+    .event_i (1'b0), .overflow_i (1'b0), .pulse_i (1'b0)
+  );
+  /* verilator lint_on PINCONNECTEMPTY */
+endmodule
