@@ -20,6 +20,8 @@ LAYOUT      ?= ring24
 VERILATOR_VERSION := 5.048
 export PATH := $(abspath $(VENV)/bin):$(PATH)
 # cocotb test options reach pytest from the make command line: make test SIM=icarus WAVES=1
+SIM   ?= verilator
+WAVES ?= 0
 export SIM WAVES
 
 APT_PACKAGES := g++ make perl iverilog gcc-riscv64-unknown-elf picolibc-riscv64-unknown-elf libusb-1.0-0

@@ -19,7 +19,7 @@ SIMULATORS = ("verilator", "icarus")
 
 
 def selected_simulator() -> str:
-    sim = os.environ.get("SIM", "verilator").lower()
+    sim = (os.environ.get("SIM") or "verilator").lower()
     if sim not in SIMULATORS:
         raise ValueError(f"SIM={sim!r} is not supported; use one of {SIMULATORS}")
     return sim
@@ -59,7 +59,7 @@ def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = Non
         pytest.skip(f"{top} uses SystemVerilog (unpacked structs in generated code) that Icarus 11 cannot compile")
     srcs = (list(sources) if sources is not None else rtl_sources()) + list(extra_sources)
     build_dir = ROOT / "build" / "sim" / f"{top}-{sim}"
-    waves = os.environ.get("WAVES", "0") == "1"
+    waves = (os.environ.get("WAVES") or "0") == "1"
     build_args: list[str] = []
     if sim == "verilator":
         build_args = ["-Wno-fatal", "-O3", "--x-assign", "fast", "--x-initial", "fast"]
