@@ -65,6 +65,8 @@ module ms_csr
   output logic                          evt_pop_o,         // a read of EVT_HI took the head
   // status and event strobes from the core
   input  logic                          running_i,
+  input  logic                          sched_overrun_i,
+  input  logic                          tx_collision_i,
   input  logic [3:0]                    cfg_error_i,
   input  logic [3:0]                    cfg_error_vs_i,
   input  logic [11:0]                   fifo_level_i,
@@ -106,6 +108,9 @@ module ms_csr
   // (Verilator treats the struct as one variable).
   always_comb begin
     hwif_in.STATUS.running.next      = running_i;
+    hwif_in.STATUS.sched_overrun.next = sched_overrun_i;
+    hwif_in.TX_COLLISIONS.count.incr  = tx_collision_i;
+    hwif_in.TX_COLLISIONS.count.hwclr = hwif_out.CTRL.clear_counters.value;
     hwif_in.STATUS.cfg_error.next    = cfg_error_i;
     hwif_in.STATUS.cfg_error_vs.next = cfg_error_vs_i;
     hwif_in.STATUS.fifo_level.next   = fifo_level_i;

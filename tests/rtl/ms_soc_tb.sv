@@ -42,7 +42,7 @@ module ms_soc_tb #(
     .vs_t_xtalk_o (), .vs_xtalk_nb_o (), .vs_vmax_o (), .vs_burst_cycles_o (), .vs_phase_o (),
     .delay_raddr_i (8'd0), .delay_rdata_o (),
     .evt_rvalid_i (1'b0), .evt_rdata_i (64'd0), .evt_pop_o (),
-    .running_i (1'b0), .cfg_error_i (4'd0), .cfg_error_vs_i (4'd0), .fifo_level_i (12'd0),
+    .running_i (1'b0), .sched_overrun_i (1'b0), .tx_collision_i (1'b0), .cfg_error_i (4'd0), .cfg_error_vs_i (4'd0), .fifo_level_i (12'd0),
     .event_i (1'b0), .overflow_i (1'b0), .pulse_i (1'b0)
   );
   /* verilator lint_on PINCONNECTEMPTY */

@@ -21,7 +21,8 @@ from tbutil import reset, start_clock
 async def setup(dut) -> PassthroughMaster:
     start_clock(dut.clk_i)
     for name in ("running_i", "cfg_error_i", "cfg_error_vs_i", "fifo_level_i", "event_i",
-                 "overflow_i", "pulse_i", "delay_raddr_i", "evt_rvalid_i", "evt_rdata_i"):
+                 "overflow_i", "pulse_i", "delay_raddr_i", "evt_rvalid_i", "evt_rdata_i", "sched_overrun_i",
+                 "tx_collision_i"):
         getattr(dut, name).value = 0
     bus = PassthroughMaster(dut, dut.clk_i)
     await reset(dut.clk_i, dut.rst_i)
@@ -121,12 +122,14 @@ async def counters_status_and_errors(dut):
     await strobe(dut, dut.event_i, 37)
     await strobe(dut, dut.overflow_i, 5)
     await strobe(dut, dut.pulse_i, 11)
+    await strobe(dut, dut.tx_collision_i, 2)
+    assert await bus.read(R.TX_COLLISIONS_ADDR) == 2
     assert await bus.read(R.EVENTS_ADDR) == 37
     assert await bus.read(R.OVERFLOWS_ADDR) == 5
     assert await bus.read(R.PULSES_ADDR) == 11
     ctrl = R.REGISTERS["CTRL"].fields
     await bus.write(R.CTRL_ADDR, ctrl["CLEAR_COUNTERS"].mask | ctrl["ENABLE"].mask)
-    for addr in (R.EVENTS_ADDR, R.OVERFLOWS_ADDR, R.PULSES_ADDR):
+    for addr in (R.EVENTS_ADDR, R.OVERFLOWS_ADDR, R.PULSES_ADDR, R.TX_COLLISIONS_ADDR):
         assert await bus.read(addr) == 0
     # singlepulse fields read back as 0; enable stays set and drives enable_o
     assert await bus.read(R.CTRL_ADDR) == ctrl["ENABLE"].mask
@@ -134,12 +137,14 @@ async def counters_status_and_errors(dut):
 
     st = R.REGISTERS["STATUS"].fields
     dut.running_i.value = 1
+    dut.sched_overrun_i.value = 1
     dut.cfg_error_i.value = 0xA
     dut.cfg_error_vs_i.value = 3
     dut.fifo_level_i.value = 0x5A5
     await ClockCycles(dut.clk_i, 2)
     s = await bus.read(R.STATUS_ADDR)
     assert (st["RUNNING"].get(s), st["CFG_ERROR"].get(s), st["CFG_ERROR_VS"].get(s), st["FIFO_LEVEL"].get(s)) == (1, 0xA, 3, 0x5A5)
+    assert st["SCHED_OVERRUN"].get(s) == 1
 
     r = await bus.write_raw(R.ID_ADDR, 0)
     assert r.error, "write to read-only ID must answer wr_err"
