@@ -90,13 +90,14 @@ $(BUILD)/fw/%.hex: $(BUILD)/fw/%.elf
 	$(VPY) -m multisonar.tools.bin2memh $(@:.hex=.bin) $@ --words $(FW_WORDS)
 
 # ---------------------------------------------------------------- public targets
-.PHONY: help setup regs lint test test-fast demo bench clean distclean
+.PHONY: help setup regs lint test demo bench clean distclean
 
 help:
 	@echo "make demo       run the main simulation on the default scene, results in build/demo/"
 	@echo "make test       lint and run every test (CI runs this)"
 	@echo "make lint       Verilator --lint-only -Wall on all our RTL"
 	@echo "make regs       regenerate register block, C header and Python constants"
+	@echo "make bench      run every benchmark (scripts/bench_*.py): tables and plots in build/bench/"
 	@echo "make setup      only install tools (apt, .venv) and generate sources"
 	@echo "make clean      remove build/ ; make distclean also removes .venv"
 	@echo "Simulator for cocotb tests: SIM=verilator (default) or SIM=icarus"
@@ -122,6 +123,14 @@ test: lint
 
 demo: $(STAMPS)/gen
 	$(VENV)/bin/multisonar demo --out $(BUILD)/demo
+
+# Long sweeps live here, not in the tests. Each script prints a markdown table.
+bench: $(STAMPS)/gen
+	@mkdir -p $(BUILD)/bench
+	@for b in scripts/bench_*.py; do \
+	    n=$$(basename $$b .py); echo "== $$n"; \
+	    $(VPY) $$b --plot $(BUILD)/bench/$$n.png | tee $(BUILD)/bench/$$n.md; \
+	done
 
 clean:
 	rm -rf $(BUILD) host/multisonar/generated
