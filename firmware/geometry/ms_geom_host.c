@@ -73,6 +73,17 @@ static void axis_opts(const double *axis, int m, uint8_t *mode, ms_ang_t *ax)
     }
 }
 
+/* Solver options from the Python keyword arguments (infinity switches a check off). */
+static void solver_opts(double tol, double max_gdop, double fov, ms_opts *o)
+{
+    ms_opts_default(o);
+    if (tol == INFINITY) o->no_tol = 1;
+    else o->tol = len_in(tol);
+    if (max_gdop == INFINITY) o->no_gdop = 1;
+    else o->max_gdop = num_in(max_gdop);
+    o->fov = ang_in(fov);
+}
+
 /* out rows of 8: valid, reason, x, y, range, bearing, residual, gdop */
 void msh_solve_point_batch(int M, int N, const double *C, const double *R, const double *S, const double *axis,
                            double tol, double max_gdop, double fov, double *out)
@@ -82,12 +93,7 @@ void msh_solve_point_batch(int M, int N, const double *C, const double *R, const
     ms_len_t path[MS_MAX_RX + 1];
     ms_opts o;
     ms_point_fit f;
-    ms_opts_default(&o);
-    if (tol == INFINITY) o.no_tol = 1;
-    else o.tol = len_in(tol);
-    if (max_gdop == INFINITY) o.no_gdop = 1;
-    else o.max_gdop = num_in(max_gdop);
-    o.fov = ang_in(fov);
+    solver_opts(tol, max_gdop, fov, &o);
     for (m = 0; m < M; m++) {
         double *r = out + 8 * m;
         load(N > MS_MAX_RX ? MS_MAX_RX : N, C + 2 * N * m, R + N * m, S + 2 * m, rx, path, &src);
@@ -107,12 +113,7 @@ void msh_solve_wall_batch(int M, int N, const double *C, const double *R, const 
     ms_len_t path[MS_MAX_RX + 1];
     ms_opts o;
     ms_wall_fit f;
-    ms_opts_default(&o);
-    if (tol == INFINITY) o.no_tol = 1;
-    else o.tol = len_in(tol);
-    if (max_gdop == INFINITY) o.no_gdop = 1;
-    else o.max_gdop = num_in(max_gdop);
-    o.fov = ang_in(fov);
+    solver_opts(tol, max_gdop, fov, &o);
     for (m = 0; m < M; m++) {
         double *r = out + 8 * m;
         load(N > MS_MAX_RX ? MS_MAX_RX : N, C + 2 * N * m, R + N * m, S + 2 * m, rx, path, &src);

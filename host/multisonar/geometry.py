@@ -580,14 +580,19 @@ def _select(cand, ok, rms, gd, angle, axis, n_params, N, tol, max_gdop, pre_reas
 # --------------------------------------------------------------------------------------
 
 
+def _short_paths(C, R):
+    """Reason codes SHORT where a path is not longer than its receiver's distance from the
+    source (no reflector can explain it), else OK."""
+    pre = np.zeros(C.shape[0], np.int8)
+    pre[np.any(R <= _norm(C) * (1.0 + 1e-15), axis=1)] = SHORT
+    return pre
+
+
 def _point_core(C, R, axis, tol, max_gdop, fov=None):
     M, N, _ = C.shape
-    cn = _norm(C)
-    pre = np.zeros(M, np.int8)
-    pre[np.any(R <= cn * (1.0 + 1e-15), axis=1)] = SHORT
+    pre = _short_paths(C, R)
     if N == 2:
-        i = np.zeros(M, int)
-        j = np.ones(M, int)
+        i, j = np.zeros(M, int), np.ones(M, int)
     else:
         i, j = _pick_pair_point(C, R)
     ar = np.arange(M)
@@ -677,12 +682,9 @@ def solve_point(receivers, path_lengths, source=(0.0, 0.0), *, axis=None,
 
 def _wall_core(C, R, axis, tol, max_gdop, fov=None):
     M, N, _ = C.shape
-    cn = _norm(C)
-    pre = np.zeros(M, np.int8)
-    pre[np.any(R <= cn * (1.0 + 1e-15), axis=1)] = SHORT
+    pre = _short_paths(C, R)
     if N == 2:
-        i = np.zeros(M, int)
-        j = np.ones(M, int)
+        i, j = np.zeros(M, int), np.ones(M, int)
     else:
         i, j = _pick_pair_far(C)
     ar = np.arange(M)
@@ -769,9 +771,7 @@ def _cyl_project(th):
 
 def _cylinder_core(C, R, axis, tol, max_gdop, fov, radius=None, starts=None):
     M, N, _ = C.shape
-    cn = _norm(C)
-    pre = np.zeros(M, np.int8)
-    pre[np.any(R <= cn * (1.0 + 1e-15), axis=1)] = SHORT
+    pre = _short_paths(C, R)
     scale = np.max(R, axis=1)
     if starts is None:
         xp, _, _, _ = _point_core(C, R, axis, np.inf, np.inf, fov)
