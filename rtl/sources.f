@@ -16,3 +16,5 @@ $GEN/sv/soc_regs.sv
 rtl/common/ms_ram_sp_bytes.sv
 rtl/soc/ms_pico_bridge.sv
 rtl/soc/ms_soc.sv
+rtl/core/ms_sched_workq.sv
+rtl/core/ms_scheduler.sv

@@ -307,3 +307,75 @@ def test_deferral_jump_equals_per_tick_retry():
     fast, slow = fast_m.run(5 * MS), slow_m.run(5 * MS)
     assert any(p.t0 > p.due for p in fast.pulses)
     assert fast.pulses == slow.pulses and fast.events == slow.events and fast.triggers == slow.triggers
+
+
+# -- decision lead P (docs/fast_firing.md section 3.1) ------------------------------------
+
+def _replay_prediction(res, m, lead):
+    """Independent check of the decision-lead rule: every tracking pulse's windows follow
+    from the first-echo samples detected no later than its decision tick t0 - P."""
+    c = m.cfg[0]
+    lo, hi = c.te_limits()
+    samples = sorted((e.tick, e.rx, e.seq, e.tof, e.init_ping) for e in res.events if e.first_echo)
+    seqs = {p.seq & 0xFF: p.seq for p in res.pulses}
+    for p in res.pulses:
+        if p.init:
+            continue
+        st: dict[int, tuple[int, int, int, bool]] = {}  # rx -> (tof, seq, v, from_init)
+        for tick, rx, sq, tof, init in samples:
+            if tick > p.t0 - lead:
+                break
+            k = seqs[sq]
+            if init:
+                st[rx] = (tof, k, 0, True)
+            elif rx in st and k > st[rx][1]:
+                t_prev, k_prev, _, was_init = st[rx]
+                v = max(-c.vmax, min(c.vmax, tof - t_prev)) if k - k_prev == 1 and not was_init else 0
+                st[rx] = (tof, k, v, False)
+        want = {rx: max(lo, min(hi, tof + (p.seq - k) * v)) for rx, (tof, k, v, _) in st.items()}
+        got = {rx: ws - p.t0 + c.t_v for rx, ws, we in p.windows}
+        assert got == want, (p.seq, got, want)
+
+
+@pytest.mark.parametrize("lead", [1, 1024, 30000])
+@pytest.mark.parametrize("order", [1, 3])
+def test_decision_lead_uses_state_at_t0_minus_lead(lead, order):
+    src = SyntheticEchoSource(3.0, velocity_mps=2.0)
+    m = model(VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=order), source=src, decision_lead=lead)
+    res = m.run(600 * MS)
+    assert sum(p.init for p in res.pulses) == 1 and not any(e.window_empty for e in res.events)
+    assert res.pulses[0].t0 == lead  # phase 0: decided at tick 0 for t0 = P
+    _replay_prediction(res, m, lead)
+    t0 = {p.seq: p.t0 for p in res.pulses}
+    assert all(e.tof == src.tof_ticks(3.0, t0[e.seq]) for e in res.samples(rx=0))
+
+
+def test_decision_lead_zero_is_the_default_and_init_period_grows_by_lead():
+    src = SyntheticEchoSource({})
+    base = model(VirtualSensor("s", tx=[4], rx=[4, 5], order=2), source=src).run(100 * MS)
+    zero = model(VirtualSensor("s", tx=[4], rx=[4, 5], order=2), source=src, decision_lead=0).run(100 * MS)
+    assert base == zero
+    m = model(VirtualSensor("s", tx=[4], rx=[4, 5], order=2), source=src, decision_lead=500)
+    res = m.run(100 * MS)
+    R = m.cfg[0].max_tof
+    assert set(np.diff([p.t0 for p in res.pulses])) == {R + 24 + 500}
+    with pytest.raises(ValueError):
+        model(VirtualSensor("s", tx=[4], rx=[4]), source=src, decision_lead=-1)
+
+
+@pytest.mark.parametrize("lead", [0, 1024])
+def test_decision_lead_static_wall_same_rate_and_safety(lead):
+    src = SyntheticEchoSource(2.0)
+    m = model(VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=2), source=src, decision_lead=lead)
+    res = m.run(200 * MS)
+    track = [p for p in res.pulses if not p.init]
+    n, ts = expected_period(src.tof_ticks(2.0, 0), 2)
+    assert all(q.order == n and q.period == ts for q in track[1:])
+    step = 300 * MS
+    src = SyntheticEchoSource(3.0, step_tick=step, step_ranges_m=1.1)
+    m = model(VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=2, miss_limit=2), source=src, decision_lead=lead)
+    res = m.run(600 * MS)
+    reinit = next(p for p in res.pulses if p.t0 >= step and p.init)
+    assert any(e.seq == reinit.seq & 0xFF and e.first_echo and e.tof == src.tof_ticks(1.1, reinit.t0)
+               for e in res.events)
+    assert reinit.t0 - step < 3 * 10 * MS + m.cfg[0].max_tof + lead

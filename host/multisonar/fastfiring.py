@@ -302,7 +302,8 @@ class FastFiringModel:
     """Cycle-level model of scheduler + receive gating. ``run`` may be called repeatedly."""
 
     def __init__(self, schedule: Schedule, echo_source: EchoSource, *, glitch_min: int = DEFAULT_GLITCH_MIN,
-                 max_echoes_per_window: int = 1, win_slots: int = WIN_SLOTS, start_tick: int = 0) -> None:
+                 max_echoes_per_window: int = 1, win_slots: int = WIN_SLOTS, start_tick: int = 0,
+                 decision_lead: int = 0) -> None:
         self.schedule = schedule
         self.cfg = schedule.validate()
         self.source = echo_source
@@ -310,6 +311,11 @@ class FastFiringModel:
         self.latency = 1 + self.g  # edge timestamp n is detected (rise_o) at tick n + latency
         self.max_echoes = int(max_echoes_per_window)
         self.slots = int(win_slots)
+        #: decision lead P (docs/fast_firing.md section 3.1): the SCHED decision taken at tick T is
+        #: for a pulse with t0 = T + P, on the state as of tick T (the RTL computes it serially)
+        self.lead = int(decision_lead)
+        if self.lead < 0:
+            raise ValueError(f"decision_lead {self.lead} must be >= 0 ticks")
         self.now = int(start_tick)
         n_el = schedule.layout.n
         self.windows: list[list[_Window]] = [[] for _ in range(n_el)]
@@ -325,7 +331,7 @@ class FastFiringModel:
         self.pulses: list[PulseRecord] = []
         self.cancelled: list[tuple[int, int, int, int]] = []
         for s in self.sensors:
-            self._push(s.due, _SCHED, s.cfg.id, None)
+            self._push(max(s.due - self.lead, self.now), _SCHED, s.cfg.id, None)
 
     # -- public ---------------------------------------------------------------------
     def run(self, duration_ticks: int) -> RunResult:
@@ -414,7 +420,7 @@ class FastFiringModel:
             vmax = s.cfg.vmax
             st.v = max(-vmax, min(vmax, tof - st.tof)) if gap == 1 and not st.init else 0
             st.tof, st.seq, st.miss, st.init = tof, w.seq, 0, False
-        if s.due <= self.now:
+        if s.due - self.lead <= self.now:
             self._push(self.now, _SCHED, s.cfg.id, None)
 
     def _on_close(self, w: _Window) -> None:
@@ -438,7 +444,7 @@ class FastFiringModel:
             if s.init_open == 0:
                 s.in_init = False
                 s.tracking = s.cfg.mode is Mode.TRACK and any(st.tracked for st in s.rx.values())
-        if s.due <= self.now:
+        if s.due - self.lead <= self.now:
             self._push(self.now, _SCHED, s.cfg.id, None)
 
     def _cancel(self, sensor: int) -> None:
@@ -455,7 +461,7 @@ class FastFiringModel:
         return max(lo, min(hi, st.tof + (seq - st.seq) * st.v))
 
     def _try_issue(self, s: _SensorState) -> None:
-        t = self.now
+        t = self.now + self.lead  # t0 of the pulse decided now (decision lead P)
         if s.in_init or t < s.due:
             return
         c = s.cfg
@@ -464,13 +470,13 @@ class FastFiringModel:
         if init and t < s.quiet:
             # echoes of this sensor's earlier pulses (within max range) must not reach the
             # open window: it opens at t + blank, the last echo arrives before t_last + max_tof
-            self._push(s.quiet, _SCHED, c.id, None)
+            self._push(s.quiet - self.lead, _SCHED, c.id, None)
             return
         for o in self.sensors:  # earliest-due-first on shared elements (no starvation)
             if o is not s and self._shares[c.id][o.cfg.id] and self._eligible(o) and (o.due, o.cfg.id) < (s.due, c.id):
-                retry = self._hold_retry(t)
+                retry = self._hold_retry(t)  # a t0, like _conflict's answer
                 if retry is not None:
-                    self._push(retry, _SCHED, c.id, None)
+                    self._push(retry - self.lead, _SCHED, c.id, None)
                 return  # re-evaluated when o issues or stops being eligible
         if init:
             wins = [(int(e), c.blank, c.max_tof) for e in c.rx]
@@ -484,7 +490,7 @@ class FastFiringModel:
         blanks = c.blank_intervals()
         retry = self._conflict(t, blanks, wins)
         if retry is not None:
-            self._push(retry, _SCHED, c.id, None)
+            self._push(retry - self.lead, _SCHED, c.id, None)
             return
         # issue at t
         s.seq += 1
@@ -505,14 +511,14 @@ class FastFiringModel:
                                        tuple((e, t + a, t + b) for e, a, b in blanks)))
         s.due = t + period
         s.quiet = t + c.max_tof - c.blank
-        self._push(s.due, _SCHED, c.id, None)
+        self._push(s.due - self.lead, _SCHED, c.id, None)
         for rx, st, w in _rows(self.source.fire(t, c.tx.copy(), c.delays.copy())):
             self._add_pulse(int(rx), max(int(st), t), int(w))
         self._wake(after=c.id)
 
     def _eligible(self, s: _SensorState) -> bool:
         """Pending in the RTL sense: due, not waiting for an init result, quiet time over."""
-        return s.due <= self.now and not s.in_init and (s.tracking or self.now >= s.quiet)
+        return s.due - self.lead <= self.now and not s.in_init and (s.tracking or self.now + self.lead >= s.quiet)
 
     def _hold_retry(self, t: int) -> int | None:
         return None  # event driven: a held sensor waits for _wake
@@ -521,7 +527,7 @@ class FastFiringModel:
         """Re-evaluate pending sensors: later in this tick if their id is higher than ``after``
         (SCHED runs in id order), else next tick."""
         for o in self.sensors:
-            if o.due <= self.now:
+            if o.due - self.lead <= self.now:
                 self._push(self.now if o.cfg.id > after else self.now + 1, _SCHED, o.cfg.id, None)
 
     def _conflict(self, t: int, blanks: list[tuple[int, int, int]], wins: list[tuple[int, int, int]]) -> int | None:

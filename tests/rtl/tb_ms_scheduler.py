@@ -1,0 +1,377 @@
+"""cocotb closed-loop scoreboard of ms_scheduler (stage 1: one virtual sensor) against the
+golden model FastFiringModel with the same decision lead P.
+
+Wrapper tests/rtl/ms_scheduler_tb.sv: tick counter, the real ms_rx_conditioner per channel,
+delay RAM, event log. Python never wakes per clock: it awaits fire_o (one per pulse), asks
+the echo source for the comparator pulses of that pulse (its own instance, seeded like the
+model's) and drives each pulse edge on echo_i with a Timer a quarter clock into the cycle
+the contract names (docs/sonar_core.md: a pulse with start n is first sampled high at the
+edge ending cycle n). At the end it reads the event log and compares, in order:
+  - pulses (t0) and triggers (t0 + d_i, element) with the model's,
+  - every 64-bit event word with the model's (ToFEvent.pack()).
+The RTL runs a little longer than the model so that every model event has been emitted.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+import cocotb
+import numpy as np
+from cocotb.triggers import RisingEdge, Timer
+from cocotb.utils import get_sim_time
+
+from multisonar.fastfiring import FastFiringModel, SceneEchoSource, SyntheticEchoSource, _rows
+from multisonar.layout import load_layout
+from multisonar.schedule import Schedule, VirtualSensor
+from tbutil import CLK_PERIOD_PS, start_clock
+
+LEAD = int(os.environ.get("SCHED_LEAD", "1024"))
+MS = 48_000
+M32 = (1 << 32) - 1
+LAYOUT = load_layout()
+QUARTER = CLK_PERIOD_PS // 4
+
+
+class CountingModel(FastFiringModel):
+    """The golden model, counting reservation conflicts (deferral: not in RTL stage 1)."""
+
+    conflicts = 0
+
+    def _conflict(self, t, blanks, wins):
+        r = super()._conflict(t, blanks, wins)
+        if r is not None:
+            self.conflicts += 1
+        return r
+
+
+class Bench:
+    def __init__(self, dut, sched: Schedule, glitch_min: int = 24):
+        self.dut, self.sched = dut, sched
+        self.cfg = sched.validate()[0]
+        self.regs = sched.to_registers()
+        self.g = glitch_min
+        self.fires: list[int] = []
+        self.triggers: list[tuple[int, int, int]] = []
+        self.level = 0
+        self.count = [0] * 24
+        self.source = None
+        self.t_origin = 0  # unwrapped tick of cycle 'ref' below
+        self.ref_ps = 0
+
+    def tick_at_now(self) -> int:
+        dt = round(get_sim_time("ps")) - self.ref_ps
+        return self.t_origin + dt // CLK_PERIOD_PS
+
+    async def start(self, source, tick_start: int = 0) -> int:
+        """Reset, load the delay RAM and entry 0, enable; returns the model's start tick."""
+        dut = self.dut
+        self.source = source
+        start_clock(dut.clk_i)
+        f = self.regs["sensors"][0]
+        dut.rst_i.value = 1
+        dut.enable_i.value = 0
+        dut.tick_start_i.value = tick_start
+        dut.glitch_min_i.value = self.g
+        dut.echo_i.value = 0
+        dut.evt_raddr_i.value = 0
+        dut.dly_we_i.value = 0
+        dut.dly_addr_i.value = 0
+        dut.dly_wdata_i.value = 0
+        for name in ("tx_mask", "rx_mask", "mode", "order", "miss_limit", "t_v", "t_n", "t_dead", "max_tof",
+                     "t_xtalk", "vmax", "burst_cycles", "phase"):
+            getattr(dut, f"{name}_i").value = f[name]
+        for _ in range(4):
+            await RisingEdge(dut.clk_i)
+        dut.rst_i.value = 0
+        # delay RAM: entry 0 only (plus garbage in entry 1 that must not be read)
+        mem = dict(self.regs["delay_mem"])
+        mem.update({32 + e: 0xBEEF for e in range(24)})
+        for addr, val in mem.items():
+            dut.dly_we_i.value, dut.dly_addr_i.value, dut.dly_wdata_i.value = 1, addr, val
+            await RisingEdge(dut.clk_i)
+        dut.dly_we_i.value = 0
+        await RisingEdge(dut.clk_i)
+        await Timer(QUARTER, unit="ps")
+        self.ref_ps = round(get_sim_time("ps")) - QUARTER  # edge that began this cycle
+        self.t_origin = int(dut.tick_o.value)  # tick of this cycle (unwrapped: < 2^32)
+        dut.enable_i.value = 1  # sampled at the edge ending this cycle: start tick = t_origin
+        self.tasks = [cocotb.start_soon(self._fire_loop())]
+        return self.t_origin
+
+    def add_noise(self, start: int, dur: int) -> None:
+        noise = getattr(self.source, "noise", None)
+        if callable(noise):
+            for rx, st, w in _rows(noise(start, start + dur)):
+                self._drive(int(rx), max(int(st), start), int(w))
+
+    async def _fire_loop(self) -> None:
+        dut = self.dut
+        tx = [int(e) for e in self.cfg.tx]
+        while True:
+            await RisingEdge(dut.fire_o)
+            t0 = self.tick_at_now()
+            assert round(get_sim_time("ps") - self.ref_ps) % CLK_PERIOD_PS == 0
+            mask = int(dut.fire_mask_o.value)
+            dl = int(dut.fire_delay_o.value)
+            delays = [(dl >> (16 * e)) & 0xFFFF for e in tx]
+            assert mask == sum(1 << e for e in tx), f"fire_mask_o {mask:#x}"
+            self.fires.append(t0)
+            self.triggers += [(t0 + d, e, t0) for e, d in zip(tx, delays)]
+            rows = _rows(self.source.fire(t0, np.array(tx), np.array(delays)))
+            for rx, st, w in rows:
+                self._drive(int(rx), max(int(st), t0), int(w))
+
+    def _drive(self, rx: int, start: int, width: int) -> None:
+        if width > 0:
+            self.tasks.append(cocotb.start_soon(self._pulse(rx, start, width)))
+
+    async def _pulse(self, rx: int, start: int, width: int) -> None:
+        now = self.tick_at_now()
+        t_on = self.ref_ps + (start - self.t_origin) * CLK_PERIOD_PS + QUARTER
+        dt = t_on - round(get_sim_time("ps"))
+        assert dt > 0, f"pulse rx {rx} start {start} is in the past (now {now})"
+        await Timer(dt, unit="ps")
+        self._set(rx, +1)
+        await Timer(width * CLK_PERIOD_PS, unit="ps")
+        self._set(rx, -1)
+
+    def _set(self, rx: int, d: int) -> None:
+        self.count[rx] += d
+        bit = 1 << rx
+        self.level = (self.level | bit) if self.count[rx] > 0 else (self.level & ~bit)
+        self.dut.echo_i.value = self.level
+
+    async def run_until(self, tick: int) -> None:
+        dt = self.ref_ps + (tick - self.t_origin) * CLK_PERIOD_PS - round(get_sim_time("ps"))
+        if dt > 0:
+            await Timer(dt, unit="ps")
+
+    async def read_events(self) -> list[int]:
+        """Stop driving (fire loop, pending echoes), then read the wrapper's event log."""
+        for t in self.tasks:
+            if not t.done():
+                t.cancel()
+        self.dut.echo_i.value = 0
+        self.dut.enable_i.value = 0
+        dut = self.dut
+        n = int(dut.evt_count_o.value)
+        assert n <= 4096, f"{n} events overflow the wrapper's log"
+        out = []
+        for i in range(n):
+            dut.evt_raddr_i.value = i
+            await Timer(1, unit="ps")
+            out.append(int(dut.evt_rdata_o.value))
+        return out
+
+
+def fmt(word: int) -> str:
+    from multisonar.fastfiring import ToFEvent
+    return str(ToFEvent.unpack(word))[len("ToFEvent(tick=-1, "):-1]
+
+
+async def scoreboard(dut, what: str, sensor: VirtualSensor, make_source, dur_ticks: int, *,
+                     tick_start: int = 0, min_pulses: int = 5, model_first=None) -> dict:
+    """Closed loop: RTL with one source instance, golden model with another; compare.
+    model_first: (model, result) already run by the caller (replayed sources)."""
+    sched = Schedule(LAYOUT, [sensor])
+    b = Bench(dut, sched)
+    wall0 = time.perf_counter()
+    e0 = await b.start(make_source(), tick_start)
+    b.add_noise(e0, dur_ticks)
+    end = e0 + dur_ticks
+    await b.run_until(end + 3000)
+    rtl_events = await b.read_events()
+    assert int(dut.overrun_o.value) == 0, f"{what}: scheduler overrun (engine later than the lead P)"
+    wall = time.perf_counter() - wall0
+    if model_first is None:
+        model = CountingModel(Schedule(LAYOUT, [sensor]), make_source(), start_tick=e0, decision_lead=LEAD)
+        res = model.run(dur_ticks)
+    else:
+        model, res = model_first(e0, dur_ticks)
+    assert getattr(model, "conflicts", 0) == 0, f"{what}: model deferred a pulse (reservations: RTL stage 2)"
+    m_fires = [p.t0 for p in res.pulses if p.t0 < end]
+    r_fires = [t for t in b.fires if t < end]
+    assert [t & M32 for t in r_fires] == [t & M32 for t in m_fires], \
+        f"{what}: pulses differ; first RTL/model t0: " + str(next(
+            ((a, c) for a, c in zip(r_fires + [None], m_fires + [None]) if a != c), None))
+    m_seqs = {p.seq & 0xFF for p in res.pulses if p.t0 < end}
+    m_trig = sorted((t.tick & M32, t.element) for t in res.triggers if t.seq in m_seqs)
+    r_trig = sorted((t & M32, e) for t, e, f in b.triggers if f < end)
+    assert r_trig == m_trig, f"{what}: triggers differ"
+    m_words = [e.pack() for e in res.events]
+    assert len(rtl_events) >= len(m_words), f"{what}: RTL wrote {len(rtl_events)} events, model {len(m_words)}"
+    for i, (a, c) in enumerate(zip(rtl_events, m_words)):
+        if a != c:
+            ctx = "\n".join(f"  {j}: rtl {fmt(x)}\n      mdl {fmt(y)}" for j, (x, y) in
+                            enumerate(zip(rtl_events[max(0, i - 3):i + 2], m_words[max(0, i - 3):i + 2]), max(0, i - 3)))
+            raise AssertionError(f"{what}: event {i} differs (model tick {res.events[i].tick}):\n{ctx}")
+    assert len(m_fires) >= min_pulses, f"{what}: only {len(m_fires)} pulses"
+    stats = {"pulses": len(m_fires), "init": sum(p.init for p in res.pulses if p.t0 < end),
+             "events": len(m_words), "empty": sum(e.window_empty for e in res.events),
+             "orders": sorted({p.order for p in res.pulses}), "cps": (dur_ticks + 3000) / wall}
+    dut._log.info("%s: %s; %d ticks in %.1f s wall = %.0f cycles/s", what,
+                  {k: v for k, v in stats.items() if k != "cps"}, dur_ticks + 3000, wall, stats["cps"])
+    return stats
+
+
+FRONT = dict(tx=[0], rx=[23, 0, 1])
+PHASED = dict(tx=[23, 0, 1], rx=[22, 23, 0, 1, 2], source=(0.05, 0.0))
+
+
+@cocotb.test()
+async def static_ranges_phased_order2(dut):
+    """Phased 3-element group, 5 receivers at different static ranges, order 2."""
+    ranges = {22: 2.5, 23: 2.3, 0: 2.2, 1: 2.25, 2: 2.6}
+    st = await scoreboard(dut, "static order 2", VirtualSensor("front", order=2, **PHASED),
+                          lambda: SyntheticEchoSource(ranges, ringdown_ticks=60000), 120 * MS)
+    assert st["orders"] == [-1, 2] and st["empty"] == 0
+
+
+@cocotb.test()
+async def approaching_order3(dut):
+    """Reflector approaching at 2 m/s, order 3 (pulses in flight, prediction, rate change)."""
+    st = await scoreboard(dut, "approaching order 3", VirtualSensor("front", order=3, **FRONT),
+                          lambda: SyntheticEchoSource(3.0, velocity_mps=2.0), 150 * MS)
+    assert st["init"] == 1 and 3 in st["orders"]
+
+
+@cocotb.test()
+async def approaching_order4_and_1(dut):
+    """Order 4 and order 1 on an approaching reflector (effective order changes)."""
+    for order in (4, 1):
+        await scoreboard(dut, f"approaching order {order}", VirtualSensor("front", order=order, **FRONT),
+                         lambda: SyntheticEchoSource(3.5, velocity_mps=2.0), 100 * MS)
+
+
+@cocotb.test()
+async def step_occlusion_kmiss(dut):
+    """Obstacle steps in front of a tracked wall: K empty windows, cancel, quiet rule, re-init."""
+    step = 60 * MS
+    # step_tick is absolute: set it relative to the start tick once known
+    sensor = VirtualSensor("front", order=2, miss_limit=2, **FRONT)
+    sched = Schedule(LAYOUT, [sensor])
+    b = Bench(dut, sched)
+    src_rtl = SyntheticEchoSource(3.0, step_ranges_m=1.1, step_tick=1 << 62)
+    e0 = await b.start(src_rtl, 0)
+    src_rtl.step_tick = e0 + step
+    dur = 160 * MS
+    wall0 = time.perf_counter()
+    await b.run_until(e0 + dur + 3000)
+    words = await b.read_events()
+    assert int(dut.overrun_o.value) == 0
+    model = CountingModel(sched, SyntheticEchoSource(3.0, step_ranges_m=1.1, step_tick=e0 + step),
+                          start_tick=e0, decision_lead=LEAD)
+    res = model.run(dur)
+    assert model.conflicts == 0
+    end = e0 + dur
+    assert [t for t in b.fires if t < end] == [p.t0 for p in res.pulses if p.t0 < end]
+    m_words = [e.pack() for e in res.events]
+    assert words[:len(m_words)] == m_words, next(
+        (i, fmt(a), fmt(c)) for i, (a, c) in enumerate(zip(words, m_words)) if a != c)
+    inits = sum(p.init for p in res.pulses)
+    assert inits == 2 and len(res.cancelled) > 0, (inits, len(res.cancelled))
+    dut._log.info("step/K-miss: %d pulses, %d init pings, %d cancelled windows, %d events, %.0f cycles/s",
+                  len(res.pulses), inits, len(res.cancelled), len(m_words), (dur + 3000) / (time.perf_counter() - wall0))
+
+
+@cocotb.test()
+async def wall_1m_scene(dut):
+    """Acoustic simulator on wall_1m (noise, several echoes, widths), identically seeded."""
+    await scoreboard(dut, "wall_1m order 1", VirtualSensor("front", order=1, **FRONT),
+                     lambda: SceneEchoSource("wall_1m", rng=np.random.default_rng(5)), 120 * MS)
+
+
+@cocotb.test()
+async def init_only_and_wrap(dut):
+    """Init-only mode (open windows only) across the 2^32 tick wrap, then tracking across it."""
+    await scoreboard(dut, "init-only across wrap", VirtualSensor("s", tx=[5], rx=[4, 5, 6], mode="init"),
+                     lambda: SyntheticEchoSource({4: 1.2, 6: [0.9, 2.2]}), 90 * MS,
+                     tick_start=(1 << 32) - 40 * MS, min_pulses=3)
+    await scoreboard(dut, "order 2 across wrap", VirtualSensor("s", tx=[5], rx=[4, 5, 6], order=2),
+                     lambda: SyntheticEchoSource({4: 1.6, 5: 1.65, 6: 1.7}), 90 * MS,
+                     tick_start=(1 << 32) - 50 * MS)
+
+
+class WindowEdgeSource:
+    """Directed echoes relative to the model's own windows (replayed into the RTL): per
+    tracking pulse and receiver one of: exactly ws (in), we-1 (in), ws-1 (out), we (out),
+    inside the dead zone (gated), centred (in). Init pings: a static reflector per receiver."""
+
+    CASES = ("ws", "we-1", "ws-1", "we", "dead", "mid")
+
+    def __init__(self, model_ref, init_tof: dict[int, int], width: int = 60):
+        self.model_ref, self.init_tof, self.width = model_ref, init_tof, width
+        self.k = 0
+        self.rows: dict[int, list[tuple[int, int, int]]] = {}
+        self.cases: list[str] = []
+
+    def fire(self, t0, elements, delays):
+        m = self.model_ref[0]
+        wins = [w for ws in m.windows for w in ws if w.t0 == t0 and w.sensor == 0]
+        out = []
+        for w in sorted(wins, key=lambda w: w.rx):
+            if w.init:
+                out.append((w.rx, t0 + self.init_tof[w.rx], 2000))
+                continue
+            case = self.CASES[(self.k + w.rx) % len(self.CASES)]
+            self.cases.append(case)
+            at = {"ws": w.start, "we-1": w.end - 1, "ws-1": w.start - 1 - self.width + 30, "we": w.end,
+                  "dead": t0 + 100, "mid": (w.start + w.end) // 2}[case]
+            if case == "ws-1":  # a pulse whose rising edge is at ws - 1 and which covers ws
+                at = w.start - 1
+            out.append((w.rx, at, self.width))
+        self.k += 1
+        self.rows[t0] = out
+        return out
+
+
+@cocotb.test()
+async def window_boundaries_order2(dut):
+    """Directed: echoes exactly at ws and we-1 (reported), ws-1 and we (not: window_empty),
+    in the dead zone (gated); order 2 with K = 15 so the misses never re-initialise."""
+    sensor = VirtualSensor("s", tx=[10], rx=[9, 10, 11], order=2, miss_limit=15, vmax=0)
+    tof = {9: 100_000, 10: 104_000, 11: 98_000}
+    state = {}
+
+    def run_model(e0, dur):
+        ref = [None]
+        src = WindowEdgeSource(ref, tof)
+        m = CountingModel(Schedule(LAYOUT, [sensor]), src, start_tick=e0, decision_lead=LEAD)
+        ref[0] = m
+        state["src"] = src
+        return m, m.run(dur)
+
+    class Replay:
+        def fire(self, t0, elements, delays):
+            if "src" not in state:  # the model runs first, at the RTL's start tick
+                raise AssertionError("replay before the model ran")
+            rows = state["src"].rows.get(t0)
+            assert rows is not None, f"RTL fired at t0 {t0}, the model did not"
+            return rows
+
+    sched = Schedule(LAYOUT, [sensor])
+    b = Bench(dut, sched)
+    src = Replay()
+    # the model must run before the RTL needs its echoes: start, then run the model at once
+    e0 = await b.start(src, 0)
+    dur = 100 * MS
+    model, res = run_model(e0, dur)
+    await b.run_until(e0 + dur + 3000)
+    words = await b.read_events()
+    assert int(dut.overrun_o.value) == 0 and model.conflicts == 0
+    end = e0 + dur
+    assert [t for t in b.fires if t < end] == [p.t0 for p in res.pulses if p.t0 < end]
+    m_words = [e.pack() for e in res.events]
+    assert words[:len(m_words)] == m_words, next(
+        (i, fmt(a), fmt(c)) for i, (a, c) in enumerate(zip(words, m_words)) if a != c)
+    cases = state["src"].cases
+    tofs = {(e.seq, e.rx): e for e in res.events}
+    assert {"ws", "we-1", "ws-1", "we", "dead"} <= set(cases)
+    n_in = sum(1 for e in res.events if e.in_window and not e.init_ping)
+    n_empty = sum(1 for e in res.events if e.window_empty)
+    assert n_in > 5 and n_empty > 5
+    del tofs
+    dut._log.info("window boundaries: %d pulses, %d in-window, %d empty, cases %s",
+                  len(res.pulses), n_in, n_empty, {c: cases.count(c) for c in set(cases)})
