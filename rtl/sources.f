@@ -18,3 +18,4 @@ rtl/soc/ms_pico_bridge.sv
 rtl/soc/ms_soc.sv
 rtl/core/ms_sched_workq.sv
 rtl/core/ms_scheduler.sv
+rtl/ms_sonar_core.sv

@@ -1,0 +1,132 @@
+// ms_sonar_core: the complete sonar core — registers, 24 receive channels, the fast-firing
+// scheduler, the phased transmitters and the event FIFO — behind one register bus.
+//
+// Timing contract: one clock (48 MHz). tick counts clocks since reset (TICK_START lets tests
+// start it just below the 32-bit wrap). Element i triggers at tick t when drive_o[i] is first
+// high in clock t+1; an echo first sampled high at tick n gets timestamp n (docs/sonar_core.md).
+// Events reach the FIFO in the golden model's order (docs/fast_firing.md); the host or the
+// soft-core reads them through EVT_LO / EVT_HI. EVENTS counts events produced, OVERFLOWS the
+// ones dropped because the FIFO was full (the next stored one carries bit 44).
+module ms_sonar_core #(
+  parameter int          NUM_CH     = 24,
+  parameter int unsigned TICK_START = 0
+) (
+  input  logic              clk_i,
+  input  logic              rst_i,
+  // register bus (PeakRDL passthrough)
+  input  logic              bus_req_i,
+  input  logic              bus_req_is_wr_i,
+  input  logic [10:0]       bus_addr_i,
+  input  logic [31:0]       bus_wr_data_i,
+  input  logic [31:0]       bus_wr_biten_i,
+  output logic              bus_req_stall_wr_o,
+  output logic              bus_req_stall_rd_o,
+  output logic              bus_rd_ack_o,
+  output logic              bus_rd_err_o,
+  output logic [31:0]       bus_rd_data_o,
+  output logic              bus_wr_ack_o,
+  output logic              bus_wr_err_o,
+  // transducers
+  input  logic [NUM_CH-1:0] echo_i,   // comparator outputs, asynchronous
+  output logic [NUM_CH-1:0] drive_o,  // burst drive, registered
+  output logic              evt_available_o  // an event waits in the FIFO (interrupt)
+);
+  localparam int NUM_VS  = 8;
+  localparam int DELAY_W = 16;
+
+  logic [31:0] tick_q;
+  always_ff @(posedge clk_i) begin
+    if (rst_i) tick_q <= 32'(TICK_START);
+    else       tick_q <= tick_q + 32'd1;
+  end
+
+  // ---- registers
+  logic                          enable, apply, unused_clear_counters;
+  logic [15:0]                   burst_half_period;
+  logic [7:0]                    unused_burst_cycles, glitch_min;
+  logic [NUM_VS-1:0][NUM_CH-1:0] vs_tx_mask, vs_rx_mask;
+  logic [NUM_VS-1:0][1:0]        vs_mode, vs_xtalk_nb;
+  logic [NUM_VS-1:0][2:0]        vs_order;
+  logic [NUM_VS-1:0][3:0]        vs_miss_limit;
+  logic [NUM_VS-1:0][15:0]       vs_t_v, vs_t_n, vs_vmax;
+  logic [NUM_VS-1:0][19:0]       vs_t_dead, vs_t_xtalk;
+  logic [NUM_VS-1:0][23:0]       vs_max_tof, vs_phase;
+  logic [NUM_VS-1:0][7:0]        vs_burst_cycles;
+  logic [7:0]                    delay_raddr;
+  logic [DELAY_W-1:0]            delay_rdata;
+  logic                          fifo_rvalid, fifo_pop, fifo_overflow;
+  logic [63:0]                   fifo_rdata;
+  logic [11:0]                   fifo_level;
+  logic                          running, overrun, pulse, tx_collision;
+  logic [3:0]                    cfg_error, cfg_error_vs;
+  logic                          evt_valid;
+  logic [63:0]                   evt_data;
+
+  ms_csr #(.NUM_CH(NUM_CH), .DELAY_W(DELAY_W)) u_csr (
+    .clk_i, .rst_i,
+    .bus_req_i, .bus_req_is_wr_i, .bus_addr_i, .bus_wr_data_i, .bus_wr_biten_i,
+    .bus_req_stall_wr_o, .bus_req_stall_rd_o, .bus_rd_ack_o, .bus_rd_err_o, .bus_rd_data_o,
+    .bus_wr_ack_o, .bus_wr_err_o,
+    .enable_o (enable), .apply_o (apply), .clear_counters_o (unused_clear_counters),
+    .burst_half_period_o (burst_half_period), .burst_cycles_o (unused_burst_cycles),
+    .glitch_min_o (glitch_min),
+    .vs_tx_mask_o (vs_tx_mask), .vs_rx_mask_o (vs_rx_mask), .vs_mode_o (vs_mode),
+    .vs_order_o (vs_order), .vs_miss_limit_o (vs_miss_limit), .vs_t_v_o (vs_t_v),
+    .vs_t_n_o (vs_t_n), .vs_t_dead_o (vs_t_dead), .vs_max_tof_o (vs_max_tof),
+    .vs_t_xtalk_o (vs_t_xtalk), .vs_xtalk_nb_o (vs_xtalk_nb), .vs_vmax_o (vs_vmax),
+    .vs_burst_cycles_o (vs_burst_cycles), .vs_phase_o (vs_phase),
+    .delay_raddr_i (delay_raddr), .delay_rdata_o (delay_rdata),
+    .evt_rvalid_i (fifo_rvalid), .evt_rdata_i (fifo_rdata), .evt_pop_o (fifo_pop),
+    .running_i (running), .sched_overrun_i (overrun), .tx_collision_i (tx_collision),
+    .cfg_error_i (cfg_error), .cfg_error_vs_i (cfg_error_vs), .fifo_level_i (fifo_level),
+    .event_i (evt_valid), .overflow_i (fifo_overflow), .pulse_i (pulse)
+  );
+
+  // ---- receive channels
+  logic [NUM_CH-1:0] rise;
+  logic [NUM_CH-1:0] unused_level;
+  for (genvar c = 0; c < NUM_CH; c++) begin : g_rx
+    ms_rx_conditioner u_rx (
+      .clk_i, .rst_i, .echo_i (echo_i[c]), .glitch_min_i (glitch_min),
+      .level_o (unused_level[c]), .rise_o (rise[c])
+    );
+  end
+
+  // ---- scheduler
+  logic                           fire;
+  logic [2:0]                     fire_vs;
+  logic [NUM_CH-1:0]              fire_mask;
+  logic [NUM_CH-1:0][DELAY_W-1:0] fire_delay;
+  logic [7:0]                     fire_burst_cycles;
+  logic [2:0]                     unused_fire_vs;
+
+  ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W)) u_sched (
+    .clk_i, .rst_i, .tick_i (tick_q), .enable_i (enable), .apply_i (apply),
+    .vs_tx_mask_i (vs_tx_mask), .vs_rx_mask_i (vs_rx_mask), .vs_mode_i (vs_mode),
+    .vs_order_i (vs_order), .vs_miss_limit_i (vs_miss_limit), .vs_t_v_i (vs_t_v),
+    .vs_t_n_i (vs_t_n), .vs_t_dead_i (vs_t_dead), .vs_max_tof_i (vs_max_tof),
+    .vs_t_xtalk_i (vs_t_xtalk), .vs_xtalk_nb_i (vs_xtalk_nb), .vs_vmax_i (vs_vmax),
+    .vs_burst_cycles_i (vs_burst_cycles), .vs_phase_i (vs_phase), .glitch_min_i (glitch_min),
+    .delay_raddr_o (delay_raddr), .delay_rdata_i (delay_rdata), .rise_i (rise),
+    .fire_o (fire), .fire_vs_o (fire_vs), .fire_mask_o (fire_mask), .fire_delay_o (fire_delay),
+    .fire_burst_cycles_o (fire_burst_cycles), .evt_valid_o (evt_valid), .evt_data_o (evt_data),
+    .pulse_o (pulse), .running_o (running), .cfg_error_o (cfg_error),
+    .cfg_error_vs_o (cfg_error_vs), .overrun_o (overrun)
+  );
+  assign unused_fire_vs = fire_vs;
+
+  // ---- transmitters
+  logic [NUM_CH-1:0] unused_busy;
+  ms_tx_phaser #(.NUM_CH(NUM_CH), .DELAY_W(DELAY_W)) u_tx (
+    .clk_i, .rst_i, .fire_i (fire), .mask_i (fire_mask), .delay_i (fire_delay),
+    .burst_cycles_i (fire_burst_cycles), .half_period_i (burst_half_period),
+    .drive_o, .busy_o (unused_busy), .collision_o (tx_collision)
+  );
+
+  // ---- events
+  ms_event_fifo #(.WIDTH(64), .DEPTH_W(9), .OVF_BIT(44), .LEVEL_W(12)) u_fifo (
+    .clk_i, .rst_i, .wr_i (evt_valid), .wdata_i (evt_data), .rd_i (fifo_pop),
+    .rvalid_o (fifo_rvalid), .rdata_o (fifo_rdata), .overflow_o (fifo_overflow), .level_o (fifo_level)
+  );
+  assign evt_available_o = fifo_rvalid;
+endmodule

@@ -1,0 +1,11 @@
+"""The whole sonar core (registers, receivers, scheduler, transmitters, event FIFO) against
+the golden model, configured and read through its register bus."""
+
+import pytest
+
+from cocotb_run import run_cocotb
+
+
+@pytest.mark.sim
+def test_ms_sonar_core():
+    run_cocotb("ms_sonar_core", "tb_ms_sonar_core", icarus_ok=False)
