@@ -72,18 +72,40 @@ $(STAMPS)/gen: $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl $(LAYOUT_FILE) 
 	@touch $@
 
 # ---------------------------------------------------------------- firmware images
-# RV32IM + picolibc. RAM (32 KiB at 0) is split into image/rodata (24 KiB) and data/stack.
+# RV32IM + picolibc. RAM (64 KiB at 0 = ms_soc RAM_WORDS 16384) is split into image/rodata
+# (48 KiB at 0) and data/bss/stack (16 KiB at 0xC000; the stack starts at the top, where
+# PicoRV32's STACKADDR = RAM_WORDS * 4 also puts it).
 FW_CC      := riscv64-unknown-elf-gcc
 FW_CFLAGS  := -march=rv32im -mabi=ilp32 -Os -g --specs=picolibc.specs -Wall -Wextra -Werror \
               -I$(GEN)/firmware -Ifirmware/app
-FW_LDFLAGS := -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0x6000 \
-              -Wl,--defsym=__ram=0x6000 -Wl,--defsym=__ram_size=0x2000 -Wl,--gc-sections
-FW_WORDS   := 8192
+FW_LDFLAGS := -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0xC000 \
+              -Wl,--defsym=__ram=0xC000 -Wl,--defsym=__ram_size=0x4000 -Wl,--gc-sections
+FW_WORDS   := 16384
 .PRECIOUS: $(BUILD)/fw/%.elf
 
-$(BUILD)/fw/%.elf: firmware/app/%.c $(wildcard firmware/app/*.h) $(STAMPS)/gen
+$(BUILD)/fw/%.elf: firmware/app/%.c $(wildcard firmware/app/*.h) $(STAMPS)/gen Makefile
 	@mkdir -p $(@D)
 	$(FW_CC) $(FW_CFLAGS) $< -o $@ $(FW_LDFLAGS)
+
+# Geometry benchmark, one image per arithmetic variant of firmware/geometry/ms_geom.c:
+# build/fw/bench_geom_{f64,f32,q}.hex (scripts/bench_fw_cycles.py, tests/rtl/test_ms_soc_geometry.py).
+# The cases come from the golden model: multisonar.tools.geom_cases -> build/fw/bench_cases.h.
+GEOM_ARITH_f64 := MS_ARITH_F64
+GEOM_ARITH_f32 := MS_ARITH_F32
+GEOM_ARITH_q   := MS_ARITH_Q
+GEOM_SRC       := firmware/geometry/ms_geom.c
+.PRECIOUS: $(BUILD)/fw/bench_geom_%.elf
+
+$(BUILD)/fw/bench_cases.h: host/multisonar/tools/geom_cases.py host/multisonar/geometry.py $(LAYOUT_FILE) $(STAMPS)/venv
+	@mkdir -p $(@D)
+	$(VPY) -m multisonar.tools.geom_cases --header $@
+
+$(BUILD)/fw/bench_geom_%.elf: firmware/app/bench_geom.c $(GEOM_SRC) firmware/geometry/ms_geom.h \
+                              $(BUILD)/fw/bench_cases.h $(wildcard firmware/app/*.h) $(STAMPS)/gen Makefile
+	@[ -n "$(GEOM_ARITH_$*)" ] || { echo "make: no geometry variant '$*' (f64, f32, q)" >&2; exit 1; }
+	@mkdir -p $(@D)
+	$(FW_CC) $(FW_CFLAGS) -ffunction-sections -fdata-sections -Ifirmware/geometry -I$(BUILD)/fw \
+	    -DMS_GEOM_ARITH=$(GEOM_ARITH_$*) firmware/app/bench_geom.c $(GEOM_SRC) -o $@ $(FW_LDFLAGS) -lm
 
 $(BUILD)/fw/%.hex: $(BUILD)/fw/%.elf
 	riscv64-unknown-elf-objcopy -O binary $< $(@:.hex=.bin)

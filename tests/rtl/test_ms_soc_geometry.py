@@ -1,0 +1,176 @@
+"""The geometry library (firmware/geometry/ms_geom.c) runs on the soft-core SoC and agrees with
+the Python golden model (multisonar.geometry, float64) on the embedded cases.
+
+firmware/app/bench_geom.c solves the fixed cases of multisonar.tools.geom_cases (typical
+3-receiver edges and walls at 1..4 m, plus extremes) with the default variant (DEFAULT_VARIANT,
+chosen in scripts/bench_fw_cycles.py) and reports every result and its cycle count through
+the mailbox. Checked: valid flags and reasons identical to Python, edge / wall / uncertain kind
+identical, range and bearing errors within the variant's stated bound (ms_geom.h), the Q
+variant bit-identical to the host build of the same C (integer arithmetic only), and the cycle
+count of a fix (solve + classify) on the typical cases inside the real-time budget (strict
+xfail today: ~400x over, issue #5).
+
+The SoC simulates ~0.33 M cycles/s and a q fix costs ~3 M cycles, so the SoC run stops after
+the first SOC_CASES cases (~40 s); all embedded cases go through the host build of the same
+C with the same checks, and the full table is scripts/bench_fw_cycles.py.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cocotb_run import ROOT, run_cocotb, selected_simulator
+
+from multisonar.tools import geom_cases as gc
+
+DEFAULT_VARIANT = "q"
+TOP = "ms_soc_geometry_tb"
+CLOCK_HZ = 48e6
+# worst-case fix rate: 8 virtual sensors x 400 pulses/s (interlace limit), one fix per pulse;
+# 2x headroom -> a fix (one solve + one classify) within 48e6 / 6400 = 7500 cycles
+FIX_RATE_MAX = 8 * 400
+HEADROOM = 2.0
+CYCLE_BUDGET = CLOCK_HZ / (HEADROOM * FIX_RATE_MAX)
+# stated error bounds against float64 on the same (1 um) inputs, ms_geom.h
+# f64: 1e-9 relative; f32: 2e-6 m * max(1, gdop) + 2e-6 * range; q: 2e-6 m + 1e-8 m * gdop^2
+BOUNDS = {
+    "f64": lambda scale, gdop: 1e-9 * max(scale, 1e-3),
+    "f32": lambda scale, gdop: 2e-6 * max(1.0, gdop) + 2e-6 * scale,
+    "q": lambda scale, gdop: 2e-6 + 1e-8 * gdop ** 2,
+}
+
+
+def run_image(variant: str, out: Path | None = None, max_cases: int = 0) -> dict:
+    """Build build/fw/bench_geom_<variant>.hex, run it on the SoC in the simulator (all cases,
+    or only the first ``max_cases``) and return the decoded stream plus {sim_cycles, words};
+    the raw JSON lands in ``out``."""
+    hexfile = ROOT / f"build/fw/bench_geom_{variant}.hex"
+    subprocess.run(["make", "-s", str(hexfile.relative_to(ROOT))], cwd=ROOT, check=True)
+    build_dir = ROOT / "build" / "sim" / f"{TOP}-{selected_simulator()}"
+    build_dir.mkdir(parents=True, exist_ok=True)
+    image = build_dir / "firmware.hex"  # the fixed INIT_FILE of this top (no rebuild per image)
+    shutil.copyfile(hexfile, image)
+    out = out or ROOT / "build" / "bench" / f"fw_cycles_{variant}.json"
+    out.unlink(missing_ok=True)
+    run_cocotb(TOP, "tb_ms_soc_geometry", extra_sources=[ROOT / "tests/rtl/ms_soc_geometry_tb.sv"],
+               parameters={"INIT_FILE": f'"{image}"'}, icarus_ok=False,
+               extra_env={"GEOM_OUT": str(out), "GEOM_MAX_CASES": str(max_cases)})
+    raw = json.loads(out.read_text())
+    dec = gc.decode(raw["words"], complete=max_cases == 0)
+    dec.update(sim_cycles=raw["sim_cycles"], words=len(raw["words"]))
+    return dec
+
+
+def fix_cycles(dec: dict, group: str = "typical", cs=None) -> np.ndarray:
+    """Cycles of one fix per case: the solver the firmware would keep (the slower of point and
+    wall, to be safe) plus classify."""
+    cs = cs or gc.cases()
+    return np.array([max(d["point"]["cycles"], d["wall"]["cycles"]) + d["classify"]["cycles"]
+                     for c, d in zip(cs, dec["cases"]) if c.group == group])  # zip: a cut run has fewer
+
+
+def host_q_results(cs):
+    """The same C, Q variant, built for the host (firmware/Makefile host-libs)."""
+    import sys
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_fw_geometry as tfw
+
+    subprocess.run(["make", "-s", "-C", str(ROOT / "firmware"), "host-libs"], check=True)
+    f = tfw.FwGeom("q")
+    out = []
+    for c in cs:
+        C, R, S = c.receivers[None], c.path[None], c.source[None]
+        out.append((f.point(C, R, S)["raw"][0], f.wall(C, R, S)["raw"][0]))
+    return out
+
+
+SOC_CASES = 3  # first cases of the list (edge, wall, edge; ~4 M cycles each at q): ~40 s of simulation
+
+
+@pytest.fixture(scope="module")
+def soc_run():
+    out = ROOT / "build" / "sim" / f"{TOP}-{selected_simulator()}" / "test_mailbox.json"
+    return run_image(DEFAULT_VARIANT, out, max_cases=SOC_CASES)
+
+
+def _check_against_python(variant, cs, results):
+    """results: per case {point, wall, classify} dicts as decoded; every check of the module doc."""
+    ref = gc.reference(cs)
+    errs = gc.errors({"cases": results}, ref, cs)
+    bound = BOUNDS[variant]
+    n_valid = 0
+    for c, e, d, r in zip(cs, errs, results, ref):
+        for solver in ("point", "wall"):
+            assert e[f"{solver}_same_flag"] and e[f"{solver}_same_reason"], \
+                (c.name, solver, d[solver]["reason"], r[solver]["reason"])
+            if e[f"{solver}_valid"]:
+                n_valid += 1
+                b = bound(e[f"{solver}_scale_m"], e[f"{solver}_gdop"])
+                assert e[f"{solver}_range_m"] <= b, (c.name, solver, e[f"{solver}_range_m"], b)
+                # bearing error as a lateral offset at the reflector's range
+                assert e[f"{solver}_bearing_rad"] * e[f"{solver}_scale_m"] <= b, (c.name, solver)
+        assert e["same_kind"], (c.name, d["classify"], r["classify"])
+        if c.n >= 3:
+            chi = np.array([d["classify"]["chi2_edge"], d["classify"]["chi2_wall"]])
+            chi_py = np.array([r["classify"]["chi2_edge"], r["classify"]["chi2_wall"]])
+            if variant == "q":  # Q16.16 output saturates at 32767.99
+                chi_py = np.minimum(chi_py, 32767.0 + 65535 / 65536)
+            assert np.all(np.abs(chi - chi_py) <= 1e-2 * np.maximum(chi_py, 1.0)), (c.name, chi, chi_py)
+    return n_valid
+
+
+@pytest.mark.sim
+def test_geometry_on_soc_matches_python(soc_run):
+    dec = soc_run
+    assert dec["variant"] == DEFAULT_VARIANT and len(dec["cases"]) == SOC_CASES
+    cs = gc.cases()[:SOC_CASES]
+    assert _check_against_python(DEFAULT_VARIANT, cs, dec["cases"]) >= 4
+    if DEFAULT_VARIANT == "q":  # integer only: the soft-core must agree with the host build bit for bit
+        for c, d, (hp, hw) in zip(cs, dec["cases"], host_q_results(cs)):
+            p, w = d["point"], d["wall"]
+            assert [p["valid"], p["reason"]] == [bool(hp[0]), int(hp[1])], c.name
+            assert [p["x"], p["y"], p["range"], p["bearing"], p["residual"], p["gdop"]] == list(hp[2:8]), c.name
+            assert [w["valid"], w["reason"]] == [bool(hw[0]), int(hw[1])], c.name
+            assert [w["distance"], w["normal_angle"], w["foot_x"], w["foot_y"], w["residual"], w["gdop"]] == \
+                list(hw[2:8]), c.name
+
+
+def test_embedded_cases_host_build_matches_python():
+    """All embedded cases (also the extremes the SoC run skips) through the host build of the
+    default variant: same checks as on the SoC (cheap: no simulation)."""
+    import sys
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_fw_geometry as tfw
+
+    subprocess.run(["make", "-s", "-C", str(ROOT / "firmware"), "host-libs"], check=True)
+    f = tfw.FwGeom(DEFAULT_VARIANT)
+    cs = gc.cases()
+    results = []
+    for c in cs:
+        C, R, S = c.receivers[None], c.path[None], c.source[None]
+        p, w = f.point(C, R, S)["raw"][0], f.wall(C, R, S)["raw"][0]
+        k = f.classify(C, R, S, sigma=gc.SIGMA)["raw"][0] if c.n >= 3 else np.array([3.0] + [0.0] * 10)
+        results.append(dict(
+            point=dict(zip(("valid", "reason", "x", "y", "range", "bearing", "residual", "gdop"),
+                           [bool(p[0]), int(p[1]), *p[2:8]])),
+            wall=dict(zip(("valid", "reason", "distance", "normal_angle", "foot_x", "foot_y", "residual", "gdop"),
+                          [bool(w[0]), int(w[1]), *w[2:8]])),
+            classify=dict(kind=int(k[0]), chi2_edge=k[3], chi2_wall=k[4])))
+    assert _check_against_python(DEFAULT_VARIANT, cs, results) >= 40
+
+
+@pytest.mark.sim
+@pytest.mark.xfail(strict=True, reason="issue #5: a fix takes ~3 M cycles on the soft-core, the budget is 7500 "
+                                       "(see firmware/README.md); strict: remove this mark once it passes")
+def test_fix_within_realtime_budget(soc_run):
+    fix = fix_cycles(soc_run, cs=gc.cases()[:SOC_CASES])
+    print(f"{DEFAULT_VARIANT}: fix (solve + classify) cycles: median {np.median(fix):.0f}, max {fix.max()}, "
+          f"budget {CYCLE_BUDGET:.0f}; simulated {soc_run['sim_cycles']} cycles")
+    assert fix.max() <= CYCLE_BUDGET, f"a fix takes {fix.max()} cycles, budget {CYCLE_BUDGET:.0f}"
