@@ -25,6 +25,7 @@ from cocotb.utils import get_sim_time
 from multisonar.fastfiring import FastFiringModel, SceneEchoSource, SyntheticEchoSource, _rows
 from multisonar.layout import load_layout
 from multisonar.schedule import Schedule, VirtualSensor
+from echo_driver import EchoDriver
 from tbutil import CLK_PERIOD_PS, start_clock
 
 LEAD = int(os.environ.get("SCHED_LEAD", "1024"))
@@ -54,8 +55,7 @@ class Bench:
         self.g = glitch_min
         self.fires: list[int] = []
         self.triggers: list[tuple[int, int, int]] = []
-        self.level = 0
-        self.count = [0] * 24
+        self.echo = EchoDriver(dut.echo_i, 24, lambda tick: self.ref_ps + (tick - self.t_origin) * CLK_PERIOD_PS)
         self.source = None
         self.t_origin = 0  # unwrapped tick of cycle 'ref' below
         self.ref_ps = 0
@@ -124,24 +124,7 @@ class Bench:
                 self._drive(int(rx), max(int(st), t0), int(w))
 
     def _drive(self, rx: int, start: int, width: int) -> None:
-        if width > 0:
-            self.tasks.append(cocotb.start_soon(self._pulse(rx, start, width)))
-
-    async def _pulse(self, rx: int, start: int, width: int) -> None:
-        now = self.tick_at_now()
-        t_on = self.ref_ps + (start - self.t_origin) * CLK_PERIOD_PS + QUARTER
-        dt = t_on - round(get_sim_time("ps"))
-        assert dt > 0, f"pulse rx {rx} start {start} is in the past (now {now})"
-        await Timer(dt, unit="ps")
-        self._set(rx, +1)
-        await Timer(width * CLK_PERIOD_PS, unit="ps")
-        self._set(rx, -1)
-
-    def _set(self, rx: int, d: int) -> None:
-        self.count[rx] += d
-        bit = 1 << rx
-        self.level = (self.level | bit) if self.count[rx] > 0 else (self.level & ~bit)
-        self.dut.echo_i.value = self.level
+        self.echo.drive(rx, start, width)
 
     async def run_until(self, tick: int) -> None:
         dt = self.ref_ps + (tick - self.t_origin) * CLK_PERIOD_PS - round(get_sim_time("ps"))
@@ -153,7 +136,7 @@ class Bench:
         for t in self.tasks:
             if not t.done():
                 t.cancel()
-        self.dut.echo_i.value = 0
+        self.echo.stop()
         self.dut.enable_i.value = 0
         dut = self.dut
         n = int(dut.evt_count_o.value)

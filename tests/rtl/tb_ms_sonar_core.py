@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import cocotb
-from cocotb.triggers import FallingEdge, RisingEdge, Timer, ValueChange
+from cocotb.triggers import RisingEdge, Timer, ValueChange
 from cocotb.utils import get_sim_time
 
 from multisonar.fastfiring import FastFiringModel, SceneEchoSource, SyntheticEchoSource, ToFEvent, _rows
@@ -19,12 +19,12 @@ from multisonar.generated import sonar_regs as R
 from multisonar.layout import load_layout
 from multisonar.regmap import schedule_writes
 from multisonar.schedule import Schedule, VirtualSensor
+from echo_driver import EchoDriver
 from passthrough_bfm import PassthroughMaster
 from tbutil import CLK_PERIOD_PS, reset, start_clock
 
 LEAD = 1024  # ms_scheduler's LEAD parameter default
 MS = 48_000
-QUARTER = CLK_PERIOD_PS // 4
 LAYOUT = load_layout()
 
 
@@ -46,7 +46,7 @@ class CoreBench:
         self.factory = source_factory
         self.fires: list[int] = []
         self.pin_rises: dict[int, list[int]] = {}
-        self.level, self.count = 0, [0] * LAYOUT.n
+        self.echo = EchoDriver(dut.echo_i, LAYOUT.n, lambda tick: _CLOCK_ORIGIN_PS[0] + tick * CLK_PERIOD_PS)
         self.tasks = []
 
     async def start(self) -> None:
@@ -71,8 +71,7 @@ class CoreBench:
             delays = [(dl >> (16 * e)) & 0xFFFF for e in tx]
             self.fires.append(t0)
             for rx, st, w in _rows(self.source.fire(t0, np.array(tx), np.array(delays))):
-                if w > 0:
-                    self.tasks.append(cocotb.start_soon(self._pulse(int(rx), max(int(st), t0), int(w))))
+                self.echo.drive(int(rx), max(int(st), t0), int(w))
 
     async def _pins(self) -> None:
         prev = 0
@@ -84,20 +83,6 @@ class CoreBench:
                 if rising >> e & 1:
                     self.pin_rises.setdefault(e, []).append(now)
             prev = cur
-
-    async def _pulse(self, rx: int, start: int, width: int) -> None:
-        dt = _CLOCK_ORIGIN_PS[0] + start * CLK_PERIOD_PS + QUARTER - int(get_sim_time("ps"))
-        assert dt > 0, f"echo on rx {rx} at tick {start} is already in the past"
-        await Timer(dt, unit="ps")
-        self._set(rx, +1)
-        await Timer(width * CLK_PERIOD_PS, unit="ps")
-        self._set(rx, -1)
-
-    def _set(self, rx: int, d: int) -> None:
-        self.count[rx] += d
-        bit = 1 << rx
-        self.level = (self.level | bit) if self.count[rx] > 0 else (self.level & ~bit)
-        self.dut.echo_i.value = self.level
 
     async def read_events(self) -> list[int]:
         hi = R.REGISTERS["EVT_HI"].fields
@@ -113,7 +98,7 @@ class CoreBench:
         for t in self.tasks:
             if not t.done():
                 t.cancel()
-        self.dut.echo_i.value = 0
+        self.echo.stop()
 
 
 def burst_starts(rises: list[int], gap: int) -> list[int]:
