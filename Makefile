@@ -112,13 +112,14 @@ $(BUILD)/fw/%.hex: $(BUILD)/fw/%.elf
 	$(VPY) -m multisonar.tools.bin2memh $(@:.hex=.bin) $@ --words $(FW_WORDS)
 
 # ---------------------------------------------------------------- public targets
-.PHONY: help setup regs lint test demo bench clean distclean
+.PHONY: help setup regs lint test coverage demo bench clean distclean
 
 help:
 	@echo "make demo       run the main simulation on the default scene, results in build/demo/"
 	@echo "make test       lint and run every test (CI runs this)"
 	@echo "make lint       Verilator --lint-only -Wall on all our RTL"
 	@echo "make regs       regenerate register block, C header and Python constants"
+	@echo "make coverage   RTL line/branch coverage of the cocotb tests (Verilator), per file"
 	@echo "make bench      run every benchmark (scripts/bench_*.py): tables and plots in build/bench/"
 	@echo "make setup      only install tools (apt, .venv) and generate sources"
 	@echo "make clean      remove build/ ; make distclean also removes .venv"
@@ -142,6 +143,10 @@ lint: $(STAMPS)/gen
 
 test: lint
 	$(VPY) -m pytest
+
+coverage: $(STAMPS)/gen
+	RTL_COVERAGE=1 $(VPY) -m pytest tests/rtl -q
+	$(VPY) scripts/rtl_coverage.py --uncovered
 
 demo: $(STAMPS)/gen
 	$(VENV)/bin/multisonar demo --out $(BUILD)/demo

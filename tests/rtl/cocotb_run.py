@@ -58,13 +58,18 @@ def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = Non
     if sim == "icarus" and not icarus_ok:
         pytest.skip(f"{top} uses SystemVerilog (unpacked structs in generated code) that Icarus 11 cannot compile")
     srcs = (list(sources) if sources is not None else rtl_sources()) + list(extra_sources)
-    build_dir = ROOT / "build" / "sim" / f"{top}-{sim}"
+    coverage = (os.environ.get("RTL_COVERAGE") or "0") == "1" and sim == "verilator"
+    build_dir = ROOT / "build" / "sim" / f"{top}-{sim}{'-cov' if coverage else ''}"
     waves = (os.environ.get("WAVES") or "0") == "1"
     build_args: list[str] = []
+    plusargs: list[str] = []
     if sim == "verilator":
         build_args = ["-Wno-fatal", "-O3", "--x-assign", "fast", "--x-initial", "fast"]
         if waves:
             build_args += ["--trace-fst", "--trace-structs"]
+        if coverage:  # line coverage for `make coverage`; one data file per testbench module
+            build_args += ["--coverage-line"]
+            plusargs = [f"+verilator+coverage+file+{build_dir / (tb_module + '.coverage.dat')}"]
     else:
         build_args = ["-g2012"]
     runner = get_runner(sim)
@@ -72,7 +77,7 @@ def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = Non
                  build_args=build_args, timescale=("1ns", "1ps"), waves=waves,
                  log_file=build_dir / "build.log")
     results = runner.test(hdl_toplevel=top, test_module=tb_module, test_dir=Path(__file__).parent,
-                          build_dir=build_dir, waves=waves, extra_env=dict(extra_env or {}),
+                          build_dir=build_dir, waves=waves, extra_env=dict(extra_env or {}), plusargs=plusargs,
                           parameters=dict(parameters or {}),
                           results_xml=str(build_dir / f"{tb_module}.results.xml"))
     n_tests, n_failed = get_results(Path(results))
