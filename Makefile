@@ -111,6 +111,9 @@ $(BUILD)/fw/%.hex: $(BUILD)/fw/%.elf
 	riscv64-unknown-elf-objcopy -O binary $< $(@:.hex=.bin)
 	$(VPY) -m multisonar.tools.bin2memh $(@:.hex=.bin) $@ --words $(FW_WORDS)
 
+# Feature fragments (synthesis, ...) live in mk/*.mk, each owning its own targets.
+include $(sort $(wildcard mk/*.mk))
+
 # ---------------------------------------------------------------- public targets
 .PHONY: help setup regs lint test coverage demo bench clean distclean
 
