@@ -9,7 +9,8 @@
 // ones dropped because the FIFO was full (the next stored one carries bit 44).
 module ms_sonar_core #(
   parameter int          NUM_CH     = 24,
-  parameter int unsigned TICK_START = 0
+  parameter int unsigned TICK_START = 0,
+  parameter int          LEAD       = 4096  // scheduler decision lead (docs/fast_firing.md 3.1)
 ) (
   input  logic              clk_i,
   input  logic              rst_i,
@@ -93,33 +94,49 @@ module ms_sonar_core #(
   end
 
   // ---- scheduler
-  logic                           fire;
-  logic [2:0]                     fire_vs;
-  logic [NUM_CH-1:0]              fire_mask;
-  logic [NUM_CH-1:0][DELAY_W-1:0] fire_delay;
-  logic [7:0]                     fire_burst_cycles;
-  logic [2:0]                     unused_fire_vs;
+  logic                      trig_valid, pulse_init;
+  logic [4:0]                trig_el;
+  logic [DELAY_W:0]          trig_delay;
+  logic [7:0]                trig_burst, pulse_seq;
+  logic [2:0]                pulse_vs;
+  logic [31:0]               pulse_t0;
 
-  ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W)) u_sched (
+  ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W), .LEAD(LEAD)) u_sched (
     .clk_i, .rst_i, .tick_i (tick_q), .enable_i (enable), .apply_i (apply),
     .vs_tx_mask_i (vs_tx_mask), .vs_rx_mask_i (vs_rx_mask), .vs_mode_i (vs_mode),
     .vs_order_i (vs_order), .vs_miss_limit_i (vs_miss_limit), .vs_t_v_i (vs_t_v),
     .vs_t_n_i (vs_t_n), .vs_t_dead_i (vs_t_dead), .vs_max_tof_i (vs_max_tof),
     .vs_t_xtalk_i (vs_t_xtalk), .vs_xtalk_nb_i (vs_xtalk_nb), .vs_vmax_i (vs_vmax),
-    .vs_burst_cycles_i (vs_burst_cycles), .vs_phase_i (vs_phase), .glitch_min_i (glitch_min),
+    .vs_burst_cycles_i (vs_burst_cycles), .vs_phase_i (vs_phase),
+    .burst_half_period_i (burst_half_period), .glitch_min_i (glitch_min),
     .delay_raddr_o (delay_raddr), .delay_rdata_i (delay_rdata), .rise_i (rise),
-    .fire_o (fire), .fire_vs_o (fire_vs), .fire_mask_o (fire_mask), .fire_delay_o (fire_delay),
-    .fire_burst_cycles_o (fire_burst_cycles), .evt_valid_o (evt_valid), .evt_data_o (evt_data),
-    .pulse_o (pulse), .running_o (running), .cfg_error_o (cfg_error),
+    .trig_valid_o (trig_valid), .trig_el_o (trig_el), .trig_delay_o (trig_delay),
+    .trig_burst_o (trig_burst),
+    .pulse_o (pulse), .pulse_vs_o (pulse_vs), .pulse_seq_o (pulse_seq), .pulse_t0_o (pulse_t0),
+    .pulse_init_o (pulse_init),
+    .evt_valid_o (evt_valid), .evt_data_o (evt_data),
+    .running_o (running), .cfg_error_o (cfg_error),
     .cfg_error_vs_o (cfg_error_vs), .overrun_o (overrun)
   );
-  assign unused_fire_vs = fire_vs;
 
-  // ---- transmitters
+  // ---- transmitters: the scheduler arms one element per clock (one-hot fire, its delay
+  // counted from this cycle), so pulses of several sensors may be pending at once
+  logic [NUM_CH-1:0]              fire_mask;
+  logic [NUM_CH-1:0][DELAY_W:0]   fire_delay;
+  logic [NUM_CH-1:0][7:0]         fire_burst;
+  always_comb begin
+    for (int c = 0; c < NUM_CH; c++) begin
+      fire_mask[c]  = trig_valid && (trig_el == 5'(c));
+      fire_delay[c] = trig_delay;
+      fire_burst[c] = trig_burst;
+    end
+  end
   logic [NUM_CH-1:0] unused_busy;
-  ms_tx_phaser #(.NUM_CH(NUM_CH), .DELAY_W(DELAY_W)) u_tx (
-    .clk_i, .rst_i, .fire_i (fire), .mask_i (fire_mask), .delay_i (fire_delay),
-    .burst_cycles_i (fire_burst_cycles), .half_period_i (burst_half_period),
+  logic              unused_pulse;
+  assign unused_pulse = ^{pulse_vs, pulse_seq, pulse_t0, pulse_init};
+  ms_tx_phaser #(.NUM_CH(NUM_CH), .DELAY_W(DELAY_W + 1)) u_tx (
+    .clk_i, .rst_i, .fire_i (trig_valid), .mask_i (fire_mask), .delay_i (fire_delay),
+    .burst_cycles_i (fire_burst), .half_period_i (burst_half_period),
     .drive_o, .busy_o (unused_busy), .collision_o (tx_collision)
   );
 

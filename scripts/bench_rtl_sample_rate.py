@@ -32,7 +32,7 @@ def main() -> None:
                sources=[ROOT / "rtl/common/ms_ram_dp.sv", ROOT / "rtl/rx/ms_rx_conditioner.sv",
                         ROOT / "rtl/core/ms_sched_workq.sv", ROOT / "rtl/core/ms_scheduler.sv",
                         ROOT / "tests/rtl/ms_scheduler_tb.sv"],
-               parameters={"NUM_CH": 24, "LEAD": 1024}, icarus_ok=False,
+               parameters={"NUM_CH": 24, "LEAD": 4096}, icarus_ok=False,
                extra_env={"RATE_CASES": args.cases, "RATE_OUT": str(out)})
     rows = json.loads(out.read_text())
     print("| distance (m) | order asked | order used | RTL (Hz) | golden model (Hz) | identical pulse ticks |")

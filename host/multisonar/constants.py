@@ -13,6 +13,11 @@ import math
 TICK_HZ: int = 48_000_000
 TICK_S: float = 1.0 / TICK_HZ
 
+#: Decision lead P of the RTL scheduler (ms_scheduler LEAD, docs/fast_firing.md section 3.1): a
+#: pulse is decided P ticks before its t0. The device refuses a table whose blanking D or window
+#: T_V + T_N is not longer than P (cfg_error LEAD / WINDOW_SHORT).
+DEVICE_DECISION_LEAD: int = 4096
+
 #: Default air temperature for the speed of sound.
 DEFAULT_TEMPERATURE_C: float = 20.0
 

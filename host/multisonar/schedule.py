@@ -23,7 +23,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .constants import TICK_HZ, seconds_to_ticks, speed_of_sound
+from .constants import DEVICE_DECISION_LEAD, TICK_HZ, seconds_to_ticks, speed_of_sound
 from .layout import Layout
 
 # --------------------------------------------------------------------------------------
@@ -308,6 +308,12 @@ class Schedule:
         if max_tof - t_n < blank + t_v:
             raise err(f"window inside dead zone: max range {s.max_range_m} m ({max_tof} ticks) leaves no "
                       f"window [T_E - T_V, T_E + T_N) after the blanking D = {blank} ticks")
+        if blank <= DEVICE_DECISION_LEAD:
+            raise err(f"blanking D = {blank} ticks is not longer than the device's decision lead "
+                      f"({DEVICE_DECISION_LEAD} ticks): lengthen T_dead (device cfg_error LEAD)")
+        if t_v + t_n <= DEVICE_DECISION_LEAD:
+            raise err(f"window T_V + T_N = {t_v + t_n} ticks is not longer than the device's decision lead "
+                      f"({DEVICE_DECISION_LEAD} ticks): widen the window (device cfg_error WINDOW_SHORT)")
         vmax = min(t_v, t_n) if s.vmax is None else _ticks(s.vmax)
         if not 0 <= vmax < 2**VMAX_W:
             raise err(f"vmax {vmax} ticks outside 0..{2**VMAX_W - 1}")

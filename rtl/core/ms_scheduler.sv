@@ -1,43 +1,51 @@
-// ms_scheduler: fast-firing scheduler, window gating, tracking and event words
-// (docs/sonar_core.md; behaviour = golden model host/multisonar/fastfiring.py, contract
-// docs/fast_firing.md, with the decision lead P = LEAD of section 3.1).
+// ms_scheduler: fast-firing scheduler of up to NUM_VS virtual sensors, window gating,
+// tracking and event words (docs/sonar_core.md; behaviour = golden model
+// host/multisonar/fastfiring.py, contract docs/fast_firing.md, decision lead P = LEAD of
+// section 3.1).
 //
-// STAGE 1 (what this file implements; a later stage adds the rest in the marked places):
-//   - ONE virtual sensor, table entry 0 (any tx group, any rx set, phasing delays from the
-//     delay RAM, modes track / init-only, order 0..4, K-miss re-initialisation + quiet rule).
-//   - NOT YET: sensors 1..7, per-element reservations (blank_until, window overlap, slot
-//     count, earliest-due-first) and therefore deferral; apply_i validation / refusal
-//     (cfg_error_o stays 0; the table of entry 0 is latched when enable_i rises);
-//     max_echoes_per_window > 1 (only the first edge of a window is reported).
-//     A single sensor is only deferred by the model when a pulse's dead zone or window would
-//     overlap one of its own pending windows (not in the stage-1 test scenarios, which
-//     assert the model never defers).
+// What it does, in the model's terms: every virtual sensor of the applied table issues init
+// pings and interlaced tracking pulses; every element holds up to WSLOTS reserved windows
+// (any sensor) and a blank_until register; a candidate pulse issues only if its dead zones,
+// crosstalk blanking and windows clear the reservations of the elements it touches and no
+// sensor sharing an element is pending with an earlier (due, id) (section 5); otherwise it is
+// deferred to the first tick the conflicts seen are over. K empty windows in a row cancel all
+// windows of the sensor and send an init ping (the safety rule).
 //
-// Timing contract (ticks of clk_i; tick_i[31:0] wraps, all comparisons modulo 2^32):
-//   - rise_i[r] high in the cycle with tick_i = T + 1 (the conditioner's strobe register was
-//     loaded at tick T): accepted edge of receiver r with timestamp n = T - L,
-//     L = 1 + max(glitch_min_i, 1); T is the model's detection tick.
-//   - The work of logical tick T (EDGE rx ascending, CLOSE rx ascending, SCHED) is done by
-//     one serial engine, in the model's order, a bounded number of clocks after T. A SCHED
-//     decision at logical tick T is for the pulse with t0 = T + LEAD; fire_o is high in the
-//     cycle with tick_i = t0. The engine needs far fewer than LEAD clocks; if it ever falls
-//     LEAD ticks behind, overrun_o rises (sticky) and the output no longer matches the model.
-//   - fire_o / fire_* outputs: one-clock strobe in the issue tick t0 (pulse_o with it);
-//     element i of fire_mask_o triggers at t0 + fire_delay_o[i].
+// Configuration: apply_i (CTRL.apply) or a rising enable_i validates the CSR table (vs_*_i,
+// the CSR delay RAM through delay_raddr_o/delay_rdata_i). A refused table leaves everything
+// as it was and reports cfg_error_o (code, ms_sched_pkg-free numbering in docs/sonar_core.md
+// and multisonar.schedule.DEVICE_ERRORS) and cfg_error_vs_o; an accepted one is copied into a
+// shadow (flops + the BLK RAM of blank offsets) and the schedule (re)starts: an apply while
+// running first finishes every logical tick before the apply tick, then drops all windows
+// (no events for them; triggers already armed still fire) and starts afresh.
+//
+// Timing contract (ticks of clk_i; tick_i[31:0] wraps, every comparison is modulo 2^32):
+//   - rise_i[r] high in the cycle with tick_i = T + 1: accepted edge of receiver r with
+//     timestamp n = T - L, L = 1 + max(glitch_min_i, 1); T is the model's detection tick.
+//   - Start: running_o rises in the cycle after the start tick S (model start_tick = S).
+//   - The work of logical tick T (EDGE rx ascending, CLOSE rx ascending, SCHED sensors
+//     ascending) is done by one serial engine a bounded number of clocks after T; a SCHED
+//     decision at T is for the pulse with t0 = T + LEAD. If the engine ever falls so far
+//     behind that a trigger would be late, or its work queue overflows, overrun_o rises
+//     (sticky) and the output no longer matches the model.
+//   - pulse_o: one-clock strobe per issued pulse, in the cycle of its decision (before t0),
+//     with pulse_vs_o / pulse_seq_o / pulse_t0_o / pulse_init_o.
+//   - trig_valid_o: one element per clock, registered: element trig_el_o must be triggered
+//     trig_delay_o ticks after the tick of this cycle (ms_tx_phaser fire with a one-hot mask),
+//     i.e. at t0 + its phasing delay; trig_burst_o = the sensor's burst cycles.
 //   - evt_valid_o / evt_data_o: event words (docs/fast_firing.md section 6) in the golden
 //     model's order, at most one per clock, a few clocks after their detection tick.
 //
-// Storage: window table WIN (pulse slot x receiver: predicted T_E, active, hit) and the
-// per-receiver tracking state RXS are arrays with one access per clock (distributed RAM);
-// pulse slots (t0, seq, init, epoch) and the per-receiver "head" window (the next window of
-// that receiver to close, whose close tick is compared with tick_i) are flops.
+// Storage: per-element window slots (WIN: t0, offsets, seq, epoch, init; valid/hit/sensor
+// in flops), per (sensor, receiver) tracking state (RXS), per (sensor, element) blank
+// offsets (BLK), all with one asynchronous read per clock (distributed RAM).
 module ms_scheduler #(
-  parameter int          NUM_CH  = 24,  // ms_layout_pkg::NUM_CH, passed by the top
-  parameter int          NUM_VS  = 8,
-  parameter int          DELAY_W = 16,
-  parameter int unsigned LEAD    = 1024,  // decision lead P, ticks (FastFiringModel decision_lead)
-  parameter int          SLOTS   = 8,     // pulses of the sensor with live windows (>= order + 2)
-  parameter int          QDEPTH  = 16     // work-queue entries (ticks with edges/closes pending)
+  parameter int NUM_CH  = 24,   // ms_layout_pkg::NUM_CH, passed by the top (<= 32)
+  parameter int NUM_VS  = 8,    // table entries (<= 8: 3-bit sensor id)
+  parameter int DELAY_W = 16,
+  parameter int LEAD    = 4096, // decision lead P, ticks (FastFiringModel decision_lead)
+  parameter int WSLOTS  = 16,   // window slots per element (FastFiringModel win_slots)
+  parameter int QDEPTH  = 32    // work-queue entries (ticks with edges/closes pending)
 ) (
   input  logic                           clk_i,
   input  logic                           rst_i,
@@ -58,121 +66,193 @@ module ms_scheduler #(
   input  logic [NUM_VS-1:0][15:0]        vs_vmax_i,
   input  logic [NUM_VS-1:0][7:0]         vs_burst_cycles_i,
   input  logic [NUM_VS-1:0][23:0]        vs_phase_i,
+  input  logic [15:0]                    burst_half_period_i,
   input  logic [7:0]                     glitch_min_i,
   output logic [7:0]                     delay_raddr_o,
   input  logic [DELAY_W-1:0]             delay_rdata_i,
   input  logic [NUM_CH-1:0]              rise_i,
-  output logic                           fire_o,
-  output logic [2:0]                     fire_vs_o,
-  output logic [NUM_CH-1:0]              fire_mask_o,
-  output logic [NUM_CH-1:0][DELAY_W-1:0] fire_delay_o,
-  output logic [7:0]                     fire_burst_cycles_o,
+  output logic                           trig_valid_o,
+  output logic [4:0]                     trig_el_o,
+  output logic [DELAY_W:0]               trig_delay_o,
+  output logic [7:0]                     trig_burst_o,
+  output logic                           pulse_o,
+  output logic [2:0]                     pulse_vs_o,
+  output logic [7:0]                     pulse_seq_o,
+  output logic [31:0]                    pulse_t0_o,
+  output logic                           pulse_init_o,
   output logic                           evt_valid_o,
   output logic [63:0]                    evt_data_o,
-  output logic                           pulse_o,
   output logic                           running_o,
   output logic [3:0]                     cfg_error_o,
   output logic [3:0]                     cfg_error_vs_o,
   output logic                           overrun_o       // sticky: engine late or queue overflow
 );
-  localparam int SW  = $clog2(SLOTS);
-  localparam int RW  = 5;                 // receiver index width (event field)
-  localparam int WI  = SW + RW;           // window-table index {slot, rx}
-  localparam int QW  = 32 + 2 * NUM_CH;   // work-queue word {tick, edges, closes}
+  localparam int RW  = 5;                  // element index width (event field)
+  localparam int VW  = 3;                  // sensor index width (event field)
+  localparam int KW  = $clog2(WSLOTS);     // slot index width
+  localparam int QW  = 32 + 2 * NUM_CH;    // work-queue word {tick, edges, closes}
+  localparam int BW  = 21;                 // blank end offset width (delay + T_dead)
   localparam logic [31:0] LEAD32 = 32'(LEAD);
 
-  // ------------------------------------------------------------------ configuration (entry 0)
-  logic [NUM_CH-1:0]              tx_mask_q, rx_mask_q;
-  logic [1:0]                     mode_q;
-  logic [2:0]                     order_q;
-  logic [3:0]                     klim_q;
-  logic [15:0]                    tv_q, tn_q, vmax_q;
-  logic [23:0]                    rmax_q;      // R = MAX_TOF
-  logic [23:0]                    dblank_q;    // D = max(T_dead, T_xtalk) + max delay
-  logic [19:0]                    dead_q;
-  logic [7:0]                     burst_q;
-  logic [NUM_CH-1:0][DELAY_W-1:0] delay_q;
-  logic [DELAY_W-1:0]             dmax_q;
-  logic [5:0]                     cfg_cnt_q;
+  // cfg_error codes: docs/protocol.md section 5 (multisonar.protocol.CfgError), checked per
+  // enabled entry in this order, lowest entry first; EMPTY_TABLE after all entries
+  localparam logic [3:0] E_EMPTY_TABLE = 4'd1;
+  localparam logic [3:0] E_BAD_MODE    = 4'd2;
+  localparam logic [3:0] E_TX_MASK     = 4'd3;
+  localparam logic [3:0] E_RX_MASK     = 4'd4;
+  localparam logic [3:0] E_ORDER       = 4'd5;
+  localparam logic [3:0] E_WINDOW      = 4'd6;
+  localparam logic [3:0] E_MISS_LIMIT  = 4'd7;
+  localparam logic [3:0] E_MAX_TOF     = 4'd9;
+  localparam logic [3:0] E_BURST       = 4'd10;
+  localparam logic [3:0] E_LEAD        = 4'd11;  // D <= decision lead
+  localparam logic [3:0] E_WIN_SHORT   = 4'd12;  // T_V + T_N <= decision lead
+
+  // ------------------------------------------------------------------ helpers
+  function automatic logic [RW-1:0] lsb_ch(input logic [NUM_CH-1:0] v);
+    lsb_ch = '0;
+    for (int i = NUM_CH - 1; i >= 0; i--) if (v[i]) lsb_ch = RW'(i);
+  endfunction
+  function automatic logic [KW-1:0] lsb_slot(input logic [WSLOTS-1:0] v);
+    lsb_slot = '0;
+    for (int i = WSLOTS - 1; i >= 0; i--) if (v[i]) lsb_slot = KW'(i);
+  endfunction
+  function automatic logic [NUM_CH-1:0] rotl(input logic [NUM_CH-1:0] v, input int k);
+    rotl = (v << k) | (v >> (NUM_CH - k));
+  endfunction
+  function automatic logic [NUM_CH-1:0] rotr(input logic [NUM_CH-1:0] v, input int k);
+    rotr = (v >> k) | (v << (NUM_CH - k));
+  endfunction
+  // crosstalk neighbours: within nb of a tx element, not in tx
+  function automatic logic [NUM_CH-1:0] xt_of(input logic [NUM_CH-1:0] tx, input logic [1:0] nb);
+    logic [NUM_CH-1:0] m;
+    m = '0;
+    for (int k = 1; k <= 3; k++) if (k <= int'(nb)) m = m | rotl(tx, k) | rotr(tx, k);
+    xt_of = m & ~tx;
+  endfunction
+  function automatic logic [5:0] popcount(input logic [NUM_CH-1:0] v);
+    popcount = '0;
+    for (int i = 0; i < NUM_CH; i++) popcount = popcount + 6'(v[i]);
+  endfunction
+  function automatic logic later(input logic [31:0] a, input logic [31:0] b);  // a > b mod 2^32
+    later = $signed(a - b) > 0;
+  endfunction
+
+  // ------------------------------------------------------------------ shadow configuration
+  logic [NUM_VS-1:0][NUM_CH-1:0] sh_tx_q, sh_rx_q, sh_xt_q;
+  logic [NUM_VS-1:0]             sh_act_q, sh_track_q;  // mode != off, mode == track
+  logic [NUM_VS-1:0][2:0]        sh_order_q;
+  logic [NUM_VS-1:0][3:0]        sh_k_q;
+  logic [NUM_VS-1:0][15:0]       sh_tv_q, sh_tn_q, sh_vmax_q;
+  logic [NUM_VS-1:0][23:0]       sh_rmax_q, sh_phase_q, sh_dbl_q;
+  logic [NUM_VS-1:0][7:0]        sh_burst_q;
+  logic [NUM_VS-1:0][NUM_VS-1:0] sh_share_q;
+  // per (sensor, element) blank interval offsets from t0: [a, b) (tx: delay, delay + T_dead;
+  // crosstalk neighbour: first, last tx delay within nb + T_xtalk)
+  typedef struct packed {
+    logic [DELAY_W-1:0] a;
+    logic [BW-1:0]      b;
+  } blk_t;
+  blk_t blk_q [NUM_VS * 32];
 
   // ------------------------------------------------------------------ sensor state
-  logic [31:0]      due_q, quiet_q, start_tick_q;
-  logic             quiet_vld_q, tracking_q, in_init_q, epoch_q;
-  logic [7:0]       seq_q;
-  logic [RW:0]      init_open_q;
-  logic [NUM_CH-1:0] tracked_q;
+  logic [NUM_VS-1:0][31:0] due_q, quiet_q, nxt_q;
+  logic [NUM_VS-1:0]       quiet_vld_q, tracking_q, in_init_q, epoch_q, wake_q, hold_q, any_trk_q;
+  logic [NUM_VS-1:0][7:0]  seq_q;
+  logic [NUM_VS-1:0][5:0]  init_open_q;
 
-  // pulse slots (indexed by seq mod SLOTS)
-  logic [SLOTS-1:0]       sl_valid_q, sl_init_q, sl_epoch_q;
-  logic [SLOTS-1:0][31:0] sl_t0_q;
-  logic [SLOTS-1:0][7:0]  sl_seq_q;
-
-  // window table: {te[23:0], active, hit}
   typedef struct packed {
-    logic [23:0] te;
-    logic        act;
-    logic        hit;
-  } win_t;
-  win_t win_q [2**WI];
-
-  // per-receiver tracking state
-  typedef struct packed {
+    logic               trk;
     logic [23:0]        tof;
     logic [7:0]         seq;
     logic signed [16:0] v;
     logic [3:0]         miss;
     logic               init;
   } rxs_t;
-  rxs_t rxs_q [NUM_CH];
+  rxs_t rxs_q [NUM_VS * 32];
 
-  // head window per receiver (next to close)
-  logic [NUM_CH-1:0]          head_vld_q;
-  logic [NUM_CH-1:0][SW-1:0]  head_slot_q;
-  logic [NUM_CH-1:0][31:0]    head_close_q;
+  // ------------------------------------------------------------------ element state
+  typedef struct packed {
+    logic [31:0] t0;
+    logic [23:0] ws;   // window start offset from t0
+    logic [23:0] we;   // window end offset from t0 (exclusive)
+    logic [7:0]  seq;
+    logic        epoch;
+    logic        init;
+  } win_t;
+  win_t win_q [NUM_CH * WSLOTS];
+  logic [NUM_CH-1:0][WSLOTS-1:0]         wv_q, wh_q;   // slot valid, slot saw its first edge
+  logic [NUM_CH-1:0][WSLOTS-1:0][VW-1:0] wsid_q;       // sensor of the window
+  logic [NUM_CH-1:0][31:0]               bu_q;         // blank_until
+  logic [NUM_CH-1:0]                     hd_vld_q;     // head: next window to close
+  logic [NUM_CH-1:0][KW-1:0]             hd_slot_q;
+  logic [NUM_CH-1:0][31:0]               hd_close_q;
 
-  // fire staging
-  logic        fire_pend_q, fire_q, ovr_q;
-  logic [31:0] fire_t0_q;
-
-  // events
-  logic        evt_valid_q;
-  logic [63:0] evt_data_q;
+  // candidate pulse: per receiver predicted T_E and whether it gets a window
+  logic [23:0]       cand_te_q [NUM_CH];
+  logic [NUM_CH-1:0] cand_act_q;
 
   // ------------------------------------------------------------------ engine
-  typedef enum logic [3:0] {
-    S_OFF, S_CFG, S_IDLE, S_DISP, S_EDGE, S_HIT, S_CLOSE, S_HEAD, S_SCHED, S_ISSUE, S_ORDER, S_COMMIT
+  typedef enum logic [4:0] {
+    S_OFF, S_VREAD, S_VCHECK, S_STOP, S_COPY, S_START, S_SETTLE, S_IDLE, S_DISP,
+    S_EDGE, S_HIT, S_CLOSE, S_HEAD, S_SCHED, S_NEXT, S_EDF, S_CAND, S_ORDER, S_CONF, S_CSLOT,
+    S_ISSUE, S_IEL
   } state_t;
   state_t st_q;
 
-  logic [31:0]       eng_tick_q, cur_tick_q, t0_q;
-  logic [NUM_CH-1:0] edges_q, closes_q;
-  logic [SW-1:0]     scan_q, fslot_q;
-  logic [SW:0]       hscan_q;
-  logic [RW-1:0]     ir_q;          // receiver counter in ISSUE
-  logic [RW-1:0]     cr_q;          // receiver being closed (head scan)
-  logic [23:0]       te_min_q, te_max_q;
+  logic [31:0]       eng_tick_q, cur_tick_q, t_q, retry_q, minclose_q, stop_at_q;
+  logic              retry_vld_q, stop_req_q, started_q, ovr_q, found_q;
+  // outputs
+  logic              evt_valid_q, trig_valid_q, pulse_q, pulse_init_q;
+  logic [63:0]       evt_data_q;
+  logic [RW-1:0]     trig_el_q;
+  logic [DELAY_W:0]  trig_delay_q;
+  logic [7:0]        trig_burst_q, pulse_seq_q;
+  logic [VW-1:0]     pulse_vs_q;
+  logic [31:0]       pulse_t0_q;
+  logic [NUM_CH-1:0] edges_q, closes_q, rem_q;
+  logic [WSLOTS-1:0] srem_q;
+  logic [KW-1:0]     fslot_q;
+  logic [RW-1:0]     el_q;
+  logic [VW-1:0]     s_q, o_q;
+  logic              blk_on_q, win_on_q;
+  logic [23:0]       te_min_q, te_max_q, cws_q, cwe_q, period_q;
+  logic [DELAY_W-1:0] cba_q;
+  logic [BW-1:0]     cbb_q;
   logic [2:0]        n_q;
-  logic [23:0]       period_q;
+  logic [7:0]        kseq_q;
 
-  // latency L = 1 + max(glitch_min, 1)
+  // validation / copy
+  logic [8:0]        vc_q;           // {sensor, element} read counter
+  logic [NUM_VS-1:0][DELAY_W-1:0] vdmax_q;
+  logic [3:0]        cfg_err_q, cfg_err_vs_q;
+  logic              en_prev_q, apply_pend_q;
+  logic [2:0]        ck_q;           // copy: neighbour offset step 0..6 (offset ck - 3)
+  logic [DELAY_W-1:0] cfirst_q, clast_q;
+  logic              cany_q, c_done_q, cv_q, c_use_q;
+  logic [RW-1:0]     ce_q;
+  logic [VW-1:0]     cs_q;
+  logic [2:0]        ck_d_q;
+
   logic [8:0] lat;
   assign lat = 9'd1 + ((glitch_min_i == 8'd0) ? 9'd1 : {1'b0, glitch_min_i});
 
-  // ---- work queue: one word per tick with an edge (of an rx of the sensor) or a close
-  logic [NUM_CH-1:0] close_now, edge_now;
+  // ---- work queue: one word per tick with an edge (of a receiving element) or a close
+  logic [NUM_CH-1:0] close_now, edge_now, rx_any;
   logic [31:0]       tick_prev;
-  logic              q_push, q_pop, q_empty, q_ovf;
+  logic              q_push, q_pop, q_empty, q_ovf, running;
   logic [QW-1:0]     q_head;
-  logic              running;
 
-  assign running = (st_q != S_OFF) && (st_q != S_CFG);
-  for (genvar r = 0; r < NUM_CH; r++) begin : g_close
-    assign close_now[r] = head_vld_q[r] && (head_close_q[r] == tick_prev);
+  assign running   = started_q;
+  assign tick_prev = tick_i - 32'd1;  // rise_i / closes of this cycle belong to tick_i - 1
+  always_comb begin
+    rx_any = '0;
+    for (int s = 0; s < NUM_VS; s++) if (sh_act_q[s]) rx_any = rx_any | sh_rx_q[s];
   end
-  // rise_i was loaded at the edge ending cycle tick_i - 1: its detection tick is tick_i - 1
-  // (docs/sonar_core.md tick convention); closes are looked up for the same tick.
-  assign tick_prev = tick_i - 32'd1;
-  assign edge_now  = rise_i & rx_mask_q;
+  for (genvar r = 0; r < NUM_CH; r++) begin : g_close
+    assign close_now[r] = hd_vld_q[r] && (hd_close_q[r] == tick_prev);
+  end
+  assign edge_now = rise_i & rx_any;
   assign q_push   = running && ((|edge_now) || (|close_now));
 
   ms_sched_workq #(.WIDTH(QW), .DEPTH(QDEPTH)) u_workq (
@@ -185,133 +265,139 @@ module ms_scheduler #(
     .empty_o   (q_empty),
     .overflow_o(q_ovf)
   );
-
   logic [31:0]       qh_tick;
   logic [NUM_CH-1:0] qh_edges, qh_closes;
   assign {qh_tick, qh_edges, qh_closes} = q_head;
 
-  // ---- next time-driven decision tick Td = eng_tick + max(0, due-P-eng, quiet-P-eng)
-  logic signed [31:0] dd, qq, td_off;
-  logic [31:0]        td;
-  logic               armed;
+  // ---- next time-driven decision tick td (registered; valid after one settle cycle)
+  logic [NUM_VS-1:0]       ev_on;
+  logic [NUM_VS-1:0][31:0] ev_off;
+  logic [31:0]             td_min, td_q;
+  logic                    armed, armed_q;
   always_comb begin
-    dd = $signed(due_q - LEAD32 - eng_tick_q);
-    qq = $signed(quiet_q - LEAD32 - eng_tick_q);
-    td_off = 32'sd0;
-    if (dd > td_off) td_off = dd;
-    if (!tracking_q && quiet_vld_q && qq > td_off) td_off = qq;
-    td = eng_tick_q + 32'(td_off);
+    td_min = 32'hFFFF_FFFF;
+    for (int s = 0; s < NUM_VS; s++) begin
+      ev_on[s]  = sh_act_q[s] && !in_init_q[s] && (wake_q[s] || !hold_q[s]);
+      ev_off[s] = (wake_q[s] || !later(nxt_q[s], eng_tick_q)) ? 32'd0 : nxt_q[s] - eng_tick_q;
+      if (ev_on[s] && ev_off[s] < td_min) td_min = ev_off[s];
+    end
+    armed = |ev_on;
   end
-  assign armed = running && !in_init_q;
+  always_ff @(posedge clk_i) begin
+    td_q    <= eng_tick_q + td_min;
+    armed_q <= armed;
+  end
 
-  logic take_q;  // IDLE: the queue head comes before the next time-driven decision
-  assign take_q = !q_empty && (!armed || ($signed(qh_tick - td) <= 0));
-  assign q_pop  = (st_q == S_IDLE) && take_q;
+  logic take_q;  // IDLE: the queue head comes no later than the next time-driven decision
+  assign take_q = !q_empty && (!armed_q || ($signed(qh_tick - td_q) <= 0))
+                  && (!stop_req_q || $signed(qh_tick - stop_at_q) < 0);
+  assign q_pop  = (st_q == S_IDLE) && !stop_ok && take_q;
+  logic sched_go;  // IDLE: a time-driven decision tick whose edges and closes are all queued
+  assign sched_go = armed_q && ($signed(tick_i - td_q) >= 3) && (q_empty || $signed(qh_tick - td_q) > 0)
+                    && (!stop_req_q || $signed(td_q - stop_at_q) < 0);
+  logic stop_ok;  // every logical tick before stop_at is done
+  assign stop_ok = stop_req_q && ($signed(tick_i - stop_at_q) >= 3)
+                   && (q_empty || $signed(qh_tick - stop_at_q) >= 0)
+                   && (!armed_q || $signed(td_q - stop_at_q) >= 0);
+  logic [31:0] lag;  // how far real time is ahead of the work the engine starts now
+  assign lag = tick_i - (take_q ? qh_tick : td_q);
 
-  // ---- lowest set bit
-  function automatic logic [RW-1:0] lsb_idx(input logic [NUM_CH-1:0] v);
-    lsb_idx = '0;
-    for (int i = NUM_CH - 1; i >= 0; i--) if (v[i]) lsb_idx = RW'(i);
-  endfunction
+  // ---- per-element / per-slot views
+  logic [RW-1:0] er, clr, rel;
+  assign er  = lsb_ch(edges_q);
+  assign clr = lsb_ch(closes_q);
+  assign rel = lsb_ch(rem_q);
+  logic [KW-1:0] sk;
+  assign sk = lsb_slot(srem_q);
 
-  logic [RW-1:0] er, clr;
-  assign er  = lsb_idx(edges_q);
-  assign clr = lsb_idx(closes_q);
-
-  // ---- window bounds of (slot s, te) as offsets from t0
-  function automatic logic [23:0] ws_off(input logic init, input logic [23:0] te,
-                                         input logic [23:0] dbl, input logic [15:0] tv);
-    ws_off = init ? dbl : te - 24'(tv);
-  endfunction
-  function automatic logic [23:0] we_off(input logic init, input logic [23:0] te,
-                                         input logic [23:0] rmax, input logic [15:0] tn);
-    we_off = init ? rmax : te + 24'(tn);
-  endfunction
-
-  // ---- EDGE: window of receiver er in slot scan_q
-  logic [31:0] n_edge;
-  win_t        we_w;
-  logic [31:0] e_ws, e_we;
+  // EDGE: slot sk of receiver er
+  logic [31:0] n_edge, e_ws, e_we;
+  win_t        ew;
   logic        e_match;
-  assign n_edge = cur_tick_q - 32'(lat);
-  assign we_w   = win_q[{scan_q, er}];
-  assign e_ws   = sl_t0_q[scan_q] + 32'(ws_off(sl_init_q[scan_q], we_w.te, dblank_q, tv_q));
-  assign e_we   = sl_t0_q[scan_q] + 32'(we_off(sl_init_q[scan_q], we_w.te, rmax_q, tn_q));
-  assign e_match = sl_valid_q[scan_q] && we_w.act && ($signed(n_edge - e_ws) >= 0)
-                   && ($signed(n_edge - e_we) < 0);
+  assign n_edge  = cur_tick_q - 32'(lat);
+  assign ew      = win_q[er * WSLOTS + int'(sk)];
+  assign e_ws    = ew.t0 + 32'(ew.ws);
+  assign e_we    = ew.t0 + 32'(ew.we);
+  assign e_match = ($signed(n_edge - e_ws) >= 0) && ($signed(n_edge - e_we) < 0);
 
-  // ---- HIT: first edge of window (fslot_q, er)
+  // HIT: window fslot_q of receiver er, its sensor's tracking state
   win_t        hw;
+  logic [VW-1:0] h_s;
   rxs_t        hrx;
   logic [23:0] h_tof;
   logic [7:0]  h_gap;
   logic signed [24:0] h_dv;
   logic signed [16:0] h_v;
-  assign hw    = win_q[{fslot_q, er}];
-  assign hrx   = rxs_q[er];
-  assign h_tof = 24'(n_edge - sl_t0_q[fslot_q]);
-  assign h_gap = sl_seq_q[fslot_q] - hrx.seq;
-  assign h_dv  = $signed({1'b0, h_tof}) - $signed({1'b0, hrx.tof});
+  logic [15:0] h_vmax;
+  assign hw     = win_q[er * WSLOTS + int'(fslot_q)];
+  assign h_s    = wsid_q[er][fslot_q];
+  assign hrx    = rxs_q[int'(h_s) * 32 + int'(er)];
+  assign h_tof  = 24'(n_edge - hw.t0);
+  assign h_gap  = hw.seq - hrx.seq;
+  assign h_dv   = $signed({1'b0, h_tof}) - $signed({1'b0, hrx.tof});
+  assign h_vmax = sh_vmax_q[h_s];
   always_comb begin
-    if (h_dv > $signed({9'd0, vmax_q}))       h_v = $signed({1'b0, vmax_q});
-    else if (h_dv < -$signed({9'd0, vmax_q})) h_v = -$signed({1'b0, vmax_q});
+    if (h_dv > $signed({9'd0, h_vmax}))       h_v = $signed({1'b0, h_vmax});
+    else if (h_dv < -$signed({9'd0, h_vmax})) h_v = -$signed({1'b0, h_vmax});
     else                                      h_v = 17'(h_dv);
   end
 
-  // ---- CLOSE: head window of receiver clr
-  logic [SW-1:0] c_slot;
+  // CLOSE: head window of receiver clr
+  logic [KW-1:0] c_slot;
   win_t          cw;
+  logic [VW-1:0] c_s;
   rxs_t          crx;
-  logic [23:0]   c_weo;
   logic          c_valid;
   logic [3:0]    c_miss;
-  assign c_slot  = head_slot_q[clr];
-  assign cw      = win_q[{c_slot, clr}];
-  assign crx     = rxs_q[clr];
-  assign c_weo   = we_off(sl_init_q[c_slot], cw.te, rmax_q, tn_q);
-  assign c_valid = head_vld_q[clr] && sl_valid_q[c_slot] && cw.act
-                   && (sl_t0_q[c_slot] + 32'(c_weo) - 32'd1 + 32'(lat) == cur_tick_q);
+  assign c_slot  = hd_slot_q[clr];
+  assign cw      = win_q[clr * WSLOTS + int'(c_slot)];
+  assign c_s     = wsid_q[clr][c_slot];
+  assign crx     = rxs_q[int'(c_s) * 32 + int'(clr)];
+  assign c_valid = wv_q[clr][c_slot] && (cw.t0 + 32'(cw.we) - 32'd1 + 32'(lat) == cur_tick_q);
   assign c_miss  = (crx.miss == 4'hF) ? 4'hF : crx.miss + 4'd1;
 
-  // ---- HEAD: next live window of receiver cr_q after slot fslot_q
-  logic [SW-1:0] hs_slot;
-  win_t          hs_w;
-  assign hs_slot = fslot_q + hscan_q[SW-1:0];
-  assign hs_w    = win_q[{hs_slot, cr_q}];
+  // HEAD / conflict scan: slot sk of element el_q
+  win_t        sw;
+  logic [31:0] sw_start, sw_end, sw_close;
+  assign sw       = win_q[el_q * WSLOTS + int'(sk)];
+  assign sw_start = sw.t0 + 32'(sw.ws);
+  assign sw_end   = sw.t0 + 32'(sw.we);
+  assign sw_close = sw_end - 32'd1 + 32'(lat);
 
-  // ---- SCHED condition at logical tick cur_tick_q
-  logic [31:0] t0_cand;
-  logic        sched_ok;
-  assign t0_cand  = cur_tick_q + LEAD32;
-  assign sched_ok = !in_init_q && ($signed(t0_cand - due_q) >= 0)
-                    && (tracking_q || !quiet_vld_q || ($signed(t0_cand - quiet_q) >= 0));
+  // SCHED: sensor s_q at logical tick cur_tick_q, candidate t0 = cur + P
+  logic [31:0] t_cand;
+  logic        s_eval;
+  assign t_cand = cur_tick_q + LEAD32;
+  assign s_eval = sh_act_q[s_q] && !in_init_q[s_q]
+                  && (wake_q[s_q] || (!hold_q[s_q] && $signed(cur_tick_q - nxt_q[s_q]) >= 0));
+  // EDF: is sensor o_q pending with an earlier (due, id)?
+  logic o_elig, o_first;
+  assign o_elig  = sh_act_q[o_q] && !in_init_q[o_q] && ($signed(cur_tick_q + LEAD32 - due_q[o_q]) >= 0)
+                   && (tracking_q[o_q] || !quiet_vld_q[o_q] || $signed(t_cand - quiet_q[o_q]) >= 0);
+  assign o_first = ($signed(due_q[o_q] - due_q[s_q]) < 0) || ((due_q[o_q] == due_q[s_q]) && (o_q < s_q));
 
-  // ---- ISSUE: prediction for receiver ir_q of pulse seq_q
-  logic [SW-1:0] i_slot;
-  rxs_t          irx;
-  logic [7:0]    i_gap;
+  // CAND: prediction for receiver rel of sensor s_q's pulse seq_q[s_q]
+  rxs_t        irx;
+  logic [7:0]  i_gap;
   logic signed [26:0] i_pred;
-  logic [23:0]   i_lo, i_hi, i_te;
-  logic          i_act;
-  assign i_slot = seq_q[SW-1:0];
-  assign irx    = rxs_q[ir_q];
-  assign i_gap  = seq_q - irx.seq;
+  logic [23:0] i_lo, i_hi, i_te;
+  assign irx    = rxs_q[int'(s_q) * 32 + int'(rel)];
+  assign i_gap  = seq_q[s_q] - irx.seq;
   assign i_pred = $signed({3'd0, irx.tof}) + $signed({1'b0, i_gap}) * irx.v;
-  assign i_lo   = dblank_q + 24'(tv_q);
-  assign i_hi   = rmax_q - 24'(tn_q);
+  assign i_lo   = sh_dbl_q[s_q] + 24'(sh_tv_q[s_q]);
+  assign i_hi   = sh_rmax_q[s_q] - 24'(sh_tn_q[s_q]);
   always_comb begin
     if (i_pred < $signed({3'd0, i_lo}))      i_te = i_lo;
     else if (i_pred > $signed({3'd0, i_hi})) i_te = i_hi;
     else                                     i_te = i_pred[23:0];
   end
-  assign i_act = rx_mask_q[ir_q] && (!tracking_q ? 1'b1 : tracked_q[ir_q]);
 
-  // ---- ORDER: T_s = floor((te_min - T_V - D) / n), feasible if T_s > 0 and (n+1) T_s >= te_max + T_N
+  // ORDER: T_s = floor((te_min - T_V - D) / n), feasible if T_s > 0 and (n+1) T_s >= te_max + T_N
   logic [23:0] o_x, o_ts;
   logic [49:0] o_mul3;
   logic [26:0] o_lhs, o_rhs;
   logic        o_feas;
-  assign o_x    = te_min_q - 24'(tv_q) - dblank_q;
+  assign o_x    = te_min_q - 24'(sh_tv_q[s_q]) - sh_dbl_q[s_q];
   assign o_mul3 = 50'(o_x) * 50'd11184811;  // ceil(2^25 / 3): exact floor(x / 3) for x < 2^25
   always_comb begin
     unique case (n_q)
@@ -322,243 +408,547 @@ module ms_scheduler #(
     endcase
   end
   assign o_lhs  = 27'(o_ts) * 27'({24'd0, n_q} + 27'd1);
-  assign o_rhs  = 27'(te_max_q) + 27'(tn_q);
+  assign o_rhs  = 27'(te_max_q) + 27'(sh_tn_q[s_q]);
   assign o_feas = (o_ts != 24'd0) && (o_lhs >= o_rhs);
 
-  assign delay_raddr_o = {3'd0, cfg_cnt_q[RW-1:0]};  // entry 0 * 32 + element
-  logic [RW-1:0] cfg_el;  // element whose delay is on delay_rdata_i
-  assign cfg_el = cfg_cnt_q[RW-1:0] - RW'(1);
+  // CONF / IEL: element rel of the candidate (blank interval from BLK, window from CAND)
+  blk_t        cb;
+  logic        c_blk, c_win;
+  logic [23:0] c_wso, c_weo;
+  assign cb    = blk_q[int'(s_q) * 32 + int'(rel)];
+  assign c_blk = sh_tx_q[s_q][rel] || sh_xt_q[s_q][rel];
+  assign c_win = cand_act_q[rel];
+  assign c_wso = !tracking_q[s_q] ? sh_dbl_q[s_q] : cand_te_q[rel] - 24'(sh_tv_q[s_q]);
+  assign c_weo = !tracking_q[s_q] ? sh_rmax_q[s_q] : cand_te_q[rel] + 24'(sh_tn_q[s_q]);
+  logic [KW-1:0] free_slot;
+  assign free_slot = lsb_slot(~wv_q[rel]);
+  logic [31:0] iw_close;
+  assign iw_close = t_q + 32'(c_weo) - 32'd1 + 32'(lat);
+  logic [31:0] trig_dly;
+  assign trig_dly = t_q + 32'(cb.a) - tick_i - 32'd1;
 
+  // validation: sensor vc_q[2:0] in S_VCHECK, with its max phasing delay from S_VREAD
+  logic [VW-1:0]      vs;
+  logic [23:0]        v_dbl;
+  logic [19:0]        v_dx;
+  logic [NUM_CH-1:0]  v_tx;
+  logic [25:0]        v_burst_ticks;
+  logic [3:0]         v_err;
+  logic [8:0]         v_pa;   // {sensor, element} whose delay is on delay_rdata_i in S_VREAD
+  assign vs   = vc_q[VW-1:0];
+  assign v_tx = vs_tx_mask_i[vs];
+  assign v_dx = (vs_t_dead_i[vs] > vs_t_xtalk_i[vs]) ? vs_t_dead_i[vs] : vs_t_xtalk_i[vs];
+  assign v_dbl = 24'(v_dx) + 24'(vdmax_q[vs]);
+  assign v_burst_ticks = 26'(vs_burst_cycles_i[vs]) * 26'({burst_half_period_i, 1'b0});
+  assign v_pa = vc_q - 9'd1;
+  logic v_any;  // some entry is enabled
+  always_comb begin
+    v_any = 1'b0;
+    for (int s = 0; s < NUM_VS; s++) v_any = v_any | (vs_mode_i[s] != 2'd0);
+  end
+  always_comb begin
+    v_err = 4'd0;
+    if (vs_mode_i[vs] != 2'd0) begin
+      if (vs_mode_i[vs] == 2'd3)                                       v_err = E_BAD_MODE;
+      else if (v_tx == '0 || (v_tx != '1 && popcount(v_tx & ~rotl(v_tx, 1)) != 6'd1))
+                                                                       v_err = E_TX_MASK;
+      else if (vs_rx_mask_i[vs] == '0)                                 v_err = E_RX_MASK;
+      else if (vs_order_i[vs] > 3'd4)                                  v_err = E_ORDER;
+      else if (vs_miss_limit_i[vs] == 4'd0)                            v_err = E_MISS_LIMIT;
+      else if (vs_burst_cycles_i[vs] == 8'd0)                          v_err = E_BURST;
+      else if (vs_t_v_i[vs] == '0 || vs_t_n_i[vs] == '0 || vs_t_xtalk_i[vs] == '0
+               || 26'(vs_t_dead_i[vs]) < v_burst_ticks)                v_err = E_WINDOW;
+      else if (26'(vs_max_tof_i[vs]) < 26'(v_dbl) + 26'(vs_t_v_i[vs]) + 26'(vs_t_n_i[vs]))
+                                                                       v_err = E_MAX_TOF;
+      else if (v_dbl <= 24'(LEAD))                                     v_err = E_LEAD;
+      else if (17'(vs_t_v_i[vs]) + 17'(vs_t_n_i[vs]) <= 17'(LEAD))     v_err = E_WIN_SHORT;
+    end
+  end
+
+  // copy (CSR table -> BLK RAM): sensor cs, element ce, neighbour offset ck_q - 3
+  logic [VW-1:0]     cs;
+  logic [RW-1:0]     ce, cj;
+  logic signed [6:0] cj_raw;
+  logic [NUM_CH-1:0] c_xt;
+  logic [2:0]        c_dist;
+  logic              c_use;  // the delay read in this step belongs to element ce's blank interval
+  assign cs     = vc_q[RW+VW-1:RW];
+  assign ce     = vc_q[RW-1:0];
+  assign cj_raw = $signed({2'b0, ce}) + $signed({4'b0, ck_q}) - 7'sd3;
+  assign cj     = (cj_raw < 0) ? RW'(cj_raw + 7'(NUM_CH))
+                : (cj_raw >= 7'(NUM_CH)) ? RW'(cj_raw - 7'(NUM_CH)) : RW'(cj_raw);
+  assign c_xt   = xt_of(vs_tx_mask_i[cs], vs_xtalk_nb_i[cs]);
+  assign c_dist = (ck_q >= 3'd3) ? ck_q - 3'd3 : 3'd3 - ck_q;
+  assign c_use  = vs_tx_mask_i[cs][cj] && ((ck_q == 3'd3) ? vs_tx_mask_i[cs][ce]
+                                          : (c_xt[ce] && c_dist <= {1'b0, vs_xtalk_nb_i[cs]}));
+  logic [DELAY_W-1:0] c_first, c_last;
+  assign c_first = (c_use_q && (!cany_q || delay_rdata_i < cfirst_q)) ? delay_rdata_i : cfirst_q;
+  assign c_last  = (c_use_q && (!cany_q || delay_rdata_i > clast_q))  ? delay_rdata_i : clast_q;
+
+  assign delay_raddr_o = (st_q == S_VREAD) ? vc_q[7:0] : {cs, cj};
+
+  // conflict scan: the latest retry t0 among the conflicts seen (model _conflict)
+  logic        r1_on, r2_on, r3_on;
+  logic [31:0] r1, r2, r3, rn1, rn2, rn3;
+  logic        rv1, rv2, rv3;
+  always_comb begin
+    // S_CONF: window start before the element's blank_until
+    r1_on = (st_q == S_CONF) && (rem_q != '0) && c_win && $signed(t_cand_q + 32'(c_wso) - bu_q[rel]) < 0;
+    r1    = bu_q[rel] - 32'(c_wso);
+    // S_CSLOT: blank interval / window overlapping a reserved window; slots full
+    r2_on = (st_q == S_CSLOT) && (srem_q != '0) && blk_on_q
+            && $signed(t_q + 32'(cba_q) - sw_end) < 0 && $signed(sw_start - (t_q + 32'(cbb_q))) < 0;
+    r2    = sw_end - 32'(cba_q);
+    r3_on = (st_q == S_CSLOT) && ((srem_q != '0) ? (win_on_q && $signed(t_q + 32'(cws_q) - sw_end) < 0
+                                                    && $signed(sw_start - (t_q + 32'(cwe_q))) < 0)
+                                                 : (win_on_q && (&wv_q[el_q])));
+    r3    = (srem_q != '0) ? sw_end - 32'(cws_q) : minclose_q;
+    rv1 = retry_vld_q || r1_on;
+    rn1 = (r1_on && (!retry_vld_q || later(r1, retry_q))) ? r1 : retry_q;
+    rv2 = rv1 || r2_on;
+    rn2 = (r2_on && (!rv1 || later(r2, rn1))) ? r2 : rn1;
+    rv3 = rv2 || r3_on;
+    rn3 = (r3_on && (!rv2 || later(r3, rn2))) ? r3 : rn2;
+  end
+
+  logic [31:0] t_cand_q;  // = t_q (candidate t0) once S_EDF has passed
+  assign t_cand_q = t_q;
+
+  // ------------------------------------------------------------------ main FSM
   always_ff @(posedge clk_i) begin
-    evt_valid_q <= 1'b0;
-    fire_q      <= 1'b0;
+    evt_valid_q  <= 1'b0;
+    trig_valid_q <= 1'b0;
+    pulse_q      <= 1'b0;
     if (rst_i) begin
-      st_q        <= S_OFF;
-      fire_pend_q <= 1'b0;
-      ovr_q       <= 1'b0;
-      head_vld_q  <= '0;
-      sl_valid_q  <= '0;
-      tracked_q   <= '0;
-      cfg_cnt_q   <= '0;
+      st_q         <= S_OFF;
+      started_q    <= 1'b0;
+      ovr_q        <= 1'b0;
+      cfg_err_q    <= '0;
+      cfg_err_vs_q <= '0;
+      en_prev_q    <= 1'b0;
+      apply_pend_q <= 1'b0;
+      stop_req_q   <= 1'b0;
+      sh_act_q     <= '0;
+      hd_vld_q     <= '0;
+      wv_q         <= '0;
+      vc_q         <= '0;
     end else begin
-      // ---- fire exactly in tick t0 (registered: loaded in tick t0 - 1)
-      if (fire_pend_q && (fire_t0_q - tick_i == 32'd1)) begin
-        fire_q      <= 1'b1;
-        fire_pend_q <= 1'b0;
-      end
+      en_prev_q <= enable_i;
       if (q_ovf) ovr_q <= 1'b1;
+      if (apply_i || (enable_i && !en_prev_q)) apply_pend_q <= 1'b1;
+      retry_q     <= rn3;
+      retry_vld_q <= rv3;
 
-      if (!enable_i) begin
-        st_q        <= S_OFF;
-        fire_pend_q <= 1'b0;
-        head_vld_q  <= '0;
-        sl_valid_q  <= '0;
+      if (!enable_i && started_q) begin  // stop: windows dropped, armed triggers still fire
+        st_q       <= S_OFF;
+        started_q  <= 1'b0;
+        stop_req_q <= 1'b0;
+        hd_vld_q   <= '0;
+        wv_q       <= '0;
       end else begin
         unique case (st_q)
-          S_OFF: begin  // STAGE 1: entry 0 is taken when enable rises (apply_i: later stage)
-            tx_mask_q    <= vs_tx_mask_i[0];
-            rx_mask_q    <= vs_rx_mask_i[0];
-            mode_q       <= vs_mode_i[0];
-            order_q      <= vs_order_i[0];
-            klim_q       <= vs_miss_limit_i[0];
-            tv_q         <= vs_t_v_i[0];
-            tn_q         <= vs_t_n_i[0];
-            dead_q       <= (vs_t_dead_i[0] > vs_t_xtalk_i[0]) ? vs_t_dead_i[0] : vs_t_xtalk_i[0];
-            rmax_q       <= vs_max_tof_i[0];
-            vmax_q       <= vs_vmax_i[0];
-            burst_q      <= vs_burst_cycles_i[0];
-            start_tick_q <= tick_i;
-            eng_tick_q   <= tick_i;
-            due_q        <= tick_i + 32'(vs_phase_i[0]);
-            quiet_vld_q  <= 1'b0;
-            tracking_q   <= 1'b0;
-            in_init_q    <= 1'b0;
-            epoch_q      <= 1'b0;
-            seq_q        <= '0;
-            tracked_q    <= '0;
-            dmax_q       <= '0;
-            cfg_cnt_q    <= '0;
-            st_q         <= (vs_mode_i[0] == 2'd0) ? S_OFF : S_CFG;
-          end
-          S_CFG: begin  // read the phasing delays of entry 0 (data one clock after the address)
-            cfg_cnt_q <= cfg_cnt_q + 6'd1;
-            if (cfg_cnt_q != 6'd0 && cfg_cnt_q <= 6'(NUM_CH)) begin
-              delay_q[cfg_el] <= tx_mask_q[cfg_el] ? delay_rdata_i : '0;
-              if (tx_mask_q[cfg_el] && delay_rdata_i > dmax_q) dmax_q <= delay_rdata_i;
+          // ------------------------------------------------ validation
+          S_OFF: begin
+            if (apply_pend_q) begin
+              apply_pend_q <= 1'b0;
+              vc_q         <= '0;
+              vdmax_q      <= '0;
+              st_q         <= S_VREAD;
             end
-            if (cfg_cnt_q == 6'(NUM_CH + 1)) begin
-              dblank_q <= 24'(dead_q) + 24'(dmax_q);
-              st_q     <= S_IDLE;
+          end
+          S_VREAD: begin  // max phasing delay of every sensor's tx group (data one clock later)
+            vc_q <= vc_q + 9'd1;
+            if (vc_q != 9'd0 && v_pa[RW-1:0] < RW'(NUM_CH) && vs_tx_mask_i[v_pa[RW+VW-1:RW]][v_pa[RW-1:0]]
+                && delay_rdata_i > vdmax_q[v_pa[RW+VW-1:RW]])
+              vdmax_q[v_pa[RW+VW-1:RW]] <= delay_rdata_i;
+            if (vc_q == 9'(NUM_VS * 32)) begin
+              vc_q <= '0;
+              st_q <= S_VCHECK;
+            end
+          end
+          S_VCHECK: begin  // first refusal wins; a refused table changes nothing
+            if (v_err != 4'd0) begin
+              cfg_err_q    <= v_err;
+              cfg_err_vs_q <= 4'(vs);
+              st_q         <= started_q ? S_SETTLE : S_OFF;
+            end else if (vs == VW'(NUM_VS - 1) && !v_any) begin
+              cfg_err_q    <= E_EMPTY_TABLE;
+              cfg_err_vs_q <= 4'd0;
+              st_q         <= started_q ? S_SETTLE : S_OFF;
+            end else if (vs == VW'(NUM_VS - 1)) begin
+              cfg_err_q    <= 4'd0;
+              cfg_err_vs_q <= 4'd0;
+              if (started_q) begin
+                stop_req_q <= 1'b1;
+                stop_at_q  <= tick_i;
+                st_q       <= S_SETTLE;  // the engine finishes every tick before stop_at
+              end else begin
+                st_q <= S_STOP;
+              end
+            end else begin
+              vc_q <= vc_q + 9'd1;
+            end
+          end
+          S_STOP: begin  // latch the table, then build the BLK RAM
+            started_q  <= 1'b0;
+            stop_req_q <= 1'b0;
+            wv_q       <= '0;
+            hd_vld_q   <= '0;
+            for (int s = 0; s < NUM_VS; s++) begin
+              sh_tx_q[s]    <= vs_tx_mask_i[s];
+              sh_rx_q[s]    <= vs_rx_mask_i[s];
+              sh_xt_q[s]    <= xt_of(vs_tx_mask_i[s], vs_xtalk_nb_i[s]);
+              sh_act_q[s]   <= vs_mode_i[s] != 2'd0;
+              sh_track_q[s] <= vs_mode_i[s] == 2'd1;
+              sh_order_q[s] <= vs_order_i[s];
+              sh_k_q[s]     <= vs_miss_limit_i[s];
+              sh_tv_q[s]    <= vs_t_v_i[s];
+              sh_tn_q[s]    <= vs_t_n_i[s];
+              sh_vmax_q[s]  <= vs_vmax_i[s];
+              sh_rmax_q[s]  <= vs_max_tof_i[s];
+              sh_phase_q[s] <= vs_phase_i[s];
+              sh_burst_q[s] <= vs_burst_cycles_i[s];
+              sh_dbl_q[s]   <= 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
+                               + 24'(vdmax_q[s]);
+              for (int o = 0; o < NUM_VS; o++)
+                sh_share_q[s][o] <= |((vs_tx_mask_i[s] | vs_rx_mask_i[s] | xt_of(vs_tx_mask_i[s], vs_xtalk_nb_i[s]))
+                                      & (vs_tx_mask_i[o] | vs_rx_mask_i[o] | xt_of(vs_tx_mask_i[o], vs_xtalk_nb_i[o])));
+            end
+            vc_q     <= '0;
+            ck_q     <= '0;
+            cv_q     <= 1'b0;
+            c_use_q  <= 1'b0;
+            cany_q   <= 1'b0;
+            c_done_q <= 1'b0;
+            st_q     <= S_COPY;
+          end
+          S_COPY: begin  // per (sensor, element): offsets -3..3 read in turn, data one clock later
+            cv_q    <= !c_done_q;
+            c_use_q <= c_use && !c_done_q;
+            ce_q    <= ce;
+            cs_q    <= cs;
+            ck_d_q  <= ck_q;
+            if (!c_done_q) begin
+              if (ck_q == 3'd6) begin
+                ck_q <= '0;
+                if (ce == RW'(NUM_CH - 1)) begin
+                  if (cs == VW'(NUM_VS - 1)) c_done_q <= 1'b1;
+                  else                       vc_q     <= {vc_q[8:RW] + 1'b1, {RW{1'b0}}};
+                end else begin
+                  vc_q <= vc_q + 9'd1;
+                end
+              end else begin
+                ck_q <= ck_q + 3'd1;
+              end
+            end
+            if (cv_q) begin
+              cfirst_q <= c_first;
+              clast_q  <= c_last;
+              cany_q   <= cany_q || c_use_q;
+              if (ck_d_q == 3'd6) begin
+                blk_q[int'(cs_q) * 32 + int'(ce_q)] <= '{
+                    a: c_first,
+                    b: vs_tx_mask_i[cs_q][ce_q] ? BW'(c_first) + BW'(vs_t_dead_i[cs_q])
+                                                : BW'(c_last) + BW'(vs_t_xtalk_i[cs_q])};
+                cany_q <= 1'b0;
+              end
+            end
+            if (c_done_q && !cv_q) st_q <= enable_i ? S_START : S_OFF;
+          end
+          S_START: begin  // start tick S = tick_i (model start_tick)
+            started_q  <= 1'b1;
+            eng_tick_q <= tick_i;
+            for (int s = 0; s < NUM_VS; s++) begin
+              due_q[s]       <= tick_i + 32'(sh_phase_q[s]);
+              nxt_q[s]       <= tick_i + 32'(sh_phase_q[s]) - LEAD32;
+              quiet_vld_q[s] <= 1'b0;
+              tracking_q[s]  <= 1'b0;
+              in_init_q[s]   <= 1'b0;
+              epoch_q[s]     <= 1'b0;
+              wake_q[s]      <= 1'b0;
+              hold_q[s]      <= 1'b0;
+              any_trk_q[s]   <= 1'b0;
+              seq_q[s]       <= '0;
+              init_open_q[s] <= '0;
+            end
+            for (int e = 0; e < NUM_CH; e++) bu_q[e] <= tick_i;
+            wv_q     <= '0;
+            hd_vld_q <= '0;
+            st_q     <= S_SETTLE;
+          end
+          // ------------------------------------------------ engine
+          S_SETTLE: begin  // td_q follows the state changed in the previous cycle
+            st_q <= S_IDLE;
+            if (apply_pend_q && !stop_req_q) begin
+              apply_pend_q <= 1'b0;
+              vc_q         <= '0;
+              vdmax_q      <= '0;
+              st_q         <= S_VREAD;  // validate while the schedule keeps running
             end
           end
           S_IDLE: begin
-            if (take_q) begin
-              cur_tick_q <= qh_tick;
-              edges_q    <= qh_edges;
-              closes_q   <= qh_closes;
+            if (stop_ok) begin
+              st_q <= S_STOP;
+            end else if (take_q || sched_go) begin
+              if ($signed(lag) > LEAD / 2) ovr_q <= 1'b1;  // closes could be missed
+              cur_tick_q <= take_q ? qh_tick : td_q;
+              edges_q    <= take_q ? qh_edges : '0;
+              closes_q   <= take_q ? qh_closes : '0;
               st_q       <= S_DISP;
-            end else if (armed && ($signed(tick_i - td) >= 3)) begin
-              cur_tick_q <= td;
-              st_q       <= S_SCHED;
+            end else if (apply_pend_q && !stop_req_q) begin
+              st_q <= S_SETTLE;
             end
           end
           S_DISP: begin
-            scan_q <= '0;
-            if (edges_q != '0)       st_q <= S_EDGE;
-            else if (closes_q != '0) st_q <= S_CLOSE;
-            else                     st_q <= S_SCHED;
+            s_q <= '0;
+            if (edges_q != '0) begin
+              srem_q <= wv_q[er];
+              st_q   <= S_EDGE;
+            end else if (closes_q != '0) begin
+              st_q <= S_CLOSE;
+            end else begin
+              st_q <= S_SCHED;
+            end
           end
-          S_EDGE: begin
-            if (e_match) begin
-              fslot_q <= scan_q;
-              st_q    <= S_HIT;
-            end else if (scan_q == SW'(SLOTS - 1)) begin
+          S_EDGE: begin  // the live window of receiver er holding n (windows never overlap)
+            if (srem_q == '0) begin
               edges_q[er] <= 1'b0;  // outside every window: gated
               st_q        <= S_DISP;
+            end else if (e_match) begin
+              fslot_q <= sk;
+              st_q    <= S_HIT;
             end else begin
-              scan_q <= scan_q + 1'b1;
+              srem_q[sk] <= 1'b0;
             end
           end
           S_HIT: begin
             edges_q[er] <= 1'b0;
             st_q        <= S_DISP;
-            if (!hw.hit) begin  // max_echoes_per_window = 1: later edges of the window dropped
-              win_q[{fslot_q, er}] <= '{te: hw.te, act: hw.act, hit: 1'b1};
+            if (!wh_q[er][fslot_q]) begin  // max_echoes_per_window = 1
+              wh_q[er][fslot_q] <= 1'b1;
               evt_valid_q <= 1'b1;
-              evt_data_q  <= {20'd0, sl_init_q[fslot_q], 1'b0, 1'b1, 1'b1, 3'd0,
-                              sl_seq_q[fslot_q], er, h_tof};
-              if (sl_epoch_q[fslot_q] == epoch_q) begin
-                if (sl_init_q[fslot_q]) begin
-                  tracked_q[er] <= 1'b1;
-                  rxs_q[er]     <= '{tof: h_tof, seq: sl_seq_q[fslot_q], v: 17'sd0, miss: 4'd0, init: 1'b1};
-                end else if (tracked_q[er] && h_gap != 8'd0 && !h_gap[7]) begin
-                  rxs_q[er] <= '{tof: h_tof, seq: sl_seq_q[fslot_q],
-                                 v: (h_gap == 8'd1 && !hrx.init) ? h_v : 17'sd0,
-                                 miss: 4'd0, init: 1'b0};
+              evt_data_q  <= {20'd0, hw.init, 1'b0, 1'b1, 1'b1, h_s, hw.seq, er, h_tof};
+              if (hw.epoch == epoch_q[h_s]) begin
+                wake_q[h_s] <= 1'b1;
+                if (hw.init) begin
+                  any_trk_q[h_s] <= 1'b1;
+                  rxs_q[int'(h_s) * 32 + int'(er)] <= '{trk: 1'b1, tof: h_tof, seq: hw.seq, v: 17'sd0,
+                                                        miss: 4'd0, init: 1'b1};
+                end else if (hrx.trk && h_gap != 8'd0 && !h_gap[7]) begin
+                  rxs_q[int'(h_s) * 32 + int'(er)] <= '{trk: 1'b1, tof: h_tof, seq: hw.seq,
+                      v: (h_gap == 8'd1 && !hrx.init) ? h_v : 17'sd0, miss: 4'd0, init: 1'b0};
                 end
               end
             end
           end
           S_CLOSE: begin
             closes_q[clr] <= 1'b0;
-            if (!c_valid) begin
-              st_q <= S_DISP;  // cancelled by a re-initialisation
-            end else begin
-              win_q[{c_slot, clr}] <= '{te: cw.te, act: 1'b0, hit: cw.hit};
-              fslot_q <= c_slot;
-              cr_q    <= clr;
-              hscan_q <= (SW + 1)'(1);
-              st_q    <= S_HEAD;
-              if (!cw.hit) begin
+            el_q          <= clr;
+            srem_q        <= wv_q[clr];
+            found_q       <= 1'b0;
+            hd_vld_q[clr] <= 1'b0;  // rescanned in S_HEAD
+            st_q          <= S_HEAD;
+            if (c_valid) begin
+              wv_q[clr][c_slot] <= 1'b0;
+              srem_q[c_slot]    <= 1'b0;
+              wake_q[c_s]       <= 1'b1;
+              if (!wh_q[clr][c_slot]) begin
                 evt_valid_q <= 1'b1;
-                evt_data_q  <= {20'd0, sl_init_q[c_slot], 1'b1, 1'b0, 1'b0, 3'd0,
-                                sl_seq_q[c_slot], clr, c_weo};
-                if (!sl_init_q[c_slot] && sl_epoch_q[c_slot] == epoch_q) begin
-                  rxs_q[clr] <= '{tof: crx.tof, seq: crx.seq, v: crx.v, miss: c_miss, init: crx.init};
-                  if (c_miss >= klim_q && tracking_q) begin
+                evt_data_q  <= {20'd0, cw.init, 1'b1, 1'b0, 1'b0, c_s, cw.seq, clr, cw.we};
+                if (!cw.init && cw.epoch == epoch_q[c_s]) begin
+                  rxs_q[int'(c_s) * 32 + int'(clr)] <= '{trk: crx.trk, tof: crx.tof, seq: crx.seq, v: crx.v,
+                                                         miss: c_miss, init: crx.init};
+                  if (c_miss >= sh_k_q[c_s] && tracking_q[c_s]) begin
                     // safety: re-initialise now; every window of the sensor is cancelled
-                    tracking_q <= 1'b0;
-                    if ($signed(cur_tick_q - due_q) < 0) due_q <= cur_tick_q;
-                    sl_valid_q <= '0;
-                    head_vld_q <= '0;
+                    tracking_q[c_s] <= 1'b0;
+                    if ($signed(cur_tick_q - due_q[c_s]) < 0) due_q[c_s] <= cur_tick_q;
+                    for (int e = 0; e < NUM_CH; e++)
+                      for (int k = 0; k < WSLOTS; k++)
+                        if (wsid_q[e][k] == c_s) wv_q[e][k] <= 1'b0;
+                    for (int k = 0; k < WSLOTS; k++)
+                      if (wsid_q[clr][k] == c_s) srem_q[k] <= 1'b0;
+                    for (int s = 0; s < NUM_VS; s++) wake_q[s] <= 1'b1;
                   end
                 end
               end
-              if (sl_init_q[c_slot] && sl_epoch_q[c_slot] == epoch_q) begin
-                init_open_q <= init_open_q - 1'b1;
-                if (init_open_q == (RW + 1)'(1)) begin
-                  in_init_q  <= 1'b0;
-                  // tracked_q may gain this tick's samples already written (EDGE before CLOSE)
-                  tracking_q <= (mode_q == 2'd1) && (|tracked_q);
+              if (cw.init && cw.epoch == epoch_q[c_s]) begin
+                init_open_q[c_s] <= init_open_q[c_s] - 6'd1;
+                if (init_open_q[c_s] == 6'd1) begin
+                  in_init_q[c_s]  <= 1'b0;
+                  // any_trk may include this tick's samples (EDGE before CLOSE)
+                  tracking_q[c_s] <= sh_track_q[c_s] && any_trk_q[c_s];
                 end
               end
             end
           end
-          S_HEAD: begin  // next live window of receiver cr_q, in pulse order
-            if (sl_valid_q[hs_slot] && hs_w.act) begin
-              head_slot_q[cr_q]  <= hs_slot;
-              head_close_q[cr_q] <= sl_t0_q[hs_slot]
-                                    + 32'(we_off(sl_init_q[hs_slot], hs_w.te, rmax_q, tn_q))
-                                    - 32'd1 + 32'(lat);
-              st_q <= S_DISP;
-            end else if (hscan_q == (SW + 1)'(SLOTS - 1)) begin
-              head_vld_q[cr_q] <= 1'b0;
-              st_q <= S_DISP;
+          S_HEAD: begin  // next window of element el_q to close: the minimum close tick
+            if (srem_q == '0) begin
+              hd_vld_q[el_q] <= found_q;
+              st_q           <= S_DISP;
             end else begin
-              hscan_q <= hscan_q + 1'b1;
-            end
-          end
-          S_SCHED: begin
-            if (sched_ok) begin
-              t0_q     <= t0_cand;
-              ir_q     <= '0;
-              te_min_q <= '1;
-              te_max_q <= '0;
-              sl_valid_q[i_slot] <= 1'b0;
-              sl_t0_q[i_slot]    <= t0_cand;
-              sl_seq_q[i_slot]   <= seq_q;
-              sl_init_q[i_slot]  <= !tracking_q;
-              sl_epoch_q[i_slot] <= tracking_q ? epoch_q : !epoch_q;
-              if (!tracking_q) begin  // init ping: new epoch, every receiver untracked
-                epoch_q     <= !epoch_q;
-                tracked_q   <= '0;
-                in_init_q   <= 1'b1;
-                init_open_q <= '0;
+              srem_q[sk] <= 1'b0;
+              found_q    <= 1'b1;
+              if (!found_q || $signed(sw_close - hd_close_q[el_q]) < 0) begin
+                hd_close_q[el_q] <= sw_close;
+                hd_slot_q[el_q]  <= sk;
               end
-              st_q <= S_ISSUE;
-            end else begin
-              eng_tick_q <= cur_tick_q + 32'd1;
-              st_q       <= S_IDLE;
             end
           end
-          S_ISSUE: begin  // one receiver per clock: its window in this pulse
-            win_q[{i_slot, ir_q}] <= '{te: i_te, act: i_act, hit: 1'b0};
-            if (i_act) begin
-              if (sl_init_q[i_slot]) begin
-                init_open_q <= init_open_q + 1'b1;
-              end else begin
+          // ------------------------------------------------ SCHED phase: sensors ascending
+          S_SCHED: begin
+            if (s_eval) begin
+              wake_q[s_q] <= 1'b0;
+              hold_q[s_q] <= 1'b0;
+            end
+            if (s_eval && $signed(t_cand - due_q[s_q]) < 0) begin
+              nxt_q[s_q] <= due_q[s_q] - LEAD32;
+              st_q       <= S_NEXT;
+            end else if (s_eval && !tracking_q[s_q] && quiet_vld_q[s_q] && $signed(t_cand - quiet_q[s_q]) < 0) begin
+              nxt_q[s_q] <= quiet_q[s_q] - LEAD32;
+              st_q       <= S_NEXT;
+            end else if (s_eval) begin
+              o_q  <= '0;
+              t_q  <= t_cand;
+              st_q <= S_EDF;
+            end else begin
+              st_q <= S_NEXT;
+            end
+          end
+          S_NEXT: begin
+            if (s_q == VW'(NUM_VS - 1)) begin
+              eng_tick_q <= cur_tick_q + 32'd1;
+              st_q       <= S_SETTLE;
+            end else begin
+              s_q  <= s_q + 1'b1;
+              st_q <= S_SCHED;
+            end
+          end
+          S_EDF: begin  // earliest due first among sensors sharing an element
+            if (o_q != s_q && sh_share_q[s_q][o_q] && o_elig && o_first) begin
+              hold_q[s_q] <= 1'b1;
+              st_q        <= S_NEXT;
+            end else if (o_q == VW'(NUM_VS - 1)) begin
+              rem_q      <= sh_rx_q[s_q];
+              cand_act_q <= '0;
+              te_min_q   <= '1;
+              te_max_q   <= '0;
+              st_q       <= S_CAND;
+            end else begin
+              o_q <= o_q + 1'b1;
+            end
+          end
+          S_CAND: begin  // one receiver per clock: does it get a window, where
+            if (rem_q == '0) begin
+              n_q  <= sh_order_q[s_q];
+              st_q <= S_ORDER;
+            end else begin
+              rem_q[rel] <= 1'b0;
+              if (!tracking_q[s_q]) begin
+                cand_act_q[rel] <= 1'b1;
+              end else if (irx.trk) begin
+                cand_act_q[rel] <= 1'b1;
+                cand_te_q[rel]  <= i_te;
                 if (i_te < te_min_q) te_min_q <= i_te;
                 if (i_te > te_max_q) te_max_q <= i_te;
               end
-              if (!head_vld_q[ir_q]) begin
-                head_vld_q[ir_q]   <= 1'b1;
-                head_slot_q[ir_q]  <= i_slot;
-                head_close_q[ir_q] <= t0_q
-                                      + 32'(we_off(sl_init_q[i_slot], i_te, rmax_q, tn_q))
-                                      - 32'd1 + 32'(lat);
-              end
-            end
-            ir_q <= ir_q + 1'b1;
-            if (ir_q == RW'(NUM_CH - 1)) begin
-              n_q  <= order_q;
-              st_q <= S_ORDER;
             end
           end
           S_ORDER: begin  // effective order: n = N, N-1, ..., 1, else 0 (one try per clock)
-            if (sl_init_q[i_slot]) begin
-              period_q <= rmax_q;
-              st_q     <= S_COMMIT;
+            rem_q       <= sh_tx_q[s_q] | sh_xt_q[s_q] | sh_rx_q[s_q];
+            retry_vld_q <= 1'b0;
+            if (!tracking_q[s_q]) begin
+              period_q <= sh_rmax_q[s_q];
+              st_q     <= S_CONF;
             end else if (n_q == 3'd0) begin
-              period_q <= te_max_q + 24'(tn_q);
-              st_q     <= S_COMMIT;
+              period_q <= te_max_q + 24'(sh_tn_q[s_q]);
+              st_q     <= S_CONF;
             end else if (o_feas) begin
               period_q <= o_ts;
-              st_q     <= S_COMMIT;
+              st_q     <= S_CONF;
             end else begin
               n_q <= n_q - 3'd1;
             end
           end
-          S_COMMIT: begin
-            sl_valid_q[i_slot] <= 1'b1;
-            due_q       <= t0_q + 32'(period_q);
-            quiet_q     <= t0_q + 32'(rmax_q) - 32'(dblank_q);
-            quiet_vld_q <= 1'b1;
-            seq_q       <= seq_q + 8'd1;
-            fire_pend_q <= 1'b1;
-            fire_t0_q   <= t0_q;
-            if ($signed(t0_q - tick_i) < 2 || fire_pend_q) ovr_q <= 1'b1;  // engine too late
-            eng_tick_q  <= cur_tick_q + 32'd1;
-            st_q        <= S_IDLE;
+          S_CONF: begin  // next element the candidate touches: blank_until, then its slots
+            if (rem_q == '0) begin
+              if (retry_vld_q) begin
+                nxt_q[s_q] <= retry_q - LEAD32;  // deferred
+                st_q       <= S_NEXT;
+              end else begin
+                st_q <= S_ISSUE;
+              end
+            end else begin
+              el_q     <= rel;
+              blk_on_q <= c_blk;
+              win_on_q <= c_win;
+              cba_q    <= cb.a;
+              cbb_q    <= cb.b;
+              cws_q    <= c_wso;
+              cwe_q    <= c_weo;
+              srem_q   <= wv_q[rel];
+              found_q  <= 1'b0;
+              st_q     <= S_CSLOT;
+            end
+          end
+          S_CSLOT: begin  // one reserved window of element el_q per clock
+            if (srem_q == '0) begin
+              rem_q[el_q] <= 1'b0;
+              st_q        <= S_CONF;
+            end else begin
+              srem_q[sk] <= 1'b0;
+              found_q    <= 1'b1;
+              if (!found_q || $signed(sw_close - minclose_q) < 0) minclose_q <= sw_close;
+            end
+          end
+          S_ISSUE: begin  // the pulse goes: sensor state now, then element by element
+            kseq_q           <= seq_q[s_q];
+            seq_q[s_q]       <= seq_q[s_q] + 8'd1;
+            due_q[s_q]       <= t_q + 32'(period_q);
+            nxt_q[s_q]       <= t_q + 32'(period_q) - LEAD32;
+            quiet_q[s_q]     <= t_q + 32'(sh_rmax_q[s_q]) - 32'(sh_dbl_q[s_q]);
+            quiet_vld_q[s_q] <= 1'b1;
+            if (!tracking_q[s_q]) begin  // init ping: new epoch, every receiver untracked
+              epoch_q[s_q]     <= !epoch_q[s_q];
+              in_init_q[s_q]   <= 1'b1;
+              init_open_q[s_q] <= popcount(sh_rx_q[s_q]);
+              any_trk_q[s_q]   <= 1'b0;
+            end
+            for (int s = 0; s < NUM_VS; s++) if (VW'(s) != s_q) wake_q[s] <= 1'b1;
+            pulse_q      <= 1'b1;
+            pulse_vs_q   <= s_q;
+            pulse_seq_q  <= seq_q[s_q];
+            pulse_t0_q   <= t_q;
+            pulse_init_q <= !tracking_q[s_q];
+            rem_q        <= sh_tx_q[s_q] | sh_xt_q[s_q] | sh_rx_q[s_q];
+            st_q         <= S_IEL;
+          end
+          S_IEL: begin  // element rel: blank_until, trigger, window slot
+            if (rem_q == '0) begin
+              st_q <= S_NEXT;
+            end else begin
+              rem_q[rel] <= 1'b0;
+              if (c_blk && later(t_q + 32'(cb.b), bu_q[rel])) bu_q[rel] <= t_q + 32'(cb.b);
+              if (sh_tx_q[s_q][rel]) begin
+                trig_valid_q <= 1'b1;
+                trig_el_q    <= rel;
+                trig_delay_q <= (DELAY_W + 1)'(trig_dly);
+                trig_burst_q <= sh_burst_q[s_q];
+                if (trig_dly[31:DELAY_W+1] != '0) ovr_q <= 1'b1;  // negative or too far: engine late
+              end
+              if (c_win) begin
+                win_q[int'(rel) * WSLOTS + int'(free_slot)] <= '{t0: t_q, ws: c_wso, we: c_weo, seq: kseq_q,
+                                                                  epoch: epoch_q[s_q], init: !tracking_q[s_q]};
+                wv_q[rel][free_slot]   <= 1'b1;
+                wh_q[rel][free_slot]   <= 1'b0;
+                wsid_q[rel][free_slot] <= s_q;
+                if (!hd_vld_q[rel] || $signed(iw_close - hd_close_q[rel]) < 0) begin
+                  hd_vld_q[rel]   <= 1'b1;
+                  hd_slot_q[rel]  <= free_slot;
+                  hd_close_q[rel] <= iw_close;
+                end
+                if (!tracking_q[s_q]) rxs_q[int'(s_q) * 32 + int'(rel)] <= '0;
+              end
+            end
           end
           default: st_q <= S_OFF;
         endcase
@@ -567,26 +957,25 @@ module ms_scheduler #(
   end
 
   // ---- outputs
-  assign fire_o              = fire_q;
-  assign pulse_o             = fire_q;
-  assign fire_vs_o           = 3'd0;
-  assign fire_mask_o         = tx_mask_q;
-  assign fire_delay_o        = delay_q;
-  assign fire_burst_cycles_o = burst_q;
-  assign evt_valid_o         = evt_valid_q;
-  assign evt_data_o          = evt_data_q;
-  assign running_o           = running;
-  assign cfg_error_o         = 4'd0;  // STAGE 1: no apply-time validation yet
-  assign cfg_error_vs_o      = 4'd0;
-  assign overrun_o           = ovr_q;
+  assign trig_valid_o   = trig_valid_q;
+  assign trig_el_o      = trig_el_q;
+  assign trig_delay_o   = trig_delay_q;
+  assign trig_burst_o   = trig_burst_q;
+  assign pulse_o        = pulse_q;
+  assign pulse_vs_o     = pulse_vs_q;
+  assign pulse_seq_o    = pulse_seq_q;
+  assign pulse_t0_o     = pulse_t0_q;
+  assign pulse_init_o   = pulse_init_q;
+  assign evt_valid_o    = evt_valid_q;
+  assign evt_data_o     = evt_data_q;
+  assign running_o      = started_q;
+  assign cfg_error_o    = cfg_err_q;
+  assign cfg_error_vs_o = cfg_err_vs_q;
+  assign overrun_o      = ovr_q;
 
-  // STAGE 1: sensors 1..7, crosstalk neighbours and apply_i are used by the later stage
+  // fields of the shared record views that a given state does not need
   logic unused_ok;
-  assign unused_ok = ^{apply_i, vs_xtalk_nb_i, start_tick_q, vs_tx_mask_i[NUM_VS-1:1],
-                       vs_rx_mask_i[NUM_VS-1:1], vs_mode_i[NUM_VS-1:1], vs_order_i[NUM_VS-1:1],
-                       vs_miss_limit_i[NUM_VS-1:1], vs_t_v_i[NUM_VS-1:1], vs_t_n_i[NUM_VS-1:1],
-                       vs_t_dead_i[NUM_VS-1:1], vs_max_tof_i[NUM_VS-1:1], vs_t_xtalk_i[NUM_VS-1:1],
-                       vs_vmax_i[NUM_VS-1:1], vs_burst_cycles_i[NUM_VS-1:1], vs_phase_i[NUM_VS-1:1],
-                       o_mul3[49], o_mul3[24:0], i_pred[26:24],
-                       we_w.hit, hs_w.hit, hrx.v, hrx.miss, irx.miss, irx.init};
+  assign unused_ok = ^{ew.seq, ew.epoch, ew.init, hw.ws, hw.we, hrx.tof[23:1], hrx.seq, hrx.v,
+                       hrx.miss, cw.ws, sw.seq, sw.epoch, sw.init, irx.miss, irx.init,
+                       o_mul3[49], o_mul3[24:0], v_pa[8]};
 endmodule

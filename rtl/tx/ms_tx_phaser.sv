@@ -9,7 +9,8 @@
 //   - A trigger drives burst_cycles_i periods of 2 * half_period_i ticks, high first, 50 %
 //     duty, then drive_o[i] stays low. half_period_i = 0 behaves as 1; burst_cycles_i = 0
 //     drives nothing (and ends a burst still running at the trigger tick).
-//   - burst_cycles_i and half_period_i are latched per element at fire_i: a CSR change after
+//   - burst_cycles_i[i] (per element: fires of different sensors may share a tick) and
+//     half_period_i are latched per element at fire_i: a CSR change after
 //     the fire changes neither pending triggers nor running bursts.
 //   - drive_o is a flop output per element: zero jitter, elements of one group (and of
 //     different groups) start exactly on their computed ticks.
@@ -30,7 +31,7 @@ module ms_tx_phaser #(
   input  logic                           fire_i,          // strobe in the issue tick t0
   input  logic [NUM_CH-1:0]              mask_i,          // elements triggered by this fire
   input  logic [NUM_CH-1:0][DELAY_W-1:0] delay_i,         // element i triggers at t0 + delay_i[i]
-  input  logic [CYC_W-1:0]               burst_cycles_i,  // periods per burst (per-sensor field)
+  input  logic [NUM_CH-1:0][CYC_W-1:0]   burst_cycles_i,  // periods per burst, per element (sensor field)
   input  logic [HALF_W-1:0]              half_period_i,   // BURST.half_period, 600 = 40 kHz
   output logic [NUM_CH-1:0]              drive_o,         // registered transducer drives
   output logic [NUM_CH-1:0]              busy_o,          // pending trigger or running burst
@@ -49,7 +50,7 @@ module ms_tx_phaser #(
       .rst_i         (rst_i),
       .fire_i        (fire_i & mask_i[i]),
       .delay_i       (delay_i[i]),
-      .burst_cycles_i(burst_cycles_i),
+      .burst_cycles_i(burst_cycles_i[i]),
       .half_period_i (half_period_i),
       .drive_o       (drive_o[i]),
       .busy_o        (busy_o[i]),

@@ -1,47 +1,58 @@
 // ms_scheduler_tb: cocotb wrapper of ms_scheduler (tests/rtl/tb_ms_scheduler.py).
 //
-// Holds what the testbench would otherwise have to drive per clock: a free-running tick
-// counter loaded with tick_start_i during reset (wrap tests), the real ms_rx_conditioner per channel, the
-// phasing-delay RAM (ms_ram_dp; the testbench loads it through port A before enable) and an
-// event log the testbench reads at the end through evt_raddr_i / evt_rdata_o. Only table
-// entry 0 of the VS table is driven (stage 1 of the scheduler uses only that entry).
+// Holds what the testbench would otherwise have to drive or sample per clock: a free-running
+// tick counter loaded with tick_start_i during reset (wrap tests), the real ms_rx_conditioner
+// per channel, the CSR phasing-delay RAM (ms_ram_dp; loaded through port A), and logs the
+// testbench reads at the end: every event word, and every trigger as {element, tick it fires}
+// (the tick of the arming cycle plus trig_delay_o, i.e. when ms_tx_phaser would trigger it).
+// The whole virtual-sensor table is driven as flat vectors (sensor s at bits [s*W +: W]).
 module ms_scheduler_tb #(
-  parameter int          NUM_CH    = 24,
-  parameter int unsigned LEAD      = 1024,
-  parameter int          EVT_DEPTH = 4096
+  parameter int NUM_CH    = 24,
+  parameter int LEAD      = 4096,
+  parameter int EVT_DEPTH = 8192,
+  parameter int TRG_DEPTH = 4096
 ) (
-  input  logic                    clk_i,
-  input  logic                    rst_i,
-  input  logic                    enable_i,
-  input  logic [31:0]             tick_start_i,  // tick counter value during reset (wrap tests)
-  input  logic [7:0]              glitch_min_i,
-  input  logic [NUM_CH-1:0]       echo_i,
-  input  logic [NUM_CH-1:0]       tx_mask_i,
-  input  logic [NUM_CH-1:0]       rx_mask_i,
-  input  logic [1:0]              mode_i,
-  input  logic [2:0]              order_i,
-  input  logic [3:0]              miss_limit_i,
-  input  logic [15:0]             t_v_i,
-  input  logic [15:0]             t_n_i,
-  input  logic [19:0]             t_dead_i,
-  input  logic [23:0]             max_tof_i,
-  input  logic [19:0]             t_xtalk_i,
-  input  logic [15:0]             vmax_i,
-  input  logic [7:0]              burst_cycles_i,
-  input  logic [23:0]             phase_i,
-  input  logic                    dly_we_i,
-  input  logic [7:0]              dly_addr_i,
-  input  logic [15:0]             dly_wdata_i,
-  output logic [31:0]             tick_o,
-  output logic                    fire_o,
-  output logic [NUM_CH-1:0]       fire_mask_o,
-  output logic [NUM_CH*16-1:0]    fire_delay_o,
-  output logic [7:0]              fire_burst_cycles_o,
-  output logic [15:0]             evt_count_o,
-  input  logic [15:0]             evt_raddr_i,
-  output logic [63:0]             evt_rdata_o,
-  output logic                    running_o,
-  output logic                    overrun_o
+  input  logic                 clk_i,
+  input  logic                 rst_i,
+  input  logic                 enable_i,
+  input  logic                 apply_i,
+  input  logic [31:0]          tick_start_i,  // tick counter value during reset (wrap tests)
+  input  logic [7:0]           glitch_min_i,
+  input  logic [15:0]          burst_half_period_i,
+  input  logic [NUM_CH-1:0]    echo_i,
+  input  logic [8*NUM_CH-1:0]  tx_mask_i,
+  input  logic [8*NUM_CH-1:0]  rx_mask_i,
+  input  logic [8*2-1:0]       mode_i,
+  input  logic [8*3-1:0]       order_i,
+  input  logic [8*4-1:0]       miss_limit_i,
+  input  logic [8*16-1:0]      t_v_i,
+  input  logic [8*16-1:0]      t_n_i,
+  input  logic [8*20-1:0]      t_dead_i,
+  input  logic [8*24-1:0]      max_tof_i,
+  input  logic [8*20-1:0]      t_xtalk_i,
+  input  logic [8*2-1:0]       xtalk_nb_i,
+  input  logic [8*16-1:0]      vmax_i,
+  input  logic [8*8-1:0]       burst_cycles_i,
+  input  logic [8*24-1:0]      phase_i,
+  input  logic                 dly_we_i,
+  input  logic [7:0]           dly_addr_i,
+  input  logic [15:0]          dly_wdata_i,
+  output logic [31:0]          tick_o,
+  output logic                 pulse_o,
+  output logic [2:0]           pulse_vs_o,
+  output logic [7:0]           pulse_seq_o,
+  output logic [31:0]          pulse_t0_o,
+  output logic                 pulse_init_o,
+  output logic [15:0]          evt_count_o,
+  input  logic [15:0]          evt_raddr_i,
+  output logic [63:0]          evt_rdata_o,
+  output logic [15:0]          trg_count_o,
+  input  logic [15:0]          trg_raddr_i,
+  output logic [39:0]          trg_rdata_o,   // {element[7:0], tick[31:0]}
+  output logic                 running_o,
+  output logic [3:0]           cfg_error_o,
+  output logic [3:0]           cfg_error_vs_o,
+  output logic                 overrun_o
 );
   localparam int NUM_VS = 8;
 
@@ -84,30 +95,25 @@ module ms_scheduler_tb #(
   logic [NUM_VS-1:0][19:0]       vs_dead, vs_xt;
   logic [NUM_VS-1:0][23:0]       vs_rmax, vs_phase;
   logic [NUM_VS-1:0][7:0]        vs_burst;
-  always_comb begin
-    vs_tx = '0; vs_rx = '0; vs_mode = '0; vs_nb = '0; vs_order = '0; vs_k = '0;
-    vs_tv = '0; vs_tn = '0; vs_vmax = '0; vs_dead = '0; vs_xt = '0; vs_rmax = '0;
-    vs_phase = '0; vs_burst = '0;
-    vs_tx[0] = tx_mask_i;   vs_rx[0] = rx_mask_i;     vs_mode[0] = mode_i;
-    vs_order[0] = order_i;  vs_k[0] = miss_limit_i;   vs_tv[0] = t_v_i;
-    vs_tn[0] = t_n_i;       vs_vmax[0] = vmax_i;      vs_dead[0] = t_dead_i;
-    vs_xt[0] = t_xtalk_i;   vs_rmax[0] = max_tof_i;   vs_phase[0] = phase_i;
-    vs_burst[0] = burst_cycles_i;
-  end
+  assign vs_tx = tx_mask_i;   assign vs_rx = rx_mask_i;      assign vs_mode = mode_i;
+  assign vs_nb = xtalk_nb_i;  assign vs_order = order_i;     assign vs_k = miss_limit_i;
+  assign vs_tv = t_v_i;       assign vs_tn = t_n_i;          assign vs_vmax = vmax_i;
+  assign vs_dead = t_dead_i;  assign vs_xt = t_xtalk_i;      assign vs_rmax = max_tof_i;
+  assign vs_phase = phase_i;  assign vs_burst = burst_cycles_i;
 
-  logic [NUM_CH-1:0][15:0] fire_delay;
-  logic                    evt_valid;
-  logic [63:0]             evt_data;
-  logic [2:0]              fire_vs;
-  logic                    pulse;
-  logic [3:0]              cfg_error, cfg_error_vs;
+  logic             trig_valid;
+  logic [4:0]       trig_el;
+  logic [16:0]      trig_delay;
+  logic [7:0]       trig_burst;
+  logic             evt_valid;
+  logic [63:0]      evt_data;
 
   ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .LEAD(LEAD)) u_sched (
     .clk_i              (clk_i),
     .rst_i              (rst_i),
     .tick_i             (tick_q),
     .enable_i           (enable_i),
-    .apply_i            (1'b0),
+    .apply_i            (apply_i),
     .vs_tx_mask_i       (vs_tx),
     .vs_rx_mask_i       (vs_rx),
     .vs_mode_i          (vs_mode),
@@ -122,38 +128,54 @@ module ms_scheduler_tb #(
     .vs_vmax_i          (vs_vmax),
     .vs_burst_cycles_i  (vs_burst),
     .vs_phase_i         (vs_phase),
+    .burst_half_period_i(burst_half_period_i),
     .glitch_min_i       (glitch_min_i),
     .delay_raddr_o      (dly_raddr),
     .delay_rdata_i      (dly_rdata),
     .rise_i             (rise),
-    .fire_o             (fire_o),
-    .fire_vs_o          (fire_vs),
-    .fire_mask_o        (fire_mask_o),
-    .fire_delay_o       (fire_delay),
-    .fire_burst_cycles_o(fire_burst_cycles_o),
+    .trig_valid_o       (trig_valid),
+    .trig_el_o          (trig_el),
+    .trig_delay_o       (trig_delay),
+    .trig_burst_o       (trig_burst),
+    .pulse_o            (pulse_o),
+    .pulse_vs_o         (pulse_vs_o),
+    .pulse_seq_o        (pulse_seq_o),
+    .pulse_t0_o         (pulse_t0_o),
+    .pulse_init_o       (pulse_init_o),
     .evt_valid_o        (evt_valid),
     .evt_data_o         (evt_data),
-    .pulse_o            (pulse),
     .running_o          (running_o),
-    .cfg_error_o        (cfg_error),
-    .cfg_error_vs_o     (cfg_error_vs),
+    .cfg_error_o        (cfg_error_o),
+    .cfg_error_vs_o     (cfg_error_vs_o),
     .overrun_o          (overrun_o)
   );
-  assign fire_delay_o = fire_delay;
 
   logic [63:0] evt_mem [EVT_DEPTH];
   logic [15:0] evt_cnt_q;
+  logic [39:0] trg_mem [TRG_DEPTH];
+  logic [15:0] trg_cnt_q;
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
       evt_cnt_q <= '0;
-    end else if (evt_valid) begin
-      if (evt_cnt_q < 16'(EVT_DEPTH)) evt_mem[evt_cnt_q[$clog2(EVT_DEPTH)-1:0]] <= evt_data;
-      evt_cnt_q <= evt_cnt_q + 16'd1;
+      trg_cnt_q <= '0;
+    end else begin
+      if (evt_valid) begin
+        if (evt_cnt_q < 16'(EVT_DEPTH)) evt_mem[evt_cnt_q[$clog2(EVT_DEPTH)-1:0]] <= evt_data;
+        evt_cnt_q <= evt_cnt_q + 16'd1;
+      end
+      if (trig_valid) begin  // fire seen by the phaser in this cycle: triggers at tick_q + delay
+        if (trg_cnt_q < 16'(TRG_DEPTH))
+          trg_mem[trg_cnt_q[$clog2(TRG_DEPTH)-1:0]] <= {3'd0, trig_el, tick_q + 32'(trig_delay)};
+        trg_cnt_q <= trg_cnt_q + 16'd1;
+      end
     end
   end
   assign evt_count_o = evt_cnt_q;
   assign evt_rdata_o = evt_mem[evt_raddr_i[$clog2(EVT_DEPTH)-1:0]];
+  assign trg_count_o = trg_cnt_q;
+  assign trg_rdata_o = trg_mem[trg_raddr_i[$clog2(TRG_DEPTH)-1:0]];
 
   logic unused_ok;
-  assign unused_ok = ^{level, dly_rdata_a, fire_vs, pulse, cfg_error, cfg_error_vs};
+  assign unused_ok = ^{level, dly_rdata_a, trig_burst, evt_raddr_i[15:$clog2(EVT_DEPTH)],
+                       trg_raddr_i[15:$clog2(TRG_DEPTH)]};
 endmodule

@@ -37,11 +37,11 @@ async def sample_rate_vs_model(dut):
         dur = 120 * MS
         e0 = await b.start(SyntheticEchoSource({0: d}, ringdown_ticks=60000), 0)
         await b.run_until(e0 + dur)
-        await b.read_events()
+        await b.read_logs()
         model = FastFiringModel(sched, SyntheticEchoSource({0: d}, ringdown_ticks=60000), start_tick=e0, decision_lead=LEAD)
         res = model.run(dur)
         m_t0 = [p.t0 for p in res.pulses if not p.init]
-        r_t0 = [t for t in b.fires if t < e0 + dur][-len(m_t0):]
+        r_t0 = [t for t, _, _, init in b.pulses if t < e0 + dur and not init][-len(m_t0):]
         used = sorted({p.order for p in res.pulses if not p.init})
         rows.append({"distance_m": d, "order": order, "order_used": used, "rtl_hz": rate(r_t0),
                      "model_hz": rate(m_t0), "identical_pulses": r_t0 == m_t0, "pulses": len(m_t0)})

@@ -19,7 +19,7 @@ import time
 
 import cocotb
 import numpy as np
-from cocotb.triggers import RisingEdge, Timer
+from cocotb.triggers import ReadOnly, RisingEdge, Timer
 from cocotb.utils import get_sim_time
 
 from multisonar.fastfiring import FastFiringModel, SceneEchoSource, SyntheticEchoSource, _rows
@@ -28,15 +28,22 @@ from multisonar.schedule import Schedule, VirtualSensor
 from echo_driver import EchoDriver
 from tbutil import CLK_PERIOD_PS, start_clock
 
-LEAD = int(os.environ.get("SCHED_LEAD", "1024"))
+LEAD = int(os.environ.get("SCHED_LEAD", "4096"))
 MS = 48_000
 M32 = (1 << 32) - 1
 LAYOUT = load_layout()
 QUARTER = CLK_PERIOD_PS // 4
+NUM_VS = 8
+TABLE = {  # field -> (tb port, width)
+    "tx_mask": ("tx_mask_i", 24), "rx_mask": ("rx_mask_i", 24), "mode": ("mode_i", 2), "order": ("order_i", 3),
+    "miss_limit": ("miss_limit_i", 4), "t_v": ("t_v_i", 16), "t_n": ("t_n_i", 16), "t_dead": ("t_dead_i", 20),
+    "max_tof": ("max_tof_i", 24), "t_xtalk": ("t_xtalk_i", 20), "xtalk_nb": ("xtalk_nb_i", 2),
+    "vmax": ("vmax_i", 16), "burst_cycles": ("burst_cycles_i", 8), "phase": ("phase_i", 24),
+}
 
 
 class CountingModel(FastFiringModel):
-    """The golden model, counting reservation conflicts (deferral: not in RTL stage 1)."""
+    """The golden model, counting reservation conflicts (deferrals)."""
 
     conflicts = 0
 
@@ -47,58 +54,93 @@ class CountingModel(FastFiringModel):
         return r
 
 
+def table_values(sensors: list[dict]) -> dict[str, int]:
+    """Flat table vectors (sensor s at bits [s*W +: W]); missing entries are off (mode 0)."""
+    out = {}
+    for name, (port, w) in TABLE.items():
+        v = 0
+        for s, f in enumerate(sensors):
+            v |= (int(f[name]) & ((1 << w) - 1)) << (s * w)
+        out[port] = v
+    return out
+
+
 class Bench:
     def __init__(self, dut, sched: Schedule, glitch_min: int = 24):
         self.dut, self.sched = dut, sched
-        self.cfg = sched.validate()[0]
+        self.cfg = sched.validate()
         self.regs = sched.to_registers()
         self.g = glitch_min
-        self.fires: list[int] = []
-        self.triggers: list[tuple[int, int, int]] = []
+        self.pulses: list[tuple[int, int, int, bool]] = []  # (t0 unwrapped, sensor, seq, init)
         self.echo = EchoDriver(dut.echo_i, 24, lambda tick: self.ref_ps + (tick - self.t_origin) * CLK_PERIOD_PS)
         self.source = None
-        self.t_origin = 0  # unwrapped tick of cycle 'ref' below
+        self.t_origin = 0  # unwrapped tick of the cycle that starts at ref_ps
         self.ref_ps = 0
+        self.tasks: list = []
 
     def tick_at_now(self) -> int:
         dt = round(get_sim_time("ps")) - self.ref_ps
         return self.t_origin + dt // CLK_PERIOD_PS
 
-    async def start(self, source, tick_start: int = 0) -> int:
-        """Reset, load the delay RAM and entry 0, enable; returns the model's start tick."""
+    def unwrap(self, tick32: int) -> int:
+        """Unwrapped tick nearest to now with these low 32 bits."""
+        now = self.tick_at_now()
+        return now + (((tick32 - now) + (1 << 31)) & M32) - (1 << 31)
+
+    async def reset(self, tick_start: int = 0) -> None:
         dut = self.dut
-        self.source = source
         start_clock(dut.clk_i)
-        f = self.regs["sensors"][0]
         dut.rst_i.value = 1
         dut.enable_i.value = 0
+        dut.apply_i.value = 0
         dut.tick_start_i.value = tick_start
         dut.glitch_min_i.value = self.g
+        dut.burst_half_period_i.value = self.regs["globals"]["burst_half_period"]
         dut.echo_i.value = 0
         dut.evt_raddr_i.value = 0
+        dut.trg_raddr_i.value = 0
         dut.dly_we_i.value = 0
         dut.dly_addr_i.value = 0
         dut.dly_wdata_i.value = 0
-        for name in ("tx_mask", "rx_mask", "mode", "order", "miss_limit", "t_v", "t_n", "t_dead", "max_tof",
-                     "t_xtalk", "vmax", "burst_cycles", "phase"):
-            getattr(dut, f"{name}_i").value = f[name]
         for _ in range(4):
             await RisingEdge(dut.clk_i)
         dut.rst_i.value = 0
-        # delay RAM: entry 0 only (plus garbage in entry 1 that must not be read)
-        mem = dict(self.regs["delay_mem"])
-        mem.update({32 + e: 0xBEEF for e in range(24)})
-        for addr, val in mem.items():
+
+    async def load(self, regs: dict | None = None) -> None:
+        """Write the table inputs and the delay RAM (other entries' delays: garbage)."""
+        dut = self.dut
+        regs = regs or self.regs
+        for port, v in table_values(regs["sensors"]).items():
+            getattr(dut, port).value = v
+        mem = {a: 0xBEEF for a in range(256) if a // 32 >= len(regs["sensors"])}
+        mem.update(regs["delay_mem"])
+        for addr, val in sorted(mem.items()):
             dut.dly_we_i.value, dut.dly_addr_i.value, dut.dly_wdata_i.value = 1, addr, val
             await RisingEdge(dut.clk_i)
         dut.dly_we_i.value = 0
         await RisingEdge(dut.clk_i)
-        await Timer(QUARTER, unit="ps")
-        self.ref_ps = round(get_sim_time("ps")) - QUARTER  # edge that began this cycle
-        self.t_origin = int(dut.tick_o.value)  # tick of this cycle (unwrapped: < 2^32)
-        dut.enable_i.value = 1  # sampled at the edge ending this cycle: start tick = t_origin
-        self.tasks = [cocotb.start_soon(self._fire_loop())]
-        return self.t_origin
+
+    async def wait_running(self) -> int:
+        """Wait for running_o; returns the start tick S (unwrapped) and sets the time base."""
+        dut = self.dut
+        await RisingEdge(dut.running_o)
+        await ReadOnly()
+        edge_ps = round(get_sim_time("ps"))
+        t32 = int(dut.tick_o.value)  # tick of the cycle this edge starts: S + 1
+        self.ref_ps = edge_ps
+        self.t_origin = t32 if not self.pulses else self.unwrap(t32)
+        await RisingEdge(dut.clk_i)  # leave the read-only phase
+        return self.t_origin - 1
+
+    async def start(self, source, tick_start: int = 0) -> int:
+        """Reset, load the table, enable; returns the model's start tick."""
+        self.source = source
+        await self.reset(tick_start)
+        await self.load()
+        self.dut.enable_i.value = 1
+        s0 = await self.wait_running()
+        self.tasks = [cocotb.start_soon(self._pulse_loop())]
+        return s0
 
     def add_noise(self, start: int, dur: int) -> None:
         noise = getattr(self.source, "noise", None)
@@ -106,20 +148,16 @@ class Bench:
             for rx, st, w in _rows(noise(start, start + dur)):
                 self._drive(int(rx), max(int(st), start), int(w))
 
-    async def _fire_loop(self) -> None:
+    async def _pulse_loop(self) -> None:
         dut = self.dut
-        tx = [int(e) for e in self.cfg.tx]
         while True:
-            await RisingEdge(dut.fire_o)
-            t0 = self.tick_at_now()
-            assert round(get_sim_time("ps") - self.ref_ps) % CLK_PERIOD_PS == 0
-            mask = int(dut.fire_mask_o.value)
-            dl = int(dut.fire_delay_o.value)
-            delays = [(dl >> (16 * e)) & 0xFFFF for e in tx]
-            assert mask == sum(1 << e for e in tx), f"fire_mask_o {mask:#x}"
-            self.fires.append(t0)
-            self.triggers += [(t0 + d, e, t0) for e, d in zip(tx, delays)]
-            rows = _rows(self.source.fire(t0, np.array(tx), np.array(delays)))
+            await RisingEdge(dut.pulse_o)
+            await ReadOnly()
+            t0 = self.unwrap(int(dut.pulse_t0_o.value))
+            s, seq, init = int(dut.pulse_vs_o.value), int(dut.pulse_seq_o.value), bool(int(dut.pulse_init_o.value))
+            self.pulses.append((t0, s, seq, init))
+            cfg = self.cfg[s]
+            rows = _rows(self.source.fire(t0, cfg.tx.copy(), cfg.delays.copy()))
             for rx, st, w in rows:
                 self._drive(int(rx), max(int(st), t0), int(w))
 
@@ -131,22 +169,30 @@ class Bench:
         if dt > 0:
             await Timer(dt, unit="ps")
 
-    async def read_events(self) -> list[int]:
-        """Stop driving (fire loop, pending echoes), then read the wrapper's event log."""
+    async def read_logs(self) -> tuple[list[int], list[tuple[int, int]]]:
+        """Stop driving (pulse loop, pending echoes), then read the wrapper's event and trigger logs."""
         for t in self.tasks:
             if not t.done():
                 t.cancel()
         self.echo.stop()
-        self.dut.enable_i.value = 0
         dut = self.dut
+        dut.enable_i.value = 0
         n = int(dut.evt_count_o.value)
-        assert n <= 4096, f"{n} events overflow the wrapper's log"
-        out = []
+        assert n <= 8192, f"{n} events overflow the wrapper's log"
+        events = []
         for i in range(n):
             dut.evt_raddr_i.value = i
             await Timer(1, unit="ps")
-            out.append(int(dut.evt_rdata_o.value))
-        return out
+            events.append(int(dut.evt_rdata_o.value))
+        m = int(dut.trg_count_o.value)
+        assert m <= 4096, f"{m} triggers overflow the wrapper's log"
+        trig = []
+        for i in range(m):
+            dut.trg_raddr_i.value = i
+            await Timer(1, unit="ps")
+            w = int(dut.trg_rdata_o.value)
+            trig.append((w & M32, (w >> 32) & 0xFF))
+        return events, trig
 
 
 def fmt(word: int) -> str:
@@ -154,46 +200,58 @@ def fmt(word: int) -> str:
     return str(ToFEvent.unpack(word))[len("ToFEvent(tick=-1, "):-1]
 
 
-async def scoreboard(dut, what: str, sensor: VirtualSensor, make_source, dur_ticks: int, *,
-                     tick_start: int = 0, min_pulses: int = 5, model_first=None) -> dict:
+def compare(what: str, b: Bench, res, rtl_events: list[int], rtl_trig: list[tuple[int, int]], end: int) -> None:
+    """Pulses (t0, sensor, seq, init), triggers (tick, element) and event words, in order."""
+    m_p = [(p.t0 & M32, p.sensor, p.seq & 0xFF, p.init) for p in res.pulses if p.t0 < end]
+    r_p = [(t & M32, s, q, i) for t, s, q, i in b.pulses if t < end]
+    assert r_p == m_p, f"{what}: pulses differ; first RTL/model: " + str(next(
+        ((x, y) for x, y in zip(r_p + [None], m_p + [None]) if x != y), None))
+    m_t0 = {(p.sensor, p.seq & 0xFF): p.t0 for p in res.pulses if p.t0 < end}
+    m_trig = sorted((t.tick & M32, t.element) for t in res.triggers if (t.sensor, t.seq) in m_t0
+                    and m_t0[(t.sensor, t.seq)] == t.tick - int(b.cfg[t.sensor].delays[list(b.cfg[t.sensor].tx).index(t.element)]))
+    n_trig = sum(len(b.cfg[s].tx) for _, s, _, _ in r_p)
+    assert sorted(rtl_trig[:n_trig]) == m_trig, f"{what}: triggers differ"
+    m_words = [e.pack() for e in res.events]
+    assert len(rtl_events) >= len(m_words), f"{what}: RTL wrote {len(rtl_events)} events, model {len(m_words)}"
+    for i, (x, y) in enumerate(zip(rtl_events, m_words)):
+        if x != y:
+            ctx = "\n".join(f"  {j}: rtl {fmt(p)}\n      mdl {fmt(q)}" for j, (p, q) in
+                            enumerate(zip(rtl_events[max(0, i - 3):i + 2], m_words[max(0, i - 3):i + 2]), max(0, i - 3)))
+            raise AssertionError(f"{what}: event {i} differs (model tick {res.events[i].tick}):\n{ctx}")
+
+
+async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
+                     tick_start: int = 0, min_pulses: int = 5, model_first=None, allow_defer: bool = True) -> dict:
     """Closed loop: RTL with one source instance, golden model with another; compare.
-    model_first: (model, result) already run by the caller (replayed sources)."""
-    sched = Schedule(LAYOUT, [sensor])
+    sensors: one VirtualSensor or a list (table entries 0..). model_first: (model, result)
+    already run by the caller (replayed sources)."""
+    sensors = [sensors] if isinstance(sensors, VirtualSensor) else list(sensors)
+    sched = Schedule(LAYOUT, sensors)
     b = Bench(dut, sched)
     wall0 = time.perf_counter()
     e0 = await b.start(make_source(), tick_start)
     b.add_noise(e0, dur_ticks)
     end = e0 + dur_ticks
     await b.run_until(end + 3000)
-    rtl_events = await b.read_events()
+    rtl_events, rtl_trig = await b.read_logs()
     assert int(dut.overrun_o.value) == 0, f"{what}: scheduler overrun (engine later than the lead P)"
     wall = time.perf_counter() - wall0
     if model_first is None:
-        model = CountingModel(Schedule(LAYOUT, [sensor]), make_source(), start_tick=e0, decision_lead=LEAD)
+        model = CountingModel(Schedule(LAYOUT, sensors), make_source(), start_tick=e0, decision_lead=LEAD)
         res = model.run(dur_ticks)
     else:
         model, res = model_first(e0, dur_ticks)
-    assert getattr(model, "conflicts", 0) == 0, f"{what}: model deferred a pulse (reservations: RTL stage 2)"
-    m_fires = [p.t0 for p in res.pulses if p.t0 < end]
-    r_fires = [t for t in b.fires if t < end]
-    assert [t & M32 for t in r_fires] == [t & M32 for t in m_fires], \
-        f"{what}: pulses differ; first RTL/model t0: " + str(next(
-            ((a, c) for a, c in zip(r_fires + [None], m_fires + [None]) if a != c), None))
-    m_seqs = {p.seq & 0xFF for p in res.pulses if p.t0 < end}
-    m_trig = sorted((t.tick & M32, t.element) for t in res.triggers if t.seq in m_seqs)
-    r_trig = sorted((t & M32, e) for t, e, f in b.triggers if f < end)
-    assert r_trig == m_trig, f"{what}: triggers differ"
-    m_words = [e.pack() for e in res.events]
-    assert len(rtl_events) >= len(m_words), f"{what}: RTL wrote {len(rtl_events)} events, model {len(m_words)}"
-    for i, (a, c) in enumerate(zip(rtl_events, m_words)):
-        if a != c:
-            ctx = "\n".join(f"  {j}: rtl {fmt(x)}\n      mdl {fmt(y)}" for j, (x, y) in
-                            enumerate(zip(rtl_events[max(0, i - 3):i + 2], m_words[max(0, i - 3):i + 2]), max(0, i - 3)))
-            raise AssertionError(f"{what}: event {i} differs (model tick {res.events[i].tick}):\n{ctx}")
+    if not allow_defer:
+        assert getattr(model, "conflicts", 0) == 0, f"{what}: model deferred a pulse"
+    compare(what, b, res, rtl_events, rtl_trig, end)
+    m_fires = [p for p in res.pulses if p.t0 < end]
     assert len(m_fires) >= min_pulses, f"{what}: only {len(m_fires)} pulses"
-    stats = {"pulses": len(m_fires), "init": sum(p.init for p in res.pulses if p.t0 < end),
-             "events": len(m_words), "empty": sum(e.window_empty for e in res.events),
-             "orders": sorted({p.order for p in res.pulses}), "cps": (dur_ticks + 3000) / wall}
+    stats = {"pulses": len(m_fires), "init": sum(p.init for p in m_fires),
+             "events": len(res.events), "empty": sum(e.window_empty for e in res.events),
+             "orders": sorted({p.order for p in res.pulses}), "deferred": sum(p.t0 > p.due for p in m_fires),
+             "conflicts": getattr(model, "conflicts", 0),
+             "per_sensor": [sum(p.sensor == s for p in m_fires) for s in range(len(sensors))],
+             "cps": (dur_ticks + 3000) / wall}
     dut._log.info("%s: %s; %d ticks in %.1f s wall = %.0f cycles/s", what,
                   {k: v for k, v in stats.items() if k != "cps"}, dur_ticks + 3000, wall, stats["cps"])
     return stats
@@ -242,17 +300,14 @@ async def step_occlusion_kmiss(dut):
     dur = 160 * MS
     wall0 = time.perf_counter()
     await b.run_until(e0 + dur + 3000)
-    words = await b.read_events()
+    words, trig = await b.read_logs()
     assert int(dut.overrun_o.value) == 0
     model = CountingModel(sched, SyntheticEchoSource(3.0, step_ranges_m=1.1, step_tick=e0 + step),
                           start_tick=e0, decision_lead=LEAD)
     res = model.run(dur)
-    assert model.conflicts == 0
     end = e0 + dur
-    assert [t for t in b.fires if t < end] == [p.t0 for p in res.pulses if p.t0 < end]
+    compare("step/K-miss", b, res, words, trig, end)
     m_words = [e.pack() for e in res.events]
-    assert words[:len(m_words)] == m_words, next(
-        (i, fmt(a), fmt(c)) for i, (a, c) in enumerate(zip(words, m_words)) if a != c)
     inits = sum(p.init for p in res.pulses)
     assert inits == 2 and len(res.cancelled) > 0, (inits, len(res.cancelled))
     dut._log.info("step/K-miss: %d pulses, %d init pings, %d cancelled windows, %d events, %.0f cycles/s",
@@ -342,13 +397,10 @@ async def window_boundaries_order2(dut):
     dur = 100 * MS
     model, res = run_model(e0, dur)
     await b.run_until(e0 + dur + 3000)
-    words = await b.read_events()
-    assert int(dut.overrun_o.value) == 0 and model.conflicts == 0
+    words, trig = await b.read_logs()
+    assert int(dut.overrun_o.value) == 0
     end = e0 + dur
-    assert [t for t in b.fires if t < end] == [p.t0 for p in res.pulses if p.t0 < end]
-    m_words = [e.pack() for e in res.events]
-    assert words[:len(m_words)] == m_words, next(
-        (i, fmt(a), fmt(c)) for i, (a, c) in enumerate(zip(words, m_words)) if a != c)
+    compare("window boundaries", b, res, words, trig, end)
     cases = state["src"].cases
     tofs = {(e.seq, e.rx): e for e in res.events}
     assert {"ws", "we-1", "ws-1", "we", "dead"} <= set(cases)

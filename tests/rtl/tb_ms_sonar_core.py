@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import cocotb
-from cocotb.triggers import RisingEdge, Timer, ValueChange
+from cocotb.triggers import ReadOnly, RisingEdge, Timer, ValueChange
 from cocotb.utils import get_sim_time
 
 from multisonar.fastfiring import FastFiringModel, SceneEchoSource, SyntheticEchoSource, ToFEvent, _rows
@@ -23,7 +23,7 @@ from echo_driver import EchoDriver
 from passthrough_bfm import PassthroughMaster
 from tbutil import CLK_PERIOD_PS, reset, start_clock
 
-LEAD = 1024  # ms_scheduler's LEAD parameter default
+LEAD = 4096  # ms_scheduler's LEAD parameter default
 MS = 48_000
 LAYOUT = load_layout()
 
@@ -62,16 +62,17 @@ class CoreBench:
         await self.bus.write(R.CTRL_ADDR, R.REGISTERS["CTRL"].fields["ENABLE"].mask)
 
     async def _fire_loop(self) -> None:
+        """One wake per pulse: the scheduler's decision strobe carries t0 (P ticks ahead)."""
         dut, tx = self.dut, [int(e) for e in self.cfg.tx]
         sched = dut.u_sched
         while True:
-            await RisingEdge(sched.fire_o)
-            t0 = tick_now()
-            dl = int(sched.fire_delay_o.value)
-            delays = [(dl >> (16 * e)) & 0xFFFF for e in tx]
+            await RisingEdge(sched.pulse_o)
+            await ReadOnly()
+            t0 = tick_now() + ((int(sched.pulse_t0_o.value) - int(dut.tick_q.value)) & 0xFFFFFFFF)
             self.fires.append(t0)
-            for rx, st, w in _rows(self.source.fire(t0, np.array(tx), np.array(delays))):
+            for rx, st, w in _rows(self.source.fire(t0, np.array(tx), self.cfg.delays.copy())):
                 self.echo.drive(int(rx), max(int(st), t0), int(w))
+            await RisingEdge(dut.clk_i)
 
     async def _pins(self) -> None:
         prev = 0

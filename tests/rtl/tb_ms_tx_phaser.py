@@ -141,7 +141,7 @@ class Bench:
         dut.fire_i.value = 0
         dut.mask_i.value = self.rng.getrandbits(self.num_ch)
         dut.delay_i.value = self.rng.getrandbits(16 * self.num_ch)
-        dut.burst_cycles_i.value = self.rng.getrandbits(8)
+        dut.burst_cycles_i.value = self.rng.getrandbits(8 * self.num_ch)
         dut.half_period_i.value = self.rng.getrandbits(16)
 
     async def fire(self, t0: int, delays: dict[int, int], cycles: int, half: int) -> None:
@@ -157,7 +157,11 @@ class Bench:
         dut.fire_i.value = 1
         dut.mask_i.value = mask
         dut.delay_i.value = sum(v << (16 * i) for i, v in enumerate(lanes))
-        dut.burst_cycles_i.value = cycles
+        # burst cycles are per element: the fired lanes carry this fire's, the others random
+        cyc = [self.rng.getrandbits(8) for _ in range(self.num_ch)]
+        for e in delays:
+            cyc[e] = cycles
+        dut.burst_cycles_i.value = sum(v << (8 * i) for i, v in enumerate(cyc))
         dut.half_period_i.value = half
         self.fires.append(Fire(t0, dict(delays), cycles, half))
         await self.goto_edge(t0)
