@@ -88,12 +88,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seconds", type=float, default=None, help="sonar time to simulate (default: the scene's)")
     p.set_defaults(func=_cmd_demo)
 
+    from .device_cli import register as _register_device_commands
+
+    # info / configure / stream / record / plot / serve: the host driver (issue #6)
+    _register_device_commands(sub)
+
     for name, issue, what in [
-        ("info", 6, "device info over USB"),
-        ("configure", 6, "configure virtual sensors on a device"),
-        ("stream", 6, "stream time-of-flight frames"),
-        ("record", 6, "record frames to a file"),
-        ("plot", 6, "plot a recording"),
         ("experiment", 7, "the paper's experiments on the full-system twin"),
     ]:
         p = sub.add_parser(name, help=f"{what} (not built yet: issue #{issue})")
