@@ -19,3 +19,14 @@ rtl/soc/ms_soc.sv
 rtl/core/ms_sched_workq.sv
 rtl/core/ms_scheduler.sv
 rtl/ms_sonar_core.sv
+rtl/usb/ms_usb_pkg.sv
+rtl/usb/ms_usb_rx.sv
+rtl/usb/ms_usb_tx.sv
+rtl/usb/ms_usb_tx_tl.sv
+rtl/usb/ms_usb_pkt_rx.sv
+rtl/usb/ms_usb_desc_rom.sv
+rtl/usb/ms_usb_ep0.sv
+rtl/usb/ms_usb_ep_out.sv
+rtl/usb/ms_usb_ep_in.sv
+rtl/usb/ms_usb_xact.sv
+rtl/usb/ms_usb_device.sv
