@@ -10,7 +10,8 @@
 module ms_sonar_core #(
   parameter int          NUM_CH     = 24,
   parameter int unsigned TICK_START = 0,
-  parameter int          LEAD       = 4096  // scheduler decision lead (docs/fast_firing.md 3.1)
+  parameter int          LEAD       = 4096, // scheduler decision lead (docs/fast_firing.md 3.1)
+  parameter int          EVT_DEPTH_W = 9    // event FIFO depth 2^EVT_DEPTH_W words (block RAM)
 ) (
   input  logic              clk_i,
   input  logic              rst_i,
@@ -141,7 +142,7 @@ module ms_sonar_core #(
   );
 
   // ---- events
-  ms_event_fifo #(.WIDTH(64), .DEPTH_W(9), .OVF_BIT(44), .LEVEL_W(12)) u_fifo (
+  ms_event_fifo #(.WIDTH(64), .DEPTH_W(EVT_DEPTH_W), .OVF_BIT(44), .LEVEL_W(12)) u_fifo (
     .clk_i, .rst_i, .wr_i (evt_valid), .wdata_i (evt_data), .rd_i (fifo_pop),
     .rvalid_o (fifo_rvalid), .rdata_o (fifo_rdata), .overflow_o (fifo_overflow), .level_o (fifo_level)
   );

@@ -48,6 +48,7 @@ class CoreBench:
         self.pin_rises: dict[int, list[int]] = {}
         self.echo = EchoDriver(dut.echo_i, LAYOUT.n, lambda tick: _CLOCK_ORIGIN_PS[0] + tick * CLK_PERIOD_PS)
         self.tasks = []
+        self.words: list[int] = []
 
     async def start(self) -> None:
         dut = self.dut
@@ -85,6 +86,12 @@ class CoreBench:
                     self.pin_rises.setdefault(e, []).append(now)
             prev = cur
 
+    async def drain_every(self, period_ticks: int) -> None:
+        """Read the event FIFO empty every period (a host or firmware polling it)."""
+        while True:
+            await Timer(period_ticks * CLK_PERIOD_PS, unit="ps")
+            self.words += await self.read_events()
+
     async def read_events(self) -> list[int]:
         hi = R.REGISTERS["EVT_HI"].fields
         words = []
@@ -115,6 +122,7 @@ def burst_starts(rises: list[int], gap: int) -> list[int]:
 async def core_scoreboard(dut, what: str, sensor: VirtualSensor, factory, dur_ticks: int) -> dict:
     b = CoreBench(dut, sensor, factory)
     await b.start()
+    b.tasks.append(cocotb.start_soon(b.drain_every(5 * MS)))
     await Timer(dur_ticks * CLK_PERIOD_PS, unit="ps")
     b.stop()
     await Timer(4000 * CLK_PERIOD_PS, unit="ps")  # windows still open close; no new echoes
@@ -134,7 +142,7 @@ async def core_scoreboard(dut, what: str, sensor: VirtualSensor, factory, dur_ti
     for e in range(LAYOUT.n):
         if e not in b.cfg.tx:
             assert e not in b.pin_rises, f"{what}: element {e} drove but is not in the group"
-    words = await b.read_events()
+    words = b.words + await b.read_events()
     # events of pulses the model also completed (the RTL ran a little past the last fire)
     m_words = [ev.pack() for ev in res.events]
     n = min(len(words), len(m_words))
@@ -176,3 +184,45 @@ async def wall_1m_scene_through_registers(dut):
     over the bus."""
     await core_scoreboard(dut, "wall_1m", VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=1),
                           lambda: EchoesOnly(SceneEchoSource("wall_1m", rng=np.random.default_rng(11))), 60 * MS)
+
+
+@cocotb.test(timeout_time=2, timeout_unit="sec")
+async def event_fifo_full_counted_and_flagged(dut):
+    """Nobody reads the (32-word) event FIFO until 48 events were produced: the core keeps scheduling exactly as the
+    model, drops are counted in OVERFLOWS, the first word stored after the gap carries bit 44,
+    and every stored word is the model's event at the right index (nothing lost silently)."""
+    sensor = VirtualSensor("front", tx=[0], rx=[22, 23, 0, 1, 2], order=2)
+    ranges = {22: 2.0, 23: 1.9, 0: 1.8, 1: 1.95, 2: 2.05}
+    b = CoreBench(dut, sensor, lambda: SyntheticEchoSource(ranges))
+    await b.start()
+    for _ in range(40):  # until well past full (EVENTS counts every event produced)
+        await Timer(5 * MS * CLK_PERIOD_PS, unit="ps")
+        if await b.bus.read(R.EVENTS_ADDR) > 48:
+            break
+    first = await b.read_events()  # the 32 oldest events
+    dropped = await b.bus.read(R.OVERFLOWS_ADDR)
+    await Timer(20 * MS * CLK_PERIOD_PS, unit="ps")
+    b.stop()
+    await Timer(4000 * CLK_PERIOD_PS, unit="ps")
+    rest = await b.read_events()
+    dropped = await b.bus.read(R.OVERFLOWS_ADDR)
+    produced = await b.bus.read(R.EVENTS_ADDR)
+    e0 = b.fires[0] - max(b.cfg.phase, LEAD)
+    model = FastFiringModel(b.sched, SyntheticEchoSource(ranges), start_tick=e0, decision_lead=LEAD)
+    res = model.run(b.fires[-1] - e0 + 1)
+    assert [p.t0 for p in res.pulses][:len(b.fires)] == b.fires, "scheduling must not depend on the FIFO"
+    m = [ev.pack() for ev in res.events]
+    flag = 1 << 44
+    got = first + rest
+    flagged = [i for i, w in enumerate(got) if w & flag]
+    assert len(first) >= 32 and dropped > 0, (len(first), dropped)
+    assert len(flagged) == 1, f"exactly one word must carry the overflow flag, got {flagged}"
+    k = flagged[0]
+    assert got[:k] == m[:k], "the FIFO keeps the oldest events"
+    assert [w & ~flag for w in got[k:]] == m[k + dropped:k + dropped + len(got) - k], \
+        "after the gap every stored word is the model's event at its index"
+    assert produced == len(got) + dropped, (produced, dropped, len(got))
+    st = R.REGISTERS["STATUS"].fields
+    assert st["SCHED_OVERRUN"].get(await b.bus.read(R.STATUS_ADDR)) == 0
+    dut._log.info("FIFO full: %d events produced, %d kept before the gap, %d dropped and counted, %d after "
+                  "(first flagged), all at the model's indices", produced, k, dropped, len(got) - k)

@@ -8,4 +8,6 @@ from cocotb_run import run_cocotb
 
 @pytest.mark.sim
 def test_ms_sonar_core():
-    run_cocotb("ms_sonar_core", "tb_ms_sonar_core", icarus_ok=False)
+    # a 32-word event FIFO so that the FIFO-full test fills it in a few pulses; the other
+    # tests drain it every few milliseconds, as the firmware does
+    run_cocotb("ms_sonar_core", "tb_ms_sonar_core", icarus_ok=False, parameters={"EVT_DEPTH_W": 5})
