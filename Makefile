@@ -94,6 +94,9 @@ GEOM_ARITH_f64 := MS_ARITH_F64
 GEOM_ARITH_f32 := MS_ARITH_F32
 GEOM_ARITH_q   := MS_ARITH_Q
 GEOM_SRC       := firmware/geometry/ms_geom.c
+# the benchmark images hold all three solvers (and the case table): 56 KiB image, 8 KiB data/stack
+GEOM_LDFLAGS   := -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0xE000 \
+                  -Wl,--defsym=__ram=0xE000 -Wl,--defsym=__ram_size=0x2000 -Wl,--gc-sections
 .PRECIOUS: $(BUILD)/fw/bench_geom_%.elf
 
 $(BUILD)/fw/bench_cases.h: host/multisonar/tools/geom_cases.py host/multisonar/geometry.py $(LAYOUT_FILE) $(STAMPS)/venv
@@ -105,7 +108,7 @@ $(BUILD)/fw/bench_geom_%.elf: firmware/app/bench_geom.c $(GEOM_SRC) firmware/geo
 	@[ -n "$(GEOM_ARITH_$*)" ] || { echo "make: no geometry variant '$*' (f64, f32, q)" >&2; exit 1; }
 	@mkdir -p $(@D)
 	$(FW_CC) $(FW_CFLAGS) -ffunction-sections -fdata-sections -Ifirmware/geometry -I$(BUILD)/fw \
-	    -DMS_GEOM_ARITH=$(GEOM_ARITH_$*) firmware/app/bench_geom.c $(GEOM_SRC) -o $@ $(FW_LDFLAGS) -lm
+	    -DMS_GEOM_ARITH=$(GEOM_ARITH_$*) firmware/app/bench_geom.c $(GEOM_SRC) -o $@ $(GEOM_LDFLAGS) -lm
 
 $(BUILD)/fw/%.hex: $(BUILD)/fw/%.elf
 	riscv64-unknown-elf-objcopy -O binary $< $(@:.hex=.bin)

@@ -1,29 +1,37 @@
 #!/usr/bin/env python3
 """Geometry firmware on the soft-core, measured in RTL simulation (issue #5).
 
-For each arithmetic variant (f64, f32, Q32.32 fixed point) this builds
-build/fw/bench_geom_<v>.hex (firmware/app/bench_geom.c + firmware/geometry/ms_geom.c, -Os,
-as the firmware is built), runs it on the PicoRV32 SoC (rtl/soc/ms_soc.sv, 48 MHz, RAM with
-one wait state) in Verilator through cocotb (tests/rtl/tb_ms_soc_geometry.py), and reads back
-through the mailbox every result and the cycle count of every call (SoC cycle timer, timer
-overhead subtracted). The cases are the fixed set of multisonar.tools.geom_cases (16 typical
-3-receiver edges / walls at 1..4 m with 1 us noise, 9 extremes). Prints, per variant:
-cycles per call (median / max over the typical cases; max over the extremes), code size of
-the whole image (text + data, riscv64-unknown-elf-size), error against multisonar.geometry
-(float64) on the same inputs, and fixes/s at 48 MHz; then the real-time budget and the
-default variant chosen from the table.
+For each arithmetic variant (f64, f32, Q32.32 fixed point with its 32-bit fast 3-receiver
+path) this builds build/fw/bench_geom_<v>.hex (firmware/app/bench_geom.c +
+firmware/geometry/ms_geom.c, -Os, the Q fast path -O2), runs it on the PicoRV32 SoC
+(rtl/soc/ms_soc.sv: ENABLE_FAST_MUL, ENABLE_DIV, 48 MHz, RAM with one wait state) in
+Verilator through cocotb (tests/rtl/tb_ms_soc_geometry.py), and reads back through the
+mailbox every result, the cycle count (SoC cycle timer) and the retired-instruction count
+(rdinstret) of every call, counter overheads subtracted. The cases are the fixed set of
+multisonar.tools.geom_cases (16 typical 3-receiver edges / walls at 1..4 m with 1 us noise,
+11 extremes incl. two pillars on which the cylinder solver is timed). Per case: ms_prepare
+(once per virtual sensor), ms_point_prepared, ms_wall_prepared, ms_fix (a fix: both fits and
+the edge / wall / uncertain decision, what a pulse needs) and, on the pillars,
+ms_solve_cylinder. Prints, per variant: cycles per call (median / max over the typical
+cases; max over the extremes), CPI (cycles / instructions over the typical fixes), code size
+of the whole image (text + data, riscv64-unknown-elf-size), error against
+multisonar.geometry (float64) on the same inputs, and fixes/s at 48 MHz; then the real-time
+budget and the default variant chosen from the table.
 
 Budget (assumptions): the fastest sensor rate is the interlace limit, 400 pulses/s per
 virtual sensor, with at most 8 virtual sensors -> 3200 fixes/s worst case; every pulse is a
-3-receiver fix that needs one solve (the slower of point and wall) plus one classify; 2x
+3-receiver fix (one ms_fix: point fit, wall fit, classification from the two); 2x
 headroom -> 6400 fixes/s -> 48e6 / 6400 = 7500 cycles per fix. Everything else the firmware
 does per event (reading the FIFO, converting ticks to paths, re-aiming) is not counted.
 
-    .venv/bin/python scripts/bench_fw_cycles.py [--variants f64,f32,q] [--reuse] [--plot FILE]
+    .venv/bin/python scripts/bench_fw_cycles.py [--variants f64,f32,q] [--max-cases N] [--reuse] [--plot FILE]
 
-Simulation is slow (~0.33 M cycles/s of the SoC): about 5 min for q and f32, longer for
-f64, one variant at a time. --reuse takes the last run's mailbox record from
-build/bench/fw_cycles_<v>.json when it is newer than the image.
+Simulation is slow (~0.33 M cycles/s of the SoC). q: ~5 min for all cases (the extremes and
+the pillars take the general path, millions of cycles each). f64 / f32 take the general path
+everywhere (~20 M cycles per case), so by default only their first 4 cases (typical ones; the
+extremes columns then read n/a) run, ~3 min each; --max-cases N sets it for every variant
+(0: all). --reuse takes the last run's mailbox record from build/bench/fw_cycles_<v>.json when
+it is newer than the image (what it holds: a record of fewer cases is used as it is).
 """
 
 from __future__ import annotations
@@ -48,6 +56,7 @@ from multisonar.tools import geom_cases as gc  # noqa: E402
 import test_ms_soc_geometry as tsg  # noqa: E402  (run_image, budget constants)
 
 VARIANTS = ("f64", "f32", "q")
+DEFAULT_MAX_CASES = {"f64": 4, "f32": 4, "q": 0}  # a soft-float case is ~20 M simulated cycles
 BENCH = ROOT / "build" / "bench"
 
 
@@ -61,35 +70,50 @@ def image_size(variant: str) -> tuple[int, int]:
     return text + data, table
 
 
-def measure(variant: str, reuse: bool) -> dict:
+def measure(variant: str, reuse: bool, max_cases: int = 0) -> dict:
     js = BENCH / f"fw_cycles_{variant}.json"
     hexfile = ROOT / f"build/fw/bench_geom_{variant}.hex"
     subprocess.run(["make", "-s", str(hexfile.relative_to(ROOT))], cwd=ROOT, check=True)
     if reuse and js.exists() and js.stat().st_mtime > hexfile.stat().st_mtime:
         raw = json.loads(js.read_text())
-        dec = gc.decode(raw["words"])
+        dec = gc.decode(raw["words"], complete=False)
         dec["sim_cycles"] = raw["sim_cycles"]
+        if max_cases:
+            dec["cases"] = dec["cases"][:max_cases]
     else:
         print(f"simulating {variant} ...", file=sys.stderr, flush=True)
-        dec = tsg.run_image(variant, js)
+        dec = tsg.run_image(variant, js, max_cases=max_cases)
     return dec
 
 
 def stats(dec: dict, cs, ref) -> dict:
-    typ = [c.group == "typical" for c in cs]
-    cyc = {k: np.array([d[k]["cycles"] for d in dec["cases"]]) for k in ("point", "wall", "classify")}
-    fix = np.maximum(cyc["point"], cyc["wall"]) + cyc["classify"]
-    t = np.array(typ)
+    cs = cs[:len(dec["cases"])]
+    ref = ref[:len(dec["cases"])]
+    t = np.array([c.group == "typical" for c in cs])
+    cyc = {k: np.array([d[k]["cycles"] for d in dec["cases"]]) for k in ("prepare", "point", "wall", "classify")}
+    ins = np.array([d["classify"]["instructions"] for d in dec["cases"]])
+    fix = cyc["classify"]
+    cyl = np.array([d["cylinder"]["cycles"] for d in dec["cases"] if d["cylinder"]["ran"]])
     errs = gc.errors(dec, ref, cs)
+
+    def mx(v, sel):
+        return int(v[sel].max()) if sel.any() else None
 
     def emax(key, conv):
         v = np.array([e[key] for e in errs], float)
         v = v[np.isfinite(v)]
         return conv(v.max()) if v.size else 0.0
 
+    cerr = [e for e in errs if e.get("cylinder_ran") and e["cylinder_valid"]]
     return dict(
-        cyc={k: (np.median(v[t]), v[t].max(), v[~t].max()) for k, v in cyc.items()},
-        fix=(np.median(fix[t]), fix[t].max(), fix[~t].max()),
+        cyc={k: (np.median(v[t]), v[t].max(), mx(v, ~t)) for k, v in cyc.items()},
+        fix=(np.median(fix[t]), fix[t].max(), mx(fix, ~t)),
+        cpi=fix[t].sum() / max(ins[t].sum(), 1), ins_fix=(np.median(ins[t]), ins[t].max()),
+        cyl=(np.median(cyl), cyl.max()) if cyl.size else None,
+        cyl_err_mm=max((max(e["cylinder_centre_m"], e["cylinder_radius_m"]) * 1e3 for e in cerr), default=None),
+        cyl_diffs=sum((not e["cylinder_same_flag"]) + (not e["cylinder_same_reason"])
+                      for e in errs if e.get("cylinder_ran")),
+        n_cases=len(cs), n_typ=int(t.sum()),
         err_range_mm=max(emax("point_range_m", lambda x: x * 1e3), emax("wall_range_m", lambda x: x * 1e3)),
         err_bearing_deg=max(emax("point_bearing_rad", math.degrees), emax("wall_bearing_rad", math.degrees)),
         err_range_typ_mm=max([e[f"{s}_range_m"] * 1e3 for e in errs if e["group"] == "typical"
@@ -105,6 +129,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--variants", default=",".join(VARIANTS), help="comma-separated subset of f64,f32,q")
     ap.add_argument("--reuse", action="store_true", help="reuse build/bench/fw_cycles_<v>.json when up to date")
+    ap.add_argument("--max-cases", type=int, default=None,
+                    help="simulate only the first N cases (0: all; default: all for q, the first "
+                         f"{DEFAULT_MAX_CASES['f64']} for f64 / f32, whose every call takes the general path)")
     ap.add_argument("--plot", metavar="FILE", help="write a PNG of the cycles per call against the budget")
     a = ap.parse_args()
     variants = [v for v in a.variants.split(",") if v]
@@ -115,33 +142,43 @@ def main() -> None:
     ref = gc.reference(cs)
     res = {}
     for v in variants:
-        dec = measure(v, a.reuse)
+        dec = measure(v, a.reuse, DEFAULT_MAX_CASES[v] if a.max_cases is None else a.max_cases)
         res[v] = stats(dec, cs, ref)
         res[v]["size"], res[v]["table"] = image_size(v)
     budget = tsg.CYCLE_BUDGET
     n_typ = sum(c.group == "typical" for c in cs)
-    print(f"Geometry firmware on the PicoRV32 SoC (RV32IM, -Os, 48 MHz), measured in Verilator: "
-          f"{len(cs)} cases ({n_typ} typical, {len(cs) - n_typ} extreme)\n")
-    print("| variant | point cycles median / max | wall cycles median / max | classify cycles median / max "
-          "| fix = solve + classify median / max | extremes: fix max | fixes/s at 48 MHz (median) "
-          "| image text+data (B) | max error vs float64: range (mm) | bearing (deg) | flag / reason / kind diffs |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print(f"Geometry firmware on the PicoRV32 SoC (RV32IM, ENABLE_FAST_MUL, 48 MHz, one RAM wait state), "
+          f"measured in Verilator: {len(cs)} cases ({n_typ} typical, {len(cs) - n_typ} extreme)\n")
+
+    def f(v):
+        return "n/a" if v is None else f"{v:,.0f}"
+
+    print("| variant | cases run | prepare (once per sensor) median | point median / max | wall median / max "
+          "| **fix** (point + wall + classification) median / max | extremes: fix max | instructions per fix "
+          "median | CPI | fixes/s at 48 MHz (worst) | cylinder (pillars) median / max | image text+data (B) "
+          "| max error vs float64: range (mm) | bearing (deg) | cylinder centre/radius (mm) "
+          "| flag / reason / kind diffs (cylinder) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for v, r in res.items():
         c = r["cyc"]
-        print(f"| {v} | {c['point'][0]:,.0f} / {c['point'][1]:,} | {c['wall'][0]:,.0f} / {c['wall'][1]:,} "
-              f"| {c['classify'][0]:,.0f} / {c['classify'][1]:,} | {r['fix'][0]:,.0f} / {r['fix'][1]:,} "
-              f"| {r['fix'][2]:,} | {48e6 / r['fix'][0]:.1f} | {r['size']:,} | {r['err_range_mm']:.2g} "
-              f"| {r['err_bearing_deg']:.2g} | {r['flag_diff']} / {r['reason_diff']} / {r['kind_diff']} |")
-    print(f"\ncycles: typical cases (3 adjacent ring receivers, 1..4 m, +-20 deg, 1 us noise); counts are the "
-          f"library call alone (timer read overhead {next(iter(res.values()))['overhead']} cycles subtracted). "
-          f"fix = max(point, wall) + classify per case.\n"
-          f"errors: max over all {len(cs)} cases where C and Python are both valid "
-          f"({next(iter(res.values()))['n_valid']} fits), same 1 um inputs on both sides; diffs: cases where "
-          f"valid flag / reason / edge-wall-uncertain kind differ from Python.\n"
+        cyl = "n/a" if r["cyl"] is None else f"{r['cyl'][0]:,.0f} / {r['cyl'][1]:,}"
+        print(f"| {v} | {r['n_cases']} | {c['prepare'][0]:,.0f} | {c['point'][0]:,.0f} / {c['point'][1]:,} "
+              f"| {c['wall'][0]:,.0f} / {c['wall'][1]:,} | **{r['fix'][0]:,.0f} / {r['fix'][1]:,}** | {f(r['fix'][2])} "
+              f"| {r['ins_fix'][0]:,.0f} | {r['cpi']:.2f} | {48e6 / r['fix'][1]:,.0f} | {cyl} | {r['size']:,} "
+              f"| {r['err_range_mm']:.2g} | {r['err_bearing_deg']:.2g} "
+              f"| {'n/a' if r['cyl_err_mm'] is None else format(r['cyl_err_mm'], '.2g')} "
+              f"| {r['flag_diff']} / {r['reason_diff']} / {r['kind_diff']} ({r['cyl_diffs']}) |")
+    r0 = next(iter(res.values()))
+    print(f"\ncycles: SoC cycle timer around the library call (timer read overhead {r0['overhead']} cycles "
+          f"subtracted); typical cases = 3 adjacent ring receivers, 1..4 m, +-20 deg, 1 us noise; "
+          f"CPI = cycles / retired instructions (rdinstret) over the typical fixes.\n"
+          f"errors: max over the cases run where C and Python are both valid, same 1 um inputs on both sides; "
+          f"diffs: cases where valid flag / reason / edge-wall-uncertain kind differ from Python (cylinder: flag + "
+          f"reason diffs on the pillars).\n"
           f"image: whole firmware image incl. picolibc, libgcc (soft-float for f32/f64) and the "
-          f"{next(iter(res.values()))['table']:,} B case table.")
+          f"{r0['table']:,} B case table.")
     print(f"\nBudget: 8 virtual sensors x 400 pulses/s (interlace limit) = {tsg.FIX_RATE_MAX} fixes/s worst case, "
-          f"one solve + one classify per fix, 2x headroom -> {tsg.FIX_RATE_MAX * tsg.HEADROOM:.0f} fixes/s "
+          f"one ms_fix (point + wall + classification) per fix, 2x headroom -> {tsg.FIX_RATE_MAX * tsg.HEADROOM:.0f} fixes/s "
           f"-> at most {budget:.0f} cycles per fix at 48 MHz.")
     # the rule: variants that keep up (worst typical fix within the budget) -> the smallest
     # image; none -> the best worst case (what the rate requirement is about)
@@ -168,7 +205,7 @@ def main() -> None:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         fig, ax = plt.subplots(figsize=(7, 4))
-        kinds = ("point", "wall", "classify")
+        kinds = ("point", "wall", "classify")  # classify = ms_fix
         w = 0.8 / len(res)
         for i, (v, r) in enumerate(res.items()):
             ax.bar(np.arange(4) + i * w, [r["cyc"][k][0] for k in kinds] + [r["fix"][0]], w, label=v,

@@ -47,6 +47,26 @@
  *                 <= 11 um over the whole test domain, ~0.6 um at 1..4 m); valid flags
  *                 differ in <= 0.5%. Rounding the inputs to 1 um adds <= 0.5 um * gdop
  *                 (the 48 MHz tick is 7.1 um of path, far coarser).
+ *                 Fast 3-receiver path (the per-pulse calls of a prepared array with N = 3;
+ *                 ms_geom.c "fast 3-receiver path": closed-form start, one Gauss-Newton
+ *                 step, 32-bit integers with 64-bit products, no division): it answers
+ *                 only where Python's decision reduces to its polished start, else the
+ *                 general path above answers. Stated bound on typical geometry (3 adjacent
+ *                 ring receivers, source at the middle element or the ring centre, edge or
+ *                 wall 0.5..4 m beyond the ring, +-20 deg, 1 us noise): range error <=
+ *                 MS_Q_FAST_ERR_RANGE_M, bearing error <= MS_Q_FAST_ERR_BEARING_RAD,
+ *                 flags / reasons / kinds as Python in >= 99.9% (measured on 2e4 pulses:
+ *                 0.94 um, 3.3 urad, 100% / 100% / 99.97%); elsewhere the Q bound above.
+ *
+ * Cylinder (ms_solve_cylinder, N >= 3, general path only, all variants): the algorithm of
+ * geometry.solve_cylinder (Gauss-Newton over bearing, r0, radius from the point and the wall
+ * fit, Newton on the reflection angle; same reasons). f64: centre / radius within 1e-9 * scale
+ * * gdop of Python in >= 97% and always within 0.1 * gdop * sigma, flags identical in >=
+ * 99.9%. f32 / q: error <= 1e-5 m (q: 2e-6 m) + 2e-5 * gdop * scale in >= 99.9%; two fits
+ * count as one solution within 1e-6 * scale * (1 + gdop) (q: gdop capped at 100), so the
+ * exactly determined N = 3 'ambiguous' decision on noisy data differs from Python in up to
+ * 13% (q) / 22% (f32) of the cases (Python's own answer there depends on where its two
+ * fits stop in a flat valley of the cost). Millions of cycles on the soft-core.
  *
  * All variants: N = 2..MS_MAX_RX receivers. Reason codes below are numbered exactly as
  * geometry.REASONS (tests/test_fw_geometry.py checks the names against Python).
@@ -84,6 +104,9 @@ typedef int32_t ms_num_t; /* Q16.16 */
 /* stated error bounds of the Q variant against float64 on the same inputs (tested) */
 #define MS_Q_ERR_ABS_M 2e-6    /* metres */
 #define MS_Q_ERR_GDOP_M 1e-8   /* metres per unit gdop^2 (fixed-point normal equations) */
+/* fast 3-receiver path on typical geometry (tests/test_fw_geometry.py::test_q_fast_path_typical) */
+#define MS_Q_FAST_ERR_RANGE_M 5e-6     /* metres */
+#define MS_Q_FAST_ERR_BEARING_RAD 5e-6 /* radians */
 #else
 #error "MS_GEOM_ARITH must be MS_ARITH_F64, MS_ARITH_F32 or MS_ARITH_Q"
 #endif
@@ -145,6 +168,16 @@ typedef struct {
 } ms_wall_fit;
 
 typedef struct {
+    uint8_t valid, reason;
+    ms_len_t cx, cy;   /* centre, robot frame */
+    ms_len_t radius;   /* 0 = an edge, 1000 m = a wall */
+    ms_len_t range;    /* source -> nearest point of the circle */
+    ms_ang_t bearing;  /* of the centre from the source (f64/f32: as fitted, not wrapped) */
+    ms_len_t residual;
+    ms_num_t gdop;
+} ms_cyl_fit;
+
+typedef struct {
     ms_ang_t fov;
     uint8_t axis_mode;
     ms_ang_t axis;
@@ -153,13 +186,44 @@ typedef struct {
 
 typedef struct {
     uint8_t kind;        /* enum ms_kind */
-    uint8_t accepted;    /* bit 0 edge, bit 1 wall, bit 2 cylinder (never set: not ported) */
+    uint8_t accepted;    /* bit 0 edge, bit 1 wall, bit 2 cylinder (never set: not in the decision) */
     uint8_t reason;      /* MS_BADIN for bad input / N < 3, else MS_OK */
-    ms_num_t chi2[3];    /* edge, wall, cylinder (cylinder: 0, not ported) */
+    ms_num_t chi2[3];    /* edge, wall, cylinder (cylinder: 0, not in the decision) */
     ms_num_t thr[3];     /* acceptance thresholds (chi-square quantiles) */
     ms_point_fit point;  /* fits with tol = max_gdop = infinity (as Python's classify) */
     ms_wall_fit wall;
 } ms_class;
+
+/* A virtual sensor's receiver array with its options, prepared once (when the sensor is
+ * configured) for the per-pulse calls ms_fix / ms_point_prepared / ms_wall_prepared.
+ * MS_ARITH_Q with N = 3: the closed-form path below (ms_geom.c "fast 3-receiver path"):
+ * per pulse a fix (point + wall + classification) costs a few thousand cycles on the
+ * soft-core; the general N-receiver path (any variant, any N, and every case the closed form
+ * declines) is the step-by-step port of the Python algorithm. Fields are private. */
+typedef struct {
+    int n;
+    ms_vec2 rx[MS_MAX_RX];
+    ms_vec2 src;
+    ms_opts opts;
+    ms_len_t sigma;   /* classify: path noise */
+    ms_num_t thr[3];  /* classify: chi-square thresholds (edge, wall, cylinder) */
+    uint8_t bad;      /* n out of range or sigma <= 0: every call answers MS_BADIN */
+    uint8_t fast;     /* the closed-form 3-receiver path applies (Q only) */
+#if MS_GEOM_ARITH == MS_ARITH_Q
+    int32_t cx[3], cy[3];  /* receivers - source, internal unit 2^-2 um */
+    int64_t cc[3];         /* |c|^2 */
+    uint8_t pi, pj;        /* receiver pair of the closed-form starts */
+    int32_t ex, ey;        /* unit vector c_pj - c_pi, Q30 */
+    int32_t dd;            /* |c_pj - c_pi| */
+    uint32_t dinv;         /* 1/dd = dinv * 2^-dsh */
+    int32_t dsh;
+    int32_t ax, ay;        /* unit axis, Q30 */
+    int32_t cos_fov;       /* cos(fov), Q30 */
+    int32_t cos_mir;       /* a mirror candidate must be off the axis by more than fov + 20 deg */
+    uint32_t sinv;         /* 1/sigma^2 = sinv * 2^-ssh (internal units) */
+    int32_t ssh;
+#endif
+} ms_array;
 
 void ms_opts_default(ms_opts *o);
 void ms_class_opts_default(ms_class_opts *o);
@@ -171,9 +235,30 @@ int ms_solve_point(const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src,
 int ms_solve_wall(const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src,
                   const ms_opts *opts, ms_wall_fit *out);
 /* Edge / wall / uncertain decision (N >= 3), the rule of geometry.classify without the
- * cylinder model: where Python answers 'cylinder' this answers 'uncertain'.
- * noise_sigma: path-length noise (default in Python 1 us of sound, 0.343 mm). Returns kind. */
+ * cylinder model: where Python answers 'cylinder' this answers 'uncertain' (the cylinder fit
+ * costs millions of cycles; ms_solve_cylinder is there when wanted).
+ * noise_sigma: path-length noise (default in Python 1 us of sound, 0.343 mm). Returns kind.
+ * Same as ms_prepare (opts from these opts) + ms_fix. */
 int ms_classify(const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src,
                 ms_len_t noise_sigma, const ms_class_opts *opts, ms_class *out);
+
+/* Specular circle (pillar, person), radius unknown, N >= 3: geometry.solve_cylinder (Gauss-
+ * Newton over bearing, r0, radius from the point and the wall fit; same reasons). General
+ * path only: millions of cycles on the soft-core, not a per-pulse call. Not reentrant (its
+ * two fit states are static: kept off the 8 KiB stack). */
+int ms_solve_cylinder(const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src, const ms_opts *opts,
+                      ms_cyl_fit *out);
+
+/* Prepare once: rx, n, src as for the solvers; opts (NULL: defaults) sets tol, max_gdop, fov and
+ * the axis for every prepared call; copts (NULL: defaults; only z is used) and noise_sigma
+ * set the classification thresholds. Returns 1 when the fast path applies. */
+int ms_prepare(ms_array *a, const ms_vec2 *rx, int n, ms_vec2 src, const ms_opts *opts,
+               const ms_class_opts *copts, ms_len_t noise_sigma);
+/* Per pulse (path: a->n path lengths): same results as ms_solve_point / ms_solve_wall. */
+int ms_point_prepared(const ms_array *a, const ms_len_t *path, ms_point_fit *out);
+int ms_wall_prepared(const ms_array *a, const ms_len_t *path, ms_wall_fit *out);
+/* Per pulse: one fix = both fits and the edge / wall / uncertain decision, as ms_classify
+ * (fits with tol = max_gdop = infinity, as Python's classify; the array's fov and axis). */
+int ms_fix(const ms_array *a, const ms_len_t *path, ms_class *out);
 
 #endif

@@ -43,6 +43,21 @@ static double num_out(ms_num_t v) { return v; }
 #endif
 
 int msh_arith(void) { return MS_GEOM_ARITH; }
+#if MS_GEOM_ARITH == MS_ARITH_Q
+extern unsigned long ms_geom_stat_fast, ms_geom_stat_general;
+extern int ms_geom_stat_line;
+/* the source line where the fast path last declined (diagnosis) */
+int msh_stat_line(void) { return ms_geom_stat_line; }
+/* calls answered by the fast 3-receiver path / by the general path since the last call */
+void msh_stats(double *out)
+{
+    out[0] = (double)ms_geom_stat_fast;
+    out[1] = (double)ms_geom_stat_general;
+    ms_geom_stat_fast = ms_geom_stat_general = 0;
+}
+#else
+void msh_stats(double *out) { out[0] = out[1] = 0; }
+#endif
 int msh_max_rx(void) { return MS_MAX_RX; }
 int msh_nreasons(void) { return MS_NREASONS; }
 const char *msh_reason_name(int i) { return (i >= 0 && i < MS_NREASONS) ? ms_reason_names[i] : 0; }
@@ -147,5 +162,25 @@ void msh_classify_batch(int M, int N, const double *C, const double *R, const do
             r[6 + i] = num_out(k.thr[i]);
         }
         r[9] = k.point.reason; r[10] = k.wall.reason;
+    }
+}
+
+/* out rows of 9: valid, reason, cx, cy, radius, range, bearing, residual, gdop */
+void msh_solve_cylinder_batch(int M, int N, const double *C, const double *R, const double *S, const double *axis,
+                              double tol, double max_gdop, double fov, double *out)
+{
+    int m;
+    ms_vec2 rx[MS_MAX_RX + 1], src;
+    ms_len_t path[MS_MAX_RX + 1];
+    ms_opts o;
+    ms_cyl_fit f;
+    solver_opts(tol, max_gdop, fov, &o);
+    for (m = 0; m < M; m++) {
+        double *r = out + 9 * m;
+        load(N > MS_MAX_RX ? MS_MAX_RX : N, C + 2 * N * m, R + N * m, S + 2 * m, rx, path, &src);
+        axis_opts(axis, m, &o.axis_mode, &o.axis);
+        ms_solve_cylinder(rx, path, N, src, &o, &f);
+        r[0] = f.valid; r[1] = f.reason; r[2] = len_out(f.cx); r[3] = len_out(f.cy); r[4] = len_out(f.radius);
+        r[5] = len_out(f.range); r[6] = ang_out(f.bearing); r[7] = len_out(f.residual); r[8] = num_out(f.gdop);
     }
 }

@@ -1,6 +1,6 @@
 // ms_soc: the soft-core SoC next to the sonar core.
 //
-// PicoRV32 (RV32IM: ENABLE_MUL, ENABLE_DIV; from the pythondata-cpu-picorv32 package) with
+// PicoRV32 (RV32IM: ENABLE_FAST_MUL or ENABLE_MUL, ENABLE_DIV; pythondata-cpu-picorv32) with
 //   0x0000_0000  RAM_WORDS x 32 bit of block RAM holding the firmware image (INIT_FILE)
 //   0x1000_0000  the sonar core's registers (passthrough master port sonar_*; ms_csr)
 //   0x2000_0000  SoC peripherals (soc_regs.rdl): cycle timer, watchdog, host FIFO, mailbox
@@ -15,7 +15,10 @@
 module ms_soc #(
   parameter int    RAM_WORDS  = 16384,  // 64 KiB: firmware image + data + stack
   parameter string INIT_FILE  = "",
-  parameter int    SONAR_AW   = 11
+  parameter int    SONAR_AW   = 11,
+  parameter int    FAST_MUL   = 1       // 1: PicoRV32 ENABLE_FAST_MUL (ECP5: 4 MULT18X18D, ~200 LUT4
+                                        // fewer than the iterative multiplier); 0: ENABLE_MUL (iCE40:
+                                        // the single-cycle multiplier would cost ~3 k SB_LUT4 more)
 ) (
   input  logic                clk_i,
   input  logic                rst_i,
@@ -57,7 +60,8 @@ module ms_soc #(
   logic [35:0] unused_trace_data;
 
   picorv32 #(
-    .ENABLE_MUL      (1),
+    .ENABLE_MUL      (FAST_MUL == 0),  // iterative multiplier, ~40 cycles per MUL
+    .ENABLE_FAST_MUL (FAST_MUL != 0),  // 33x33 multiplier, a MUL/MULH in ~5 cycles (geometry firmware)
     .ENABLE_DIV      (1),
     .ENABLE_IRQ      (0),
     .COMPRESSED_ISA  (0),

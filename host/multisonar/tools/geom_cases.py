@@ -11,9 +11,11 @@ cannot drift apart. Cases (deterministic, seeded), all made with the forward mod
   middle element (1 transmitter / 3 receivers) or the ring centre (the phased virtual
   source); an edge (8) or a wall (8) 1..4 m beyond the ring, up to +-20 deg off the sensor
   axis; 1 us of path noise (sigma 0.343 mm). These are what the firmware solves per pulse.
-* ``extreme`` (8): 0.15 m and 8 m, 40-45 deg off axis, two receivers (classify rejects
+* ``extreme`` (11): 0.15 m and 8 m, 40-45 deg off axis, two receivers (classify rejects
   N = 2), five and eight receivers, a 5 cm outlier (inconsistent data), a path shorter than
-  the baseline.
+  the baseline, and two pillars (cylinders of radius 0.15 m and 0.5 m, made with
+  ``cylinder_path_lengths``) on which the benchmark also times the cylinder solver (``cyl``:
+  it costs millions of cycles, so only there).
 
 Inputs are rounded to 1 um (the Q variant's interface; every variant and Python get exactly
 the same numbers). Options are the library defaults (axis: receivers' mean outward
@@ -21,12 +23,16 @@ direction, tol 1 mm, max gdop 1e4, fov 60 deg); classify uses sigma = 343 um.
 
 Mailbox stream (32-bit words, in order):
   header  MAGIC | arith (1 f64, 2 f32, 3 q), number of cases, timer overhead (cycles of
-          back-to-back ms_cycles(); already subtracted from every count below)
-  per case, three calls in this order, each ``cycles, status, fields...``:
+          back-to-back counter reads), instruction overhead (the same in retired
+          instructions); both already subtracted from every count below
+  per case, four calls in this order, each ``cycles, instructions`` then ``status, fields...``:
+    prepare   (ms_prepare: the per-sensor set-up; no status, no fields)
     point     status valid | reason << 8;  x, y, range, bearing, residual, gdop
     wall      status valid | reason << 8;  distance, normal_angle, foot_x, foot_y, residual, gdop
-    classify  status kind | accepted << 4 | reason << 8 | point.reason << 16 | wall.reason << 24;
-              chi2 edge, chi2 wall
+    classify  (ms_fix: both fits + the decision) status kind | accepted << 4 | reason << 8 |
+              point.reason << 16 | wall.reason << 24;  chi2 edge, chi2 wall
+    cylinder  (ms_solve_cylinder, only on cases with ``cyl``; else all zero) status
+              valid | reason << 8 | ran << 16;  cx, cy, radius, range, bearing, residual
   trailer DONE
 Each field is the variant's own interface value, losslessly: f64 two words (the IEEE
 double, low word first), f32 one word (IEEE float bits), q one int32 word (lengths um,
@@ -49,7 +55,7 @@ from ..layout import load_layout
 MAGIC = 0x6E0B0000
 DONE = 0x00000D0E
 ARITH = {1: "f64", 2: "f32", 3: "q"}
-N_POINT_FIELDS, N_WALL_FIELDS, N_CLASS_FIELDS = 6, 6, 2
+N_POINT_FIELDS, N_WALL_FIELDS, N_CLASS_FIELDS, N_CYL_FIELDS = 6, 6, 2, 6
 SIGMA_UM = round(g.DEFAULT_NOISE_SIGMA * 1e6)  # 343 um
 SIGMA = SIGMA_UM * 1e-6
 MAX_N = 8
@@ -64,6 +70,7 @@ class Case:
     receivers: np.ndarray  # (N, 2) metres, multiples of 1 um
     path: np.ndarray  # (N,) metres, multiples of 1 um
     source: np.ndarray  # (2,) metres, multiples of 1 um
+    cyl: bool = False  # the benchmark also runs the cylinder solver on this case
 
     @property
     def n(self) -> int:
@@ -81,8 +88,8 @@ def cases(seed: int = 5) -> list[Case]:
     rng = np.random.default_rng(seed)
     out: list[Case] = []
 
-    def add(name, group, kind, C, R, S):
-        out.append(Case(name, group, kind, _um(C), _um(R), _um(S)))
+    def add(name, group, kind, C, R, S, cyl=False):
+        out.append(Case(name, group, kind, _um(C), _um(R), _um(S), cyl))
 
     def rx(k0, n=3):
         idx = (k0 + np.arange(n) - (n - 1) // 2) % lay.n
@@ -139,6 +146,17 @@ def cases(seed: int = 5) -> list[Case]:
     C, R, S = edge(13, 3, 1.0, 0.0)
     R[2] = 0.5 * float(np.linalg.norm(C[2] - S))
     add("path shorter than baseline", "extreme", "none", C, R, S)
+
+    def pillar(k0, dist, radius, off_deg, src_elem=True):
+        C, ax = rx(k0, 3)
+        S = P[k0] if src_elem else np.zeros(2)
+        br = ax + math.radians(off_deg)
+        cen = (0.35 + dist + radius) * np.array([math.cos(br), math.sin(br)])
+        R = g.cylinder_path_lengths(cen, radius, C, S) + rng.normal(0.0, g.DEFAULT_NOISE_SIGMA, 3)
+        return C, R, S
+
+    add("cylinder r=0.15 m at 2 m", "extreme", "cylinder", *pillar(5, 2.0, 0.15, 6.0), cyl=True)
+    add("cylinder r=0.5 m at 1 m", "extreme", "cylinder", *pillar(17, 1.0, 0.5, -10.0, src_elem=False), cyl=True)
     return out
 
 
@@ -155,7 +173,7 @@ def c_header(cs: list[Case]) -> str:
     for c in cs:
         rxs = ", ".join(f"{{{i32(x)}, {i32(y)}}}" for x, y in c.receivers)
         paths = ", ".join(i32(r) for r in c.path)
-        rows.append(f"    /* {c.name} */\n    {{{c.n}, {GROUPS.index(c.group)}, {{{i32(c.source[0])}, "
+        rows.append(f"    /* {c.name} */\n    {{{c.n}, {GROUPS.index(c.group)}, {int(c.cyl)}, {{{i32(c.source[0])}, "
                     f"{i32(c.source[1])}}}, {{{rxs}}}, {{{paths}}}}},")
     return (
         "/* Generated by multisonar.tools.geom_cases (python -m multisonar.tools.geom_cases). Do not edit.\n"
@@ -163,7 +181,7 @@ def c_header(cs: list[Case]) -> str:
         "#ifndef BENCH_CASES_H\n#define BENCH_CASES_H\n\n#include <stdint.h>\n\n"
         f"#define BENCH_MAGIC 0x{MAGIC:08X}u\n#define BENCH_DONE 0x{DONE:08X}u\n"
         f"#define BENCH_NCASES {len(cs)}\n#define BENCH_MAX_N {MAX_N}\n#define BENCH_SIGMA_UM {SIGMA_UM}\n\n"
-        "typedef struct {\n    uint8_t n, group; /* group 0 typical, 1 extreme */\n"
+        "typedef struct {\n    uint8_t n, group, cyl; /* group 0 typical, 1 extreme; cyl: time the cylinder solver */\n"
         "    int32_t src[2];\n    int32_t rx[BENCH_MAX_N][2];\n    int32_t path[BENCH_MAX_N];\n} bench_case_t;\n\n"
         "static const bench_case_t bench_cases[BENCH_NCASES] = {\n" + "\n".join(rows) + "\n};\n\n#endif\n")
 
@@ -191,6 +209,11 @@ def reference(cs: list[Case] | None = None) -> list[dict]:
                  wall=dict(valid=w.valid, reason=g.REASONS.index(w.reason), distance=w.distance,
                            normal_angle=w.normal_angle, foot_x=w.foot[0], foot_y=w.foot[1],
                            residual=w.residual, gdop=w.gdop))
+        cy = g.solve_cylinder(c.receivers, c.path, c.source) if c.n >= 3 else None
+        r["cylinder"] = dict(valid=False, reason=g.BADIN, cx=0.0, cy=0.0, radius=0.0, range=0.0, bearing=0.0,
+                             residual=0.0) if cy is None else \
+            dict(valid=cy.valid, reason=g.REASONS.index(cy.reason), cx=cy.centre[0], cy=cy.centre[1],
+                 radius=cy.radius, range=cy.range, bearing=cy.bearing, residual=cy.residual, gdop=cy.gdop)
         if c.n >= 3:
             k = g.classify_batch(c.receivers, c.path, c.source, noise_sigma=SIGMA)
             kind = int(k.kind[0])
@@ -206,9 +229,12 @@ def words_per_field(variant: str) -> int:
     return 2 if variant == "f64" else 1
 
 
+HEADER_WORDS = 4
+
+
 def expected_words(variant: str, ncases: int) -> int:
-    per_case = 6 + (N_POINT_FIELDS + N_WALL_FIELDS + N_CLASS_FIELDS) * words_per_field(variant)
-    return 3 + ncases * per_case + 1
+    per_case = 2 + 4 * 3 + (N_POINT_FIELDS + N_WALL_FIELDS + N_CLASS_FIELDS + N_CYL_FIELDS) * words_per_field(variant)
+    return HEADER_WORDS + ncases * per_case + 1
 
 
 def _s32(w: int) -> int:
@@ -224,18 +250,18 @@ def decode(words: list[int], complete: bool = True) -> dict:
     """Mailbox words -> {variant, overhead, cases: [{point, wall, classify}]} in metres,
     radians and plain numbers (cycles per call under ``cycles``). complete=False accepts a
     stream cut after any whole case (the cases present are decoded)."""
-    if len(words) < 3 or words[0] & 0xFFFF0000 != MAGIC:
+    if len(words) < HEADER_WORDS or words[0] & 0xFFFF0000 != MAGIC:
         raise ValueError(f"not a bench_geom stream (first word {words[:1]})")
     variant = ARITH[words[0] & 0xFF]
-    ncases, overhead = words[1], words[2]
+    ncases, overhead, ins_overhead = words[1], words[2], words[3]
     if complete:
         if len(words) != expected_words(variant, ncases) or words[-1] != DONE:
             raise ValueError(f"{variant}: {len(words)} words, expected {expected_words(variant, ncases)} "
                              "ending in DONE")
     else:
-        per_case = words_for_cases(variant, 1) - 3
-        ncases = min(ncases, (len(words) - 3) // per_case)
-    pos = 3
+        per_case = words_for_cases(variant, 1) - HEADER_WORDS
+        ncases = min(ncases, (len(words) - HEADER_WORDS) // per_case)
+    pos = HEADER_WORDS
 
     def take():
         nonlocal pos
@@ -254,22 +280,28 @@ def decode(words: list[int], complete: bool = True) -> dict:
 
     out = []
     for _ in range(ncases):
-        cyc, st = take(), take()
-        pt = dict(cycles=cyc, valid=bool(st & 1), reason=(st >> 8) & 0xFF)
+        prep = dict(cycles=take(), instructions=take())
+        cyc, ins, st = take(), take(), take()
+        pt = dict(cycles=cyc, instructions=ins, valid=bool(st & 1), reason=(st >> 8) & 0xFF)
         for name, what in zip(("x", "y", "range", "bearing", "residual", "gdop"),
                               ("len", "len", "len", "ang", "len", "num")):
             pt[name] = field(what)
-        cyc, st = take(), take()
-        wl = dict(cycles=cyc, valid=bool(st & 1), reason=(st >> 8) & 0xFF)
+        cyc, ins, st = take(), take(), take()
+        wl = dict(cycles=cyc, instructions=ins, valid=bool(st & 1), reason=(st >> 8) & 0xFF)
         for name, what in zip(("distance", "normal_angle", "foot_x", "foot_y", "residual", "gdop"),
                               ("len", "ang", "len", "len", "len", "num")):
             wl[name] = field(what)
-        cyc, st = take(), take()
-        cl = dict(cycles=cyc, kind=st & 0xF, accepted=(st >> 4) & 0xF, reason=(st >> 8) & 0xFF,
+        cyc, ins, st = take(), take(), take()
+        cl = dict(cycles=cyc, instructions=ins, kind=st & 0xF, accepted=(st >> 4) & 0xF, reason=(st >> 8) & 0xFF,
                   point_reason=(st >> 16) & 0xFF, wall_reason=(st >> 24) & 0xFF,
                   chi2_edge=field("num"), chi2_wall=field("num"))
-        out.append(dict(point=pt, wall=wl, classify=cl))
-    return dict(variant=variant, overhead=overhead, cases=out)
+        cyc, ins, st = take(), take(), take()
+        cy = dict(cycles=cyc, instructions=ins, valid=bool(st & 1), reason=(st >> 8) & 0xFF, ran=bool(st & 0x10000))
+        for name, what in zip(("cx", "cy", "radius", "range", "bearing", "residual"),
+                              ("len", "len", "len", "len", "ang", "len")):
+            cy[name] = field(what)
+        out.append(dict(prepare=prep, point=pt, wall=wl, classify=cl, cylinder=cy))
+    return dict(variant=variant, overhead=overhead, ins_overhead=ins_overhead, cases=out)
 
 
 def _wrap(a: float) -> float:
@@ -294,6 +326,18 @@ def errors(dec: dict, ref: list[dict], cs: list[Case] | None = None) -> list[dic
             e[f"{solver}_scale_m"] = rp[rng_k]
             e[f"{solver}_gdop"] = rp["gdop"]
         e["same_kind"] = d["classify"]["kind"] == r["classify"]["kind"]
+        dc, rc = d.get("cylinder"), r["cylinder"]
+        e["cylinder_ran"] = bool(dc and dc["ran"])
+        if e["cylinder_ran"]:
+            both = dc["valid"] and rc["valid"]
+            e["cylinder_same_flag"] = dc["valid"] == rc["valid"]
+            e["cylinder_same_reason"] = dc["reason"] == rc["reason"]
+            e["cylinder_valid"] = both
+            e["cylinder_centre_m"] = math.hypot(dc["cx"] - rc["cx"], dc["cy"] - rc["cy"]) if both else math.nan
+            e["cylinder_radius_m"] = abs(dc["radius"] - rc["radius"]) if both else math.nan
+            e["cylinder_bearing_rad"] = abs(_wrap(dc["bearing"] - rc["bearing"])) if both else math.nan
+            e["cylinder_gdop"] = rc.get("gdop", 0.0)
+            e["cylinder_scale_m"] = rc["range"] + rc["radius"]
         out.append(e)
     return out
 

@@ -1,0 +1,30 @@
+/* System smoke test and default board image (ms_system: SoC + sonar core).
+ * Run by tests/rtl/test_ms_system.py, and the image `make synth` puts into the bitstream.
+ * Identifies the sonar core through the SoC's sonar port, writes a sonar setting and reads it
+ * back, then pushes what it saw to the host FIFO (the USB side's source) and the mailbox, and
+ * finally kicks the watchdog forever with a short timeout (a hang shows as WDT_RESETS). */
+#include "ms_hw.h"
+
+#define MAGIC_START 0x5157E000u
+#define MAGIC_DONE 0x5157E0FFu
+
+static void out(uint32_t value) {
+    MS_SOC(HOST_TX) = value;
+    ms_report(value);
+}
+
+int main(void) {
+    out(MAGIC_START | (MS_SOC(WDT_RESETS) & 0xFFu));
+    out(MS_SONAR(ID));
+    out(MS_SONAR(VERSION));
+    out(MS_SONAR(CAPS));
+    uint32_t burst = MS_SONAR(BURST);
+    MS_SONAR(BURST) = (burst & 0xFFFF0000u) | 0x0123u;
+    out(MS_SONAR(BURST));
+    MS_SONAR(BURST) = burst;
+    out(MAGIC_DONE);
+    MS_SOC(WDT_TIMEOUT) = 48000000u;  /* 1 s */
+    for (;;) {
+        ms_wdt_kick();
+    }
+}
