@@ -19,6 +19,7 @@ rtl/soc/ms_soc.sv
 rtl/core/ms_sched_workq.sv
 rtl/core/ms_scheduler.sv
 rtl/ms_sonar_core.sv
+rtl/ms_system.sv
 rtl/usb/ms_usb_pkg.sv
 rtl/usb/ms_usb_rx.sv
 rtl/usb/ms_usb_tx.sv

