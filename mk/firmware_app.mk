@@ -1,0 +1,21 @@
+# mk/firmware_app.mk: the sonar firmware image (issue #5); included by the top Makefile.
+#   make build/fw/sonar_app.hex   firmware/app/sonar_app.c + the Q geometry library, with the
+#                                 compiled-in schedule build/fw/sonar_app_cfg.h
+# The schedule header comes from multisonar.tools.fw_schedule (SONAR_APP_CFG: a configuration
+# named there; default 'scene', the whole-system test's table, tests/rtl/test_system_scene.py).
+# Memory as the other SoC images (FW_LDFLAGS): 48 KiB image at 0, 16 KiB data/bss/stack.
+
+SONAR_APP_CFG ?= scene
+
+$(BUILD)/fw/sonar_app_cfg.h: host/multisonar/tools/fw_schedule.py host/multisonar/schedule.py \
+                             host/multisonar/regmap.py $(LAYOUT_FILE) $(STAMPS)/gen $(STAMPS)/venv mk/firmware_app.mk
+	@mkdir -p $(@D)
+	$(VPY) -m multisonar.tools.fw_schedule --header $@ --config $(SONAR_APP_CFG)
+
+$(BUILD)/fw/sonar_app.elf: firmware/app/sonar_app.c $(GEOM_SRC) firmware/geometry/ms_geom.h \
+                           $(BUILD)/fw/sonar_app_cfg.h $(wildcard firmware/app/*.h) $(STAMPS)/gen Makefile \
+                           mk/firmware_app.mk
+	@mkdir -p $(@D)
+	$(FW_CC) $(FW_CFLAGS) -ffunction-sections -fdata-sections -Ifirmware/geometry -I$(BUILD)/fw \
+	    -DMS_GEOM_ARITH=MS_ARITH_Q firmware/app/sonar_app.c $(GEOM_SRC) -o $@ $(FW_LDFLAGS)
+	riscv64-unknown-elf-size $@

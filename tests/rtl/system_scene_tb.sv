@@ -1,0 +1,26 @@
+// Testbench top for the whole-system scene test (tests/rtl/test_system_scene.py): ms_system
+// running the sonar firmware (firmware/app/sonar_app.c). A thin wrapper only so that this test
+// has its own Verilator build (build/sim/system_scene_tb-verilator) and never rebuilds the
+// smoke test's ms_system (the firmware image is a build-time parameter). Short LED stretch.
+module system_scene_tb #(
+  parameter string INIT_FILE = ""
+) (
+  input  logic        clk_i,
+  input  logic        rst_i,
+  input  logic [23:0] echo_i,
+  output logic [23:0] drive_o,
+  input  logic        host_rd_i,
+  output logic        host_rvalid_o,
+  output logic [32:0] host_rdata_o,
+  output logic        sim_out_strobe_o,
+  output logic [31:0] sim_out_o,
+  output logic        trap_o,
+  output logic        bus_err_o,
+  output logic        evt_available_o
+);
+  logic [7:0] led;
+  ms_system #(.NUM_CH(24), .INIT_FILE(INIT_FILE), .STRETCH_W(4)) u_sys (
+    .clk_i, .rst_i, .echo_i, .drive_o, .host_rd_i, .host_rvalid_o, .host_rdata_o,
+    .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o, .evt_available_o, .led_o (led)
+  );
+endmodule
