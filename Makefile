@@ -137,7 +137,8 @@ regs: $(STAMPS)/gen
 # Lint each module as its own top so every one is checked standalone.
 # rtl/sources.f lists the RTL in compile order; waivers live in rtl/lint/waivers.vlt.
 PICORV32    = $(shell $(VPY) -c 'import pythondata_cpu_picorv32 as p; print(p.data_location)' 2>/dev/null)
-RTL_SOURCES = $(shell sed -e 's/\#.*//' -e '/^[[:space:]]*$$/d' rtl/sources.f | sed -e 's|^\$$GEN|$(GEN)|' -e 's|^\$$PICORV32|$(PICORV32)|')
+VEXRISCV    = $(shell $(VPY) -c 'import pythondata_cpu_vexriscv as p; print(p.data_location)' 2>/dev/null)
+RTL_SOURCES = $(shell sed -e 's/\#.*//' -e '/^[[:space:]]*$$/d' rtl/sources.f | sed -e 's|^\$$GEN|$(GEN)|' -e 's|^\$$PICORV32|$(PICORV32)|' -e 's|^\$$VEXRISCV|$(VEXRISCV)|')
 LINT_TOPS   = $(shell sed -n 's/^[[:space:]]*module[[:space:]]\+\([a-z0-9_]\+\).*/\1/p' $(filter rtl/%,$(RTL_SOURCES)))
 
 lint: $(STAMPS)/gen

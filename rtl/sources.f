@@ -1,5 +1,5 @@
 # All RTL of the project in compile order, one path per line; $GEN is build/gen,
-# $PICORV32 the verilog folder of the pinned pythondata-cpu-picorv32 package.
+# $PICORV32 / $VEXRISCV the verilog folders of the pinned pythondata-cpu-picorv32 / -vexriscv packages.
 # Lint, cocotb tests and (later) synthesis read this one list.
 $GEN/rtl/ms_layout_pkg.sv
 $GEN/sv/sonar_regs_pkg.sv
@@ -11,10 +11,12 @@ rtl/event/ms_event_fifo.sv
 rtl/tx/ms_tx_channel.sv
 rtl/tx/ms_tx_phaser.sv
 $PICORV32/picorv32.v
+$VEXRISCV/VexRiscv_Full.v
 $GEN/sv/soc_regs_pkg.sv
 $GEN/sv/soc_regs.sv
 rtl/common/ms_ram_sp_bytes.sv
 rtl/soc/ms_pico_bridge.sv
+rtl/soc/ms_vex_bridge.sv
 rtl/soc/ms_soc.sv
 rtl/core/ms_sched_workq.sv
 rtl/core/ms_scheduler.sv

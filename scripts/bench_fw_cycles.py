@@ -3,9 +3,9 @@
 
 For each arithmetic variant (f64, f32, Q32.32 fixed point with its 32-bit fast 3-receiver
 path) this builds build/fw/bench_geom_<v>.hex (firmware/app/bench_geom.c +
-firmware/geometry/ms_geom.c, -Os, the Q fast path -O2), runs it on the PicoRV32 SoC
-(rtl/soc/ms_soc.sv: ENABLE_FAST_MUL, ENABLE_DIV, 48 MHz, RAM with one wait state) in
-Verilator through cocotb (tests/rtl/tb_ms_soc_geometry.py), and reads back through the
+firmware/geometry/ms_geom.c, -Os, the Q fast path -O2), runs it on the SoC
+(rtl/soc/ms_soc.sv, 48 MHz) with the CPU of --cpu (CPU_INFO below; default: ms_soc's default)
+in Verilator through cocotb (tests/rtl/tb_ms_soc_geometry.py), and reads back through the
 mailbox every result, the cycle count (SoC cycle timer) and the retired-instruction count
 (rdinstret) of every call, counter overheads subtracted. The cases are the fixed set of
 multisonar.tools.geom_cases (16 typical 3-receiver edges / walls at 1..4 m with 1 us noise,
@@ -24,14 +24,17 @@ virtual sensor, with at most 8 virtual sensors -> 3200 fixes/s worst case; every
 headroom -> 6400 fixes/s -> 48e6 / 6400 = 7500 cycles per fix. Everything else the firmware
 does per event (reading the FIFO, converting ticks to paths, re-aiming) is not counted.
 
-    .venv/bin/python scripts/bench_fw_cycles.py [--variants f64,f32,q] [--max-cases N] [--reuse] [--plot FILE]
+    .venv/bin/python scripts/bench_fw_cycles.py [--cpu picorv32|vexriscv] [--variants f64,f32,q]
+                                                [--max-cases N] [--reuse] [--plot FILE]
 
 Simulation is slow (~0.33 M cycles/s of the SoC). q: ~5 min for all cases (the extremes and
 the pillars take the general path, millions of cycles each). f64 / f32 take the general path
 everywhere (~20 M cycles per case), so by default only their first 4 cases (typical ones; the
 extremes columns then read n/a) run, ~3 min each; --max-cases N sets it for every variant
-(0: all). --reuse takes the last run's mailbox record from build/bench/fw_cycles_<v>.json when
-it is newer than the image (what it holds: a record of fewer cases is used as it is).
+(0: all). --reuse takes the last run's mailbox record from build/bench/fw_cycles_<v>[_<cpu>].json
+when it is newer than the image (what it holds: a record of fewer cases is used as it is).
+VexRiscv runs the image built for it (tests/rtl/test_ms_soc_geometry.py firmware_hex: the
+registers through their uncached alias); its size is the same code's.
 """
 
 from __future__ import annotations
@@ -56,13 +59,17 @@ from multisonar.tools import geom_cases as gc  # noqa: E402
 import test_ms_soc_geometry as tsg  # noqa: E402  (run_image, budget constants)
 
 VARIANTS = ("f64", "f32", "q")
+CPU_INFO = {
+    "picorv32": "PicoRV32 (RV32IM, ENABLE_FAST_MUL, one RAM wait state)",
+    "vexriscv": "VexRiscv_Full (RV32IM, 5 stages, 4 KiB I / 4 KiB D cache, 1-cycle MUL, RAM shared by both buses)",
+}
 DEFAULT_MAX_CASES = {"f64": 4, "f32": 4, "q": 0}  # a soft-float case is ~20 M simulated cycles
 BENCH = ROOT / "build" / "bench"
 
 
-def image_size(variant: str) -> tuple[int, int]:
+def image_size(variant: str, cpu: str) -> tuple[int, int]:
     """(text + data of the whole image, bytes of the embedded case table)."""
-    elf = ROOT / f"build/fw/bench_geom_{variant}.elf"
+    elf = tsg.firmware_hex(f"bench_geom_{variant}", cpu).with_suffix(".elf")
     out = subprocess.run(["riscv64-unknown-elf-size", str(elf)], capture_output=True, text=True, check=True).stdout
     text, data = (int(x) for x in out.splitlines()[1].split()[:2])
     nm = subprocess.run(["riscv64-unknown-elf-nm", "-S", str(elf)], capture_output=True, text=True, check=True).stdout
@@ -70,10 +77,9 @@ def image_size(variant: str) -> tuple[int, int]:
     return text + data, table
 
 
-def measure(variant: str, reuse: bool, max_cases: int = 0) -> dict:
-    js = BENCH / f"fw_cycles_{variant}.json"
-    hexfile = ROOT / f"build/fw/bench_geom_{variant}.hex"
-    subprocess.run(["make", "-s", str(hexfile.relative_to(ROOT))], cwd=ROOT, check=True)
+def measure(variant: str, reuse: bool, max_cases: int = 0, cpu: str = tsg.DEFAULT_CPU) -> dict:
+    js = BENCH / f"fw_cycles_{variant}{'' if cpu == 'picorv32' else '_' + cpu}.json"
+    hexfile = tsg.firmware_hex(f"bench_geom_{variant}", cpu)
     if reuse and js.exists() and js.stat().st_mtime > hexfile.stat().st_mtime:
         raw = json.loads(js.read_text())
         dec = gc.decode(raw["words"], complete=False)
@@ -81,8 +87,8 @@ def measure(variant: str, reuse: bool, max_cases: int = 0) -> dict:
         if max_cases:
             dec["cases"] = dec["cases"][:max_cases]
     else:
-        print(f"simulating {variant} ...", file=sys.stderr, flush=True)
-        dec = tsg.run_image(variant, js, max_cases=max_cases)
+        print(f"simulating {variant} on {cpu} ...", file=sys.stderr, flush=True)
+        dec = tsg.run_image(variant, js, max_cases=max_cases, cpu=cpu)
     return dec
 
 
@@ -127,6 +133,8 @@ def stats(dec: dict, cs, ref) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--cpu", choices=tsg.CPUS, default=tsg.DEFAULT_CPU,
+                    help=f"ms_soc's CPU (default {tsg.DEFAULT_CPU}, ms_soc's default)")
     ap.add_argument("--variants", default=",".join(VARIANTS), help="comma-separated subset of f64,f32,q")
     ap.add_argument("--reuse", action="store_true", help="reuse build/bench/fw_cycles_<v>.json when up to date")
     ap.add_argument("--max-cases", type=int, default=None,
@@ -142,12 +150,12 @@ def main() -> None:
     ref = gc.reference(cs)
     res = {}
     for v in variants:
-        dec = measure(v, a.reuse, DEFAULT_MAX_CASES[v] if a.max_cases is None else a.max_cases)
+        dec = measure(v, a.reuse, DEFAULT_MAX_CASES[v] if a.max_cases is None else a.max_cases, a.cpu)
         res[v] = stats(dec, cs, ref)
-        res[v]["size"], res[v]["table"] = image_size(v)
+        res[v]["size"], res[v]["table"] = image_size(v, a.cpu)
     budget = tsg.CYCLE_BUDGET
     n_typ = sum(c.group == "typical" for c in cs)
-    print(f"Geometry firmware on the PicoRV32 SoC (RV32IM, ENABLE_FAST_MUL, 48 MHz, one RAM wait state), "
+    print(f"Geometry firmware on the SoC with {CPU_INFO[a.cpu]}, 48 MHz, "
           f"measured in Verilator: {len(cs)} cases ({n_typ} typical, {len(cs) - n_typ} extreme)\n")
 
     def f(v):
@@ -197,7 +205,7 @@ def main() -> None:
         print(f"Default: {fastest} -- the lowest worst-case fix on the typical cases, within its stated error "
               f"bound{', integer-only (no soft-float / libm; bit-identical to its host build)' if fastest == 'q' else ''}. "
               f"Meeting the rate needs the solver ~{r['fix'][1] / budget:.0f}x cheaper (firmware/README.md).")
-    if choice != tsg.DEFAULT_VARIANT and len(res) == len(VARIANTS):
+    if choice != tsg.DEFAULT_VARIANT and len(res) == len(VARIANTS) and a.cpu == tsg.DEFAULT_CPU:
         print(f"NOTE: tests/rtl/test_ms_soc_geometry.py DEFAULT_VARIANT is {tsg.DEFAULT_VARIANT!r}, "
               f"this table picks {choice!r}: update one of them.")
     if a.plot:
@@ -214,7 +222,7 @@ def main() -> None:
         ax.set_xticks(np.arange(4) + w * (len(res) - 1) / 2, [*kinds, "fix"])
         ax.set_yscale("log")
         ax.set_ylabel("cycles per call (median, bar to max)")
-        ax.set_title("geometry on the PicoRV32 SoC (typical cases)")
+        ax.set_title(f"geometry on the {a.cpu} SoC (typical cases)")
         ax.legend(loc="center right", fontsize="small")
         fig.tight_layout()
         fig.savefig(a.plot, dpi=100)

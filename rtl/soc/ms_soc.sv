@@ -1,9 +1,14 @@
 // ms_soc: the soft-core SoC next to the sonar core.
 //
-// PicoRV32 (RV32IM: ENABLE_FAST_MUL or ENABLE_MUL, ENABLE_DIV; pythondata-cpu-picorv32) with
+// CPU (parameter): "picorv32" (RV32IM: ENABLE_FAST_MUL or ENABLE_MUL, ENABLE_DIV;
+// pythondata-cpu-picorv32; CPI ~5 with its one-wait-state RAM) or "vexriscv" (VexRiscv_Full of
+// pythondata-cpu-vexriscv: pipelined RV32IM with 4 KiB I and D caches, ms_vex_bridge; see the
+// g_vex block), with
 //   0x0000_0000  RAM_WORDS x 32 bit of block RAM holding the firmware image (INIT_FILE)
 //   0x1000_0000  the sonar core's registers (passthrough master port sonar_*; ms_csr)
 //   0x2000_0000  SoC peripherals (soc_regs.rdl): cycle timer, watchdog, host FIFO, mailbox
+//   0x9000_0000, 0xA000_0000: the same registers again (bit 31 is not decoded): uncached
+//                for VexRiscv, whose data cache bypasses only addresses with bit 31 set
 // Addresses come from rtl/regs/soc_map.rdl, which also generates the firmware's header.
 //
 // Watchdog: when WDT_TIMEOUT is non-zero and that many clocks pass without a write to
@@ -16,9 +21,10 @@ module ms_soc #(
   parameter int    RAM_WORDS  = 16384,  // 64 KiB: firmware image + data + stack
   parameter string INIT_FILE  = "",
   parameter int    SONAR_AW   = 11,
-  parameter int    FAST_MUL   = 1       // 1: PicoRV32 ENABLE_FAST_MUL (ECP5: 4 MULT18X18D, ~200 LUT4
+  parameter int    FAST_MUL   = 1,      // (PicoRV32 only) 1: PicoRV32 ENABLE_FAST_MUL (ECP5: 4 MULT18X18D, ~200 LUT4
                                         // fewer than the iterative multiplier); 0: ENABLE_MUL (iCE40:
                                         // the single-cycle multiplier would cost ~3 k SB_LUT4 more)
+  parameter string CPU        = "picorv32"  // "picorv32" or "vexriscv" (see above)
 ) (
   input  logic                clk_i,
   input  logic                rst_i,
@@ -47,91 +53,189 @@ module ms_soc #(
 );
   localparam int RAM_AW = $clog2(RAM_WORDS);
 
-  // ---- CPU
+  // ---- CPU and RAM. Both CPUs leave every access outside their RAM on the native port
+  // per_* (PicoRV32's mem_valid / mem_ready protocol), decoded into the peripherals below.
+  logic        cpu_rst;
   logic        cpu_rst_q;
   logic [4:0]  cpu_rst_cnt_q;
-  logic        mem_valid, mem_instr, mem_ready;
-  logic [31:0] mem_addr, mem_wdata, mem_rdata;
-  logic [3:0]  mem_wstrb;
-  logic        unused_cpu;
-  logic        unused_la_read, unused_la_write, unused_pcpi_valid, unused_trace_valid;
-  logic [31:0] unused_la_addr, unused_la_wdata, unused_pcpi_insn, unused_pcpi_rs1, unused_pcpi_rs2, unused_eoi;
-  logic [3:0]  unused_la_wstrb;
-  logic [35:0] unused_trace_data;
+  logic        per_valid, per_ready;
+  logic [31:0] per_addr, per_wdata, per_rdata;
+  logic [3:0]  per_wstrb;
+  assign cpu_rst = rst_i | cpu_rst_q;
 
-  picorv32 #(
-    .ENABLE_MUL      (FAST_MUL == 0),  // iterative multiplier, ~40 cycles per MUL
-    .ENABLE_FAST_MUL (FAST_MUL != 0),  // 33x33 multiplier, a MUL/MULH in ~5 cycles (geometry firmware)
-    .ENABLE_DIV      (1),
-    .ENABLE_IRQ      (0),
-    .COMPRESSED_ISA  (0),
-    .BARREL_SHIFTER  (1),
-    .PROGADDR_RESET  (32'h0000_0000),
-    .STACKADDR       (32'(RAM_WORDS * 4))
-  ) u_cpu (
-    .clk          (clk_i),
-    .resetn       (~(rst_i | cpu_rst_q)),
-    .trap         (trap_o),
-    .mem_valid    (mem_valid),
-    .mem_instr    (mem_instr),
-    .mem_ready    (mem_ready),
-    .mem_addr     (mem_addr),
-    .mem_wdata    (mem_wdata),
-    .mem_wstrb    (mem_wstrb),
-    .mem_rdata    (mem_rdata),
-    .mem_la_read  (unused_la_read),
-    .mem_la_write (unused_la_write),
-    .mem_la_addr  (unused_la_addr),
-    .mem_la_wdata (unused_la_wdata),
-    .mem_la_wstrb (unused_la_wstrb),
-    .pcpi_valid   (unused_pcpi_valid),
-    .pcpi_insn    (unused_pcpi_insn),
-    .pcpi_rs1     (unused_pcpi_rs1),
-    .pcpi_rs2     (unused_pcpi_rs2),
-    .pcpi_wr      (1'b0),
-    .pcpi_rd      (32'd0),
-    .pcpi_wait    (1'b0),
-    .pcpi_ready   (1'b0),
-    .irq          (32'd0),
-    .eoi          (unused_eoi),
-    .trace_valid  (unused_trace_valid),
-    .trace_data   (unused_trace_data)
-  );
-  assign unused_cpu = mem_instr;
+  if (CPU == "picorv32") begin : g_pico
+    logic        mem_valid, mem_instr, mem_ready;
+    logic [31:0] mem_addr, mem_wdata, mem_rdata;
+    logic [3:0]  mem_wstrb;
+    logic        unused_cpu;
+    logic        unused_la_read, unused_la_write, unused_pcpi_valid, unused_trace_valid;
+    logic [31:0] unused_la_addr, unused_la_wdata, unused_pcpi_insn, unused_pcpi_rs1, unused_pcpi_rs2, unused_eoi;
+    logic [3:0]  unused_la_wstrb;
+    logic [35:0] unused_trace_data;
 
-  // ---- address decode
-  logic sel_ram, sel_sonar, sel_soc;
-  assign sel_ram   = mem_addr[31:28] == 4'h0;
-  assign sel_sonar = mem_addr[31:28] == 4'h1;
-  assign sel_soc   = mem_addr[31:28] == 4'h2;
+    picorv32 #(
+      .ENABLE_MUL      (FAST_MUL == 0),  // iterative multiplier, ~40 cycles per MUL
+      .ENABLE_FAST_MUL (FAST_MUL != 0),  // 33x33 multiplier, a MUL/MULH in ~5 cycles (geometry firmware)
+      .ENABLE_DIV      (1),
+      .ENABLE_IRQ      (0),
+      .COMPRESSED_ISA  (0),
+      .BARREL_SHIFTER  (1),
+      .PROGADDR_RESET  (32'h0000_0000),
+      .STACKADDR       (32'(RAM_WORDS * 4))
+    ) u_cpu (
+      .clk          (clk_i),
+      .resetn       (~cpu_rst),
+      .trap         (trap_o),
+      .mem_valid    (mem_valid),
+      .mem_instr    (mem_instr),
+      .mem_ready    (mem_ready),
+      .mem_addr     (mem_addr),
+      .mem_wdata    (mem_wdata),
+      .mem_wstrb    (mem_wstrb),
+      .mem_rdata    (mem_rdata),
+      .mem_la_read  (unused_la_read),
+      .mem_la_write (unused_la_write),
+      .mem_la_addr  (unused_la_addr),
+      .mem_la_wdata (unused_la_wdata),
+      .mem_la_wstrb (unused_la_wstrb),
+      .pcpi_valid   (unused_pcpi_valid),
+      .pcpi_insn    (unused_pcpi_insn),
+      .pcpi_rs1     (unused_pcpi_rs1),
+      .pcpi_rs2     (unused_pcpi_rs2),
+      .pcpi_wr      (1'b0),
+      .pcpi_rd      (32'd0),
+      .pcpi_wait    (1'b0),
+      .pcpi_ready   (1'b0),
+      .irq          (32'd0),
+      .eoi          (unused_eoi),
+      .trace_valid  (unused_trace_valid),
+      .trace_data   (unused_trace_data)
+    );
+    assign unused_cpu = mem_instr;
 
-  // RAM answers one clock after the request; an address outside every region answers 0 and
-  // flags a bus error rather than hanging the CPU.
-  logic        ram_ready_q, bad_ready_q;
-  logic [31:0] ram_rdata;
-  ms_ram_sp_bytes #(.WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE)) u_ram (
-    .clk_i   (clk_i),
-    .addr_i  (mem_addr[RAM_AW+1:2]),
-    .we_i    ((mem_valid & sel_ram & ~ram_ready_q) ? mem_wstrb : 4'b0),
-    .wdata_i (mem_wdata),
-    .rdata_o (ram_rdata)
-  );
-  always_ff @(posedge clk_i) begin
-    if (rst_i | cpu_rst_q) begin
-      ram_ready_q <= 1'b0;
-      bad_ready_q <= 1'b0;
-    end else begin
-      ram_ready_q <= mem_valid & sel_ram & ~ram_ready_q;
-      bad_ready_q <= mem_valid & ~(sel_ram | sel_sonar | sel_soc) & ~bad_ready_q;
+    // RAM answers one clock after the request (one wait state: PicoRV32 holds mem_valid in
+    // the mem_ready clock)
+    logic        sel_ram, ram_ready_q;
+    logic [31:0] ram_rdata;
+    assign sel_ram = mem_addr[31:28] == 4'h0;
+    ms_ram_sp_bytes #(.WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE)) u_ram (
+      .clk_i   (clk_i),
+      .addr_i  (mem_addr[RAM_AW+1:2]),
+      .we_i    ((mem_valid & sel_ram & ~ram_ready_q) ? mem_wstrb : 4'b0),
+      .wdata_i (mem_wdata),
+      .rdata_o (ram_rdata)
+    );
+    always_ff @(posedge clk_i) begin
+      if (cpu_rst) ram_ready_q <= 1'b0;
+      else         ram_ready_q <= mem_valid & sel_ram & ~ram_ready_q;
     end
+
+    assign per_valid = mem_valid & ~sel_ram;
+    assign per_addr  = mem_addr;
+    assign per_wdata = mem_wdata;
+    assign per_wstrb = mem_wstrb;
+    assign mem_ready = ram_ready_q | per_ready;
+    assign mem_rdata = ram_ready_q ? ram_rdata : per_rdata;
+  end else if (CPU == "vexriscv") begin : g_vex
+    // VexRiscv_Full (pythondata-cpu-vexriscv): 5-stage pipeline with bypassing, 4 KiB
+    // instruction and 4 KiB write-through data cache (32-byte lines), single-cycle MUL
+    // (DSP), iterative DIV, all CSRs (rdcycle / rdinstret); ms_vex_bridge shares the RAM.
+    // Its data cache bypasses only addresses with bit 31 set (its I/O range): firmware
+    // reaches the peripherals uncached through their aliases 0x9000_0000 / 0xA000_0000 (the
+    // decode below ignores bit 31).
+    // It has no trap output: an exception jumps to mtvec, which the firmware does not set,
+    // so trap_o flags an instruction fetch outside RAM (sticky until the CPU reset).
+    logic        ibus_cyc, ibus_stb, ibus_ack, ibus_err, ibus_we;
+    logic        dbus_cyc, dbus_stb, dbus_ack, dbus_we, dbus_err;
+    logic [29:0] ibus_adr, dbus_adr;
+    logic [31:0] ibus_miso, ibus_mosi, dbus_miso, dbus_mosi;
+    logic [3:0]  ibus_sel, dbus_sel;
+    logic [2:0]  ibus_cti, dbus_cti;
+    logic [1:0]  ibus_bte, dbus_bte;
+    logic        unused_vex;
+    logic [RAM_AW-1:0] ram_addr;
+    logic [3:0]  ram_we;
+    logic [31:0] ram_wdata, ram_rdata;
+    logic        ifetch_err, trap_q;
+
+    VexRiscv u_cpu (
+      .externalResetVector    (32'h0000_0000),
+      .timerInterrupt         (1'b0),
+      .softwareInterrupt      (1'b0),
+      .externalInterruptArray (32'd0),
+      .iBusWishbone_CYC       (ibus_cyc),
+      .iBusWishbone_STB       (ibus_stb),
+      .iBusWishbone_ACK       (ibus_ack),
+      .iBusWishbone_WE        (ibus_we),
+      .iBusWishbone_ADR       (ibus_adr),
+      .iBusWishbone_DAT_MISO  (ibus_miso),
+      .iBusWishbone_DAT_MOSI  (ibus_mosi),
+      .iBusWishbone_SEL       (ibus_sel),
+      .iBusWishbone_ERR       (ibus_err),
+      .iBusWishbone_CTI       (ibus_cti),
+      .iBusWishbone_BTE       (ibus_bte),
+      .dBusWishbone_CYC       (dbus_cyc),
+      .dBusWishbone_STB       (dbus_stb),
+      .dBusWishbone_ACK       (dbus_ack),
+      .dBusWishbone_WE        (dbus_we),
+      .dBusWishbone_ADR       (dbus_adr),
+      .dBusWishbone_DAT_MISO  (dbus_miso),
+      .dBusWishbone_DAT_MOSI  (dbus_mosi),
+      .dBusWishbone_SEL       (dbus_sel),
+      .dBusWishbone_ERR       (dbus_err),
+      .dBusWishbone_CTI       (dbus_cti),
+      .dBusWishbone_BTE       (dbus_bte),
+      .clk                    (clk_i),
+      .reset                  (cpu_rst)
+    );
+    assign dbus_err   = 1'b0;  // a bad data address answers 0 and raises bus_err_o, as on PicoRV32
+    assign unused_vex = ^{ibus_we, ibus_mosi, ibus_sel, ibus_bte, dbus_bte};
+
+    ms_vex_bridge #(.RAM_AW(RAM_AW)) u_bridge (
+      .clk_i (clk_i), .rst_i (cpu_rst),
+      .ibus_cyc_i (ibus_cyc), .ibus_stb_i (ibus_stb), .ibus_adr_i (ibus_adr), .ibus_cti_i (ibus_cti),
+      .ibus_ack_o (ibus_ack), .ibus_err_o (ibus_err), .ibus_dat_o (ibus_miso),
+      .dbus_cyc_i (dbus_cyc), .dbus_stb_i (dbus_stb), .dbus_we_i (dbus_we), .dbus_adr_i (dbus_adr),
+      .dbus_dat_i (dbus_mosi), .dbus_sel_i (dbus_sel), .dbus_cti_i (dbus_cti),
+      .dbus_ack_o (dbus_ack), .dbus_dat_o (dbus_miso),
+      .ram_addr_o (ram_addr), .ram_we_o (ram_we), .ram_wdata_o (ram_wdata), .ram_rdata_i (ram_rdata),
+      .mem_valid_o (per_valid), .mem_addr_o (per_addr), .mem_wdata_o (per_wdata), .mem_wstrb_o (per_wstrb),
+      .mem_ready_i (per_ready), .mem_rdata_i (per_rdata),
+      .ifetch_err_o (ifetch_err)
+    );
+
+    // one RAM port shared by the instruction and the data bus (ms_vex_bridge): the same
+    // block RAM as on the PicoRV32 path
+    ms_ram_sp_bytes #(.WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE)) u_ram (
+      .clk_i (clk_i), .addr_i (ram_addr), .we_i (ram_we), .wdata_i (ram_wdata), .rdata_o (ram_rdata)
+    );
+
+    always_ff @(posedge clk_i) begin
+      if (cpu_rst)         trap_q <= 1'b0;
+      else if (ifetch_err) trap_q <= 1'b1;
+    end
+    assign trap_o = trap_q;
+  end else begin : g_bad_cpu
+    $error("ms_soc: CPU must be \"picorv32\" or \"vexriscv\"");
+  end
+
+  // ---- address decode of the peripherals. Bit 31 is not decoded: 0x9000_0000 / 0xA000_0000
+  // alias the sonar / SoC registers (VexRiscv's uncached I/O range). An address outside every
+  // region answers 0 and flags a bus error rather than hanging the CPU.
+  logic sel_sonar, sel_soc, bad_ready_q;
+  assign sel_sonar = per_addr[30:28] == 3'h1;
+  assign sel_soc   = per_addr[30:28] == 3'h2;
+  always_ff @(posedge clk_i) begin
+    if (cpu_rst) bad_ready_q <= 1'b0;
+    else         bad_ready_q <= per_valid & ~(sel_sonar | sel_soc) & ~bad_ready_q;
   end
 
   logic        sonar_ready, soc_ready, sonar_err, soc_err;
   logic [31:0] sonar_rdata, soc_rdata;
 
   ms_pico_bridge #(.ADDR_W(SONAR_AW)) u_sonar_bridge (
-    .clk_i (clk_i), .rst_i (rst_i | cpu_rst_q), .sel_i (sel_sonar),
-    .mem_valid_i (mem_valid), .mem_addr_i (mem_addr), .mem_wdata_i (mem_wdata), .mem_wstrb_i (mem_wstrb),
+    .clk_i (clk_i), .rst_i (cpu_rst), .sel_i (sel_sonar),
+    .mem_valid_i (per_valid), .mem_addr_i (per_addr), .mem_wdata_i (per_wdata), .mem_wstrb_i (per_wstrb),
     .mem_ready_o (sonar_ready), .mem_rdata_o (sonar_rdata), .err_o (sonar_err),
     .req_o (sonar_req_o), .req_is_wr_o (sonar_req_is_wr_o), .addr_o (sonar_addr_o),
     .wr_data_o (sonar_wr_data_o), .wr_biten_o (sonar_wr_biten_o),
@@ -147,8 +251,8 @@ module ms_soc #(
   logic [31:0] soc_wr_data, soc_wr_biten, soc_rd_data;
 
   ms_pico_bridge #(.ADDR_W(6)) u_soc_bridge (
-    .clk_i (clk_i), .rst_i (rst_i | cpu_rst_q), .sel_i (sel_soc),
-    .mem_valid_i (mem_valid), .mem_addr_i (mem_addr), .mem_wdata_i (mem_wdata), .mem_wstrb_i (mem_wstrb),
+    .clk_i (clk_i), .rst_i (cpu_rst), .sel_i (sel_soc),
+    .mem_valid_i (per_valid), .mem_addr_i (per_addr), .mem_wdata_i (per_wdata), .mem_wstrb_i (per_wstrb),
     .mem_ready_o (soc_ready), .mem_rdata_o (soc_rdata), .err_o (soc_err),
     .req_o (soc_req), .req_is_wr_o (soc_req_is_wr), .addr_o (soc_addr),
     .wr_data_o (soc_wr_data), .wr_biten_o (soc_wr_biten),
@@ -234,10 +338,10 @@ module ms_soc #(
   assign sim_out_strobe_o = sim_out_strobe_q;
   assign sim_out_o        = hwif_out.SIM_OUT.value.value;
 
-  // ---- read mux back to the CPU
+  // ---- answer back to the CPU
   always_comb begin
-    mem_ready = ram_ready_q | bad_ready_q | sonar_ready | soc_ready;
-    mem_rdata = ram_ready_q ? ram_rdata : sonar_ready ? sonar_rdata : soc_ready ? soc_rdata : 32'd0;
+    per_ready = bad_ready_q | sonar_ready | soc_ready;
+    per_rdata = sonar_ready ? sonar_rdata : soc_ready ? soc_rdata : 32'd0;
   end
   assign bus_err_o = bad_ready_q | sonar_err | soc_err;
 endmodule

@@ -28,8 +28,10 @@ def selected_simulator() -> str:
 def rtl_sources() -> list[Path]:
     """All RTL in compile order, from rtl/sources.f (the list lint and synthesis read)."""
     import pythondata_cpu_picorv32
+    import pythondata_cpu_vexriscv
 
-    roots = {"$GEN/": GEN, "$PICORV32/": Path(pythondata_cpu_picorv32.data_location)}
+    roots = {"$GEN/": GEN, "$PICORV32/": Path(pythondata_cpu_picorv32.data_location),
+             "$VEXRISCV/": Path(pythondata_cpu_vexriscv.data_location)}
     out = []
     for line in (ROOT / "rtl" / "sources.f").read_text().splitlines():
         line = line.split("#", 1)[0].strip()

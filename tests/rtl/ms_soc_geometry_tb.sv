@@ -6,7 +6,8 @@
 // INIT_FILE is one fixed path in that build folder; the runner copies the image for each run
 // there, so switching between the f64 / f32 / q images needs no rebuild.
 module ms_soc_geometry_tb #(
-  parameter string INIT_FILE = ""
+  parameter string INIT_FILE = "",
+  parameter string CPU       = "picorv32"
 ) (
   input  logic        clk_i,
   input  logic        rst_i,
@@ -22,7 +23,7 @@ module ms_soc_geometry_tb #(
   logic [10:0] addr;
   logic [31:0] wr_data, wr_biten;
 
-  ms_soc #(.INIT_FILE(INIT_FILE)) u_soc (
+  ms_soc #(.INIT_FILE(INIT_FILE), .CPU(CPU)) u_soc (
     .clk_i, .rst_i,
     .sonar_req_o (req), .sonar_req_is_wr_o (req_is_wr), .sonar_addr_o (addr),
     .sonar_wr_data_o (wr_data), .sonar_wr_biten_o (wr_biten),

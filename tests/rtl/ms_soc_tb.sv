@@ -1,7 +1,8 @@
 // Testbench top for the SoC: ms_soc with the sonar core's register block (ms_csr) on its
 // sonar port, so firmware reads the real generated registers.
 module ms_soc_tb #(
-  parameter string INIT_FILE = ""
+  parameter string INIT_FILE = "",
+  parameter string CPU       = "picorv32"
 ) (
   input  logic        clk_i,
   input  logic        rst_i,
@@ -17,7 +18,7 @@ module ms_soc_tb #(
   logic [10:0] addr;
   logic [31:0] wr_data, wr_biten, rd_data;
 
-  ms_soc #(.INIT_FILE(INIT_FILE)) u_soc (
+  ms_soc #(.INIT_FILE(INIT_FILE), .CPU(CPU)) u_soc (
     .clk_i, .rst_i,
     .sonar_req_o (req), .sonar_req_is_wr_o (req_is_wr), .sonar_addr_o (addr),
     .sonar_wr_data_o (wr_data), .sonar_wr_biten_o (wr_biten),

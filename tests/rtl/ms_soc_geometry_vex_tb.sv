@@ -1,0 +1,22 @@
+// Testbench top: ms_soc_geometry_tb with CPU = "vexriscv" (scripts/bench_fw_cycles.py
+// --cpu vexriscv, tests/rtl/test_ms_soc_geometry.py). A top of its own gives the VexRiscv
+// build its own Verilator folder (build/sim/ms_soc_geometry_vex_tb-verilator), so running
+// both CPUs never rebuilds either.
+module ms_soc_geometry_vex_tb #(
+  parameter string INIT_FILE = ""
+) (
+  input  logic        clk_i,
+  input  logic        rst_i,
+  input  logic        host_rd_i,
+  output logic        host_rvalid_o,
+  output logic [32:0] host_rdata_o,
+  output logic        sim_out_strobe_o,
+  output logic [31:0] sim_out_o,
+  output logic        trap_o,
+  output logic        bus_err_o
+);
+  ms_soc_geometry_tb #(.INIT_FILE(INIT_FILE), .CPU("vexriscv")) u_tb (
+    .clk_i, .rst_i, .host_rd_i, .host_rvalid_o, .host_rdata_o,
+    .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o
+  );
+endmodule
