@@ -181,6 +181,11 @@ module ms_scheduler #(
     logic        init;
   } win_t;
   win_t win_q [NUM_CH * WSLOTS];
+  // one read port per RAM (the address depends on the state), so both map to distributed RAM
+  logic [$clog2(NUM_CH * WSLOTS)-1:0] win_ra;
+  win_t                               win_rd;
+  logic [$clog2(NUM_VS * 32)-1:0]     rxs_ra;
+  rxs_t                               rxs_rd;
   logic [NUM_CH-1:0][WSLOTS-1:0]         wv_q, wh_q;   // slot valid, slot saw its first edge
   logic [NUM_CH-1:0][WSLOTS-1:0][VW-1:0] wsid_q;       // sensor of the window
   logic [NUM_CH-1:0][31:0]               bu_q;         // blank_until
@@ -202,6 +207,7 @@ module ms_scheduler #(
 
   logic [31:0]       eng_tick_q, cur_tick_q, t_q, retry_q, minclose_q, stop_at_q;
   logic              retry_vld_q, stop_req_q, started_q, ovr_q, found_q;
+  logic [1:0]        settle_q;   // clocks until td_q is valid again
   // outputs
   logic              evt_valid_q, trig_valid_q, pulse_q, pulse_init_q;
   logic [63:0]       evt_data_q;
@@ -269,29 +275,39 @@ module ms_scheduler #(
   logic [NUM_CH-1:0] qh_edges, qh_closes;
   assign {qh_tick, qh_edges, qh_closes} = q_head;
 
-  // ---- next time-driven decision tick td (registered; valid after one settle cycle)
+  // ---- next time-driven decision tick td, in three register stages (per-sensor offset,
+  // minimum tree, add) so that no clock carries a long compare chain; S_SETTLE waits for them
   logic [NUM_VS-1:0]       ev_on;
-  logic [NUM_VS-1:0][31:0] ev_off;
-  logic [31:0]             td_min, td_q;
-  logic                    armed, armed_q;
+  logic [NUM_VS-1:0][31:0] ev_off, ev_off_q;
+  logic [31:0]             td_min, td_min_q, td_q;
+  logic                    armed_q1, armed_q2, armed_q;
   always_comb begin
-    td_min = 32'hFFFF_FFFF;
     for (int s = 0; s < NUM_VS; s++) begin
       ev_on[s]  = sh_act_q[s] && !in_init_q[s] && (wake_q[s] || !hold_q[s]);
       ev_off[s] = (wake_q[s] || !later(nxt_q[s], eng_tick_q)) ? 32'd0 : nxt_q[s] - eng_tick_q;
-      if (ev_on[s] && ev_off[s] < td_min) td_min = ev_off[s];
     end
-    armed = |ev_on;
   end
+  // balanced minimum over the (offset, or all-ones when not armed) of every sensor
+  function automatic logic [31:0] min_tree(input logic [NUM_VS-1:0][31:0] v);
+    logic [31:0] m [2*NUM_VS];
+    for (int i = 0; i < NUM_VS; i++) m[NUM_VS + i] = v[i];
+    for (int i = NUM_VS - 1; i >= 1; i--) m[i] = (m[2*i] < m[2*i+1]) ? m[2*i] : m[2*i+1];
+    min_tree = m[1];
+  endfunction
+  assign td_min = min_tree(ev_off_q);
   always_ff @(posedge clk_i) begin
-    td_q    <= eng_tick_q + td_min;
-    armed_q <= armed;
+    for (int s = 0; s < NUM_VS; s++) ev_off_q[s] <= ev_on[s] ? ev_off[s] : 32'hFFFF_FFFF;
+    armed_q1 <= |ev_on;
+    td_min_q <= td_min;
+    armed_q2 <= armed_q1;
+    td_q     <= eng_tick_q + td_min_q;
+    armed_q  <= armed_q2;
   end
 
   logic take_q;  // IDLE: the queue head comes no later than the next time-driven decision
   assign take_q = !q_empty && (!armed_q || ($signed(qh_tick - td_q) <= 0))
                   && (!stop_req_q || $signed(qh_tick - stop_at_q) < 0);
-  assign q_pop  = (st_q == S_IDLE) && !stop_ok && take_q;
+  assign q_pop  = (st_q == S_IDLE) && (settle_q == 2'd0) && !stop_ok && take_q;
   logic sched_go;  // IDLE: a time-driven decision tick whose edges and closes are all queued
   assign sched_go = armed_q && ($signed(tick_i - td_q) >= 3) && (q_empty || $signed(qh_tick - td_q) > 0)
                     && (!stop_req_q || $signed(td_q - stop_at_q) < 0);
@@ -315,7 +331,7 @@ module ms_scheduler #(
   win_t        ew;
   logic        e_match;
   assign n_edge  = cur_tick_q - 32'(lat);
-  assign ew      = win_q[er * WSLOTS + int'(sk)];
+  assign ew      = win_rd;
   assign e_ws    = ew.t0 + 32'(ew.ws);
   assign e_we    = ew.t0 + 32'(ew.we);
   assign e_match = ($signed(n_edge - e_ws) >= 0) && ($signed(n_edge - e_we) < 0);
@@ -329,9 +345,9 @@ module ms_scheduler #(
   logic signed [24:0] h_dv;
   logic signed [16:0] h_v;
   logic [15:0] h_vmax;
-  assign hw     = win_q[er * WSLOTS + int'(fslot_q)];
+  assign hw     = win_rd;
   assign h_s    = wsid_q[er][fslot_q];
-  assign hrx    = rxs_q[int'(h_s) * 32 + int'(er)];
+  assign hrx    = rxs_rd;
   assign h_tof  = 24'(n_edge - hw.t0);
   assign h_gap  = hw.seq - hrx.seq;
   assign h_dv   = $signed({1'b0, h_tof}) - $signed({1'b0, hrx.tof});
@@ -350,16 +366,16 @@ module ms_scheduler #(
   logic          c_valid;
   logic [3:0]    c_miss;
   assign c_slot  = hd_slot_q[clr];
-  assign cw      = win_q[clr * WSLOTS + int'(c_slot)];
+  assign cw      = win_rd;
   assign c_s     = wsid_q[clr][c_slot];
-  assign crx     = rxs_q[int'(c_s) * 32 + int'(clr)];
+  assign crx     = rxs_rd;
   assign c_valid = wv_q[clr][c_slot] && (cw.t0 + 32'(cw.we) - 32'd1 + 32'(lat) == cur_tick_q);
   assign c_miss  = (crx.miss == 4'hF) ? 4'hF : crx.miss + 4'd1;
 
   // HEAD / conflict scan: slot sk of element el_q
   win_t        sw;
   logic [31:0] sw_start, sw_end, sw_close;
-  assign sw       = win_q[el_q * WSLOTS + int'(sk)];
+  assign sw       = win_rd;
   assign sw_start = sw.t0 + 32'(sw.ws);
   assign sw_end   = sw.t0 + 32'(sw.we);
   assign sw_close = sw_end - 32'd1 + 32'(lat);
@@ -381,7 +397,24 @@ module ms_scheduler #(
   logic [7:0]  i_gap;
   logic signed [26:0] i_pred;
   logic [23:0] i_lo, i_hi, i_te;
-  assign irx    = rxs_q[int'(s_q) * 32 + int'(rel)];
+  assign irx    = rxs_rd;
+
+  // ---- the single read (and write) port of WIN and RXS, addressed by the state using it
+  always_comb begin
+    unique case (st_q)
+      S_EDGE:  win_ra = $bits(win_ra)'(int'(er) * WSLOTS + int'(sk));
+      S_HIT:   win_ra = $bits(win_ra)'(int'(er) * WSLOTS + int'(fslot_q));
+      S_CLOSE: win_ra = $bits(win_ra)'(int'(clr) * WSLOTS + int'(c_slot));
+      default: win_ra = $bits(win_ra)'(int'(el_q) * WSLOTS + int'(sk));  // S_HEAD, S_CSLOT
+    endcase
+    unique case (st_q)
+      S_HIT:   rxs_ra = {h_s, er};
+      S_CLOSE: rxs_ra = {c_s, clr};
+      default: rxs_ra = {s_q, rel};  // S_CAND, S_IEL
+    endcase
+  end
+  assign win_rd = win_q[win_ra];
+  assign rxs_rd = rxs_q[rxs_ra];
   assign i_gap  = seq_q[s_q] - irx.seq;
   assign i_pred = $signed({3'd0, irx.tof}) + $signed({1'b0, i_gap}) * irx.v;
   assign i_lo   = sh_dbl_q[s_q] + 24'(sh_tv_q[s_q]);
@@ -677,8 +710,9 @@ module ms_scheduler #(
             st_q     <= S_SETTLE;
           end
           // ------------------------------------------------ engine
-          S_SETTLE: begin  // td_q follows the state changed in the previous cycle
-            st_q <= S_IDLE;
+          S_SETTLE: begin  // td_q follows the state changed before, three clocks later
+            settle_q <= 2'd2;
+            st_q     <= S_IDLE;
             if (apply_pend_q && !stop_req_q) begin
               apply_pend_q <= 1'b0;
               vc_q         <= '0;
@@ -687,7 +721,9 @@ module ms_scheduler #(
             end
           end
           S_IDLE: begin
-            if (stop_ok) begin
+            if (settle_q != 2'd0) begin
+              settle_q <= settle_q - 2'd1;
+            end else if (stop_ok) begin
               st_q <= S_STOP;
             end else if (take_q || sched_go) begin
               if ($signed(lag) > LEAD / 2) ovr_q <= 1'b1;  // closes could be missed
@@ -730,14 +766,7 @@ module ms_scheduler #(
               evt_data_q  <= {20'd0, hw.init, 1'b0, 1'b1, 1'b1, h_s, hw.seq, er, h_tof};
               if (hw.epoch == epoch_q[h_s]) begin
                 wake_q[h_s] <= 1'b1;
-                if (hw.init) begin
-                  any_trk_q[h_s] <= 1'b1;
-                  rxs_q[int'(h_s) * 32 + int'(er)] <= '{trk: 1'b1, tof: h_tof, seq: hw.seq, v: 17'sd0,
-                                                        miss: 4'd0, init: 1'b1};
-                end else if (hrx.trk && h_gap != 8'd0 && !h_gap[7]) begin
-                  rxs_q[int'(h_s) * 32 + int'(er)] <= '{trk: 1'b1, tof: h_tof, seq: hw.seq,
-                      v: (h_gap == 8'd1 && !hrx.init) ? h_v : 17'sd0, miss: 4'd0, init: 1'b0};
-                end
+                if (hw.init) any_trk_q[h_s] <= 1'b1;  // RXS: written by the RXS port below
               end
             end
           end
@@ -756,8 +785,6 @@ module ms_scheduler #(
                 evt_valid_q <= 1'b1;
                 evt_data_q  <= {20'd0, cw.init, 1'b1, 1'b0, 1'b0, c_s, cw.seq, clr, cw.we};
                 if (!cw.init && cw.epoch == epoch_q[c_s]) begin
-                  rxs_q[int'(c_s) * 32 + int'(clr)] <= '{trk: crx.trk, tof: crx.tof, seq: crx.seq, v: crx.v,
-                                                         miss: c_miss, init: crx.init};
                   if (c_miss >= sh_k_q[c_s] && tracking_q[c_s]) begin
                     // safety: re-initialise now; every window of the sensor is cancelled
                     tracking_q[c_s] <= 1'b0;
@@ -946,7 +973,6 @@ module ms_scheduler #(
                   hd_slot_q[rel]  <= free_slot;
                   hd_close_q[rel] <= iw_close;
                 end
-                if (!tracking_q[s_q]) rxs_q[int'(s_q) * 32 + int'(rel)] <= '0;
               end
             end
           end
@@ -954,6 +980,47 @@ module ms_scheduler #(
         endcase
       end
     end
+  end
+
+  // ---- RXS write port (same address as its read port): samples (HIT), miss counts (CLOSE),
+  // reset of a sensor's receivers by its init ping (IEL)
+  logic run_ok;   // the FSM's case statement runs in this cycle
+  logic rxs_we;
+  rxs_t rxs_wd;
+  assign run_ok = !rst_i && !(!enable_i && started_q);
+  always_comb begin
+    rxs_we = 1'b0;
+    rxs_wd = rxs_rd;
+    unique case (st_q)
+      S_HIT: begin
+        if (!wh_q[er][fslot_q] && hw.epoch == epoch_q[h_s]) begin
+          if (hw.init) begin
+            rxs_we = 1'b1;
+            rxs_wd = '{trk: 1'b1, tof: h_tof, seq: hw.seq, v: 17'sd0, miss: 4'd0, init: 1'b1};
+          end else if (hrx.trk && h_gap != 8'd0 && !h_gap[7]) begin
+            rxs_we = 1'b1;
+            rxs_wd = '{trk: 1'b1, tof: h_tof, seq: hw.seq, v: (h_gap == 8'd1 && !hrx.init) ? h_v : 17'sd0,
+                       miss: 4'd0, init: 1'b0};
+          end
+        end
+      end
+      S_CLOSE: begin
+        if (c_valid && !wh_q[clr][c_slot] && !cw.init && cw.epoch == epoch_q[c_s]) begin
+          rxs_we = 1'b1;
+          rxs_wd = '{trk: crx.trk, tof: crx.tof, seq: crx.seq, v: crx.v, miss: c_miss, init: crx.init};
+        end
+      end
+      S_IEL: begin
+        if (rem_q != '0 && c_win && !tracking_q[s_q]) begin
+          rxs_we = 1'b1;
+          rxs_wd = '0;
+        end
+      end
+      default: ;
+    endcase
+  end
+  always_ff @(posedge clk_i) begin
+    if (run_ok && rxs_we) rxs_q[rxs_ra] <= rxs_wd;
   end
 
   // ---- outputs
