@@ -24,6 +24,7 @@ Never NaN/Inf; Python-invalid cases are invalid with a reason (except the bands 
 from __future__ import annotations
 
 import ctypes
+import itertools
 import math
 import shutil
 import subprocess
@@ -33,6 +34,7 @@ import numpy as np
 import pytest
 
 from multisonar import geometry as g
+from multisonar.constants import TICK_HZ
 
 import test_geometry as tg  # the case generators (tests/ is on sys.path under pytest)
 
@@ -482,3 +484,76 @@ def test_q_fast_path_typical(fw):
     pk = np.where(py.kind == 2, 3, py.kind)
     print(f"q fast classify: fast {fast} / general {general}, kind agreement {np.mean(k['kind'] == pk):.4%}")
     assert fast >= 0.995 * len(R) and np.mean(k["kind"] == pk) >= 0.999
+
+
+# perpendicular walls (issue #5): a symmetric sensor with the reflector straight along x or y
+# once made the fast path decline (int32 overflow of a Jacobian entry: two unit vectors of
+# exactly 1) and fall to the general path (millions of soft-core cycles)
+TICK_M = g.DEFAULT_NOISE_SIGMA * 1e6 / TICK_HZ  # path length per 48 MHz tick (20 degC)
+
+
+def _perpendicular_cases(k0, src_centre, ranges, dk):
+    """Sensor on ring elements k0-1, k0, k0+1 (source: the middle element or the ring
+    centre), a wall perpendicular to element k0's axis at each range from the source, paths
+    rounded to the tick, then every combination of -dk..+dk ticks on the three paths."""
+    C = tg.RING[np.arange(k0 - 1, k0 + 2) % 24]
+    S = np.zeros(2) if src_centre else tg.RING[k0]
+    br = float(tg.AX[k0])
+    R0 = g.wall_path_lengths(np.asarray(ranges, float), np.full(len(ranges), br), C, S)
+    R0 = np.round(R0 / TICK_M) * TICK_M
+    ks = np.array(list(itertools.product(range(-dk, dk + 1), repeat=3)), float)
+    R = (R0[:, None, :] + ks[None] * TICK_M).reshape(-1, 3)
+    M = len(R)
+    q = lambda v: np.round(np.asarray(v) * 1e6) / 1e6  # noqa: E731 - the Q interface's micrometres
+    return np.broadcast_to(q(C), (M, 3, 2)), np.broadcast_to(q(S), (M, 2)), q(R)
+
+
+@pytest.mark.parametrize("k0", [0, 6, 12, 3])  # axis along +x, +y, -x; 45 deg (no exact unit vector)
+def test_q_fast_path_perpendicular_wall(fw, k0):
+    """Perpendicular and near-perpendicular walls (+-1 tick on each of the three paths) at
+    0.5..4 m: point, wall and ms_fix answered by the fast path, flags / reasons / kinds as
+    Python, errors within the stated fast-path bound."""
+    f = fw["q"]
+    for src_centre in (False, True):
+        C, S, R = _perpendicular_cases(k0, src_centre, (0.5, 1.0, 1.5, 2.0, 3.0, 4.0), 1)
+        M = len(R)
+        f.stats()
+        for kind, solve, pysolve in (("point", f.point, g.solve_point_batch), ("wall", f.wall, g.solve_wall_batch)):
+            c = solve(C, R, S)
+            fast, general = f.stats()
+            py = pysolve(C, R, S)
+            rng_k, ang_k = ("range", "bearing") if kind == "point" else ("distance", "normal_angle")
+            both = c["valid"] & py.valid
+            er = np.abs(c[rng_k] - getattr(py, rng_k))[both]
+            ea = np.abs(_wrap(c[ang_k] - getattr(py, ang_k)))[both]
+            msg = (f"k0 {k0} src_centre {src_centre} {kind}: fast {fast} / general {general}, "
+                   f"max range err {er.max(initial=0):.2g} m, bearing {ea.max(initial=0):.2g} rad")
+            print(msg)
+            assert (fast, general) == (M, 0), msg
+            assert np.array_equal(c["valid"], py.valid) and np.array_equal(c["reason"], py.reason), msg
+            if kind == "wall":
+                assert both.all(), msg  # a wall's own fit must be valid
+            assert er.max(initial=0) <= Q_FAST_RANGE_M and ea.max(initial=0) <= Q_FAST_BEARING_RAD, msg
+        k = f.classify(C, R, S)
+        fast, general = f.stats()
+        py = g.classify_batch(C, R, S)
+        pk = np.where(py.kind == 2, 3, py.kind)
+        print(f"k0 {k0} src_centre {src_centre} fix: fast {fast} / general {general}, "
+              f"kinds {np.bincount(k['kind'], minlength=4)}")
+        assert (fast, general) == (M, 0)
+        assert np.array_equal(k["kind"], pk)
+
+
+def test_q_fast_path_perpendicular_343(fw):
+    """The case of the issue: all 343 combinations of -3..+3 ticks round a perpendicular wall
+    at 1.15 m from the ring centre (sensor on elements 23 / 0 / 1, source element 0): every
+    ms_fix on the fast path (before the fix: 112 of 343 on the general path)."""
+    f = fw["q"]
+    C, S, R = _perpendicular_cases(0, False, (1.15 - float(tg.RING[0] @ [1.0, 0.0]),), 3)
+    f.stats()
+    k = f.classify(C, R, S)
+    fast, general = f.stats()
+    pk = g.classify_batch(C, R, S).kind
+    print(f"343 variations round a perpendicular wall at 1.15 m: fix fast {fast} / general {general}")
+    assert (fast, general) == (343, 0)
+    assert np.array_equal(k["kind"], np.where(pk == 2, 3, pk))

@@ -1143,14 +1143,17 @@ static int fq_polish(int wall, const ms_array *a, const int32_t *r, int32_t px, 
     int k, it;
     uint32_t hi;
     for (it = 0;; it++) {
+        /* J = (u_k + u) / 2 as (u_k >> 1) + (u >> 1) + (u_k & u & 1): u_k + u overflows int32 when
+         * both are exactly 1 (Q30 2^30: a perpendicular wall, a receiver at or in line with the source) */
+        int32_t hx = wall ? 0 : ux >> 1, hy = wall ? 0 : uy >> 1, lx = wall ? 0 : ux & 1, ly = wall ? 0 : uy & 1;
         if (!fq_dist(a, px, py, &d)) return 0;
         c0 = 0;
         for (k = 0; k < 3; k++) {
             int32_t fk = (wall ? 0 : rho0) + d.L[k] - r[k];
             if (fk > FQ_FMAX || fk < -FQ_FMAX) FQ_FAIL;
             f[k] = fk;
-            J[k][0] = (d.ux[k] + (wall ? 0 : ux)) >> 1;
-            J[k][1] = (d.uy[k] + (wall ? 0 : uy)) >> 1;
+            J[k][0] = (d.ux[k] >> 1) + hx + (d.ux[k] & lx); /* (u_k + u) / 2, floor, no overflow */
+            J[k][1] = (d.uy[k] >> 1) + hy + (d.uy[k] & ly);
             c0 += fq_smul(fk, fk);
         }
         if (c0 > c_prev) FQ_FAIL; /* the long step did not lower the cost: Python damps it */
