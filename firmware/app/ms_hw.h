@@ -12,7 +12,10 @@
 
 #include "ms_soc_map.h"
 
-#define MS_REG(path) (*(volatile uint32_t *)(uintptr_t)offsetof(ms_soc_map_t, path))
+/* Registers are reached through their alias with bit 31 set (rtl/soc/ms_soc.sv decodes both):
+ * VexRiscv's data cache does not cache that half of the address space, PicoRV32 has no cache. */
+#define MS_IO_UNCACHED 0x80000000u
+#define MS_REG(path) (*(volatile uint32_t *)(MS_IO_UNCACHED | (uintptr_t)offsetof(ms_soc_map_t, path)))
 
 #define MS_SONAR(reg) MS_REG(sonar.reg)
 #define MS_SOC(reg) MS_REG(soc.reg)
