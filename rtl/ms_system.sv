@@ -25,7 +25,9 @@ module ms_system #(
   parameter int    NUM_CH    = 24,
   parameter int    RAM_WORDS = 16384,  // SoC RAM, 32-bit words (firmware image + data + stack)
   parameter string INIT_FILE = "",     // firmware image, hex words for $readmemh
-  parameter int    STRETCH_W = 22      // LED pulse stretch: 2^STRETCH_W clocks
+  parameter int    STRETCH_W = 22,     // LED pulse stretch: 2^STRETCH_W clocks
+  parameter string CPU       = "picorv32",  // soft-core: "picorv32" or "vexriscv" (ms_soc)
+  parameter int    FAST_MUL  = 1       // PicoRV32 only: single-cycle DSP multiplier (ms_soc)
 ) (
   input  logic              clk_i,
   input  logic              rst_i,
@@ -50,7 +52,8 @@ module ms_system #(
   logic [SONAR_AW-1:0] addr;
   logic [31:0]         wr_data, wr_biten, rd_data;
 
-  ms_soc #(.RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE), .SONAR_AW(SONAR_AW)) u_soc (
+  ms_soc #(.RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE), .SONAR_AW(SONAR_AW), .CPU(CPU),
+           .FAST_MUL(FAST_MUL)) u_soc (
     .clk_i, .rst_i,
     .sonar_req_o (req), .sonar_req_is_wr_o (req_is_wr), .sonar_addr_o (addr),
     .sonar_wr_data_o (wr_data), .sonar_wr_biten_o (wr_biten),
