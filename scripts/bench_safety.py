@@ -31,18 +31,26 @@ def main() -> int:
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--spurious", type=float, default=None, help="spurious pulses per channel and second (default: the scene's 2 Hz)")
+    ap.add_argument("--miss-gate-us", type=float, default=None,
+                    help="model option (not in the RTL): a sample farther than this from the prediction counts as a miss")
+    ap.add_argument("--reinit-every", type=int, default=None,
+                    help="model option (not in the RTL): force an init ping after this many tracking pulses")
     ap.add_argument("--plot", type=Path)
     ap.add_argument("--csv", type=Path)
     a = ap.parse_args()
     seeds = range(a.first_seed, a.first_seed + a.trials)
+    gate = None if a.miss_gate_us is None else round(a.miss_gate_us * 48)
     t = time.time()
     results = []
     with ProcessPoolExecutor(max_workers=a.workers) as ex:
-        for i, r in enumerate(ex.map(partial(run_trial, spurious_rate_hz=a.spurious), seeds), 1):
+        for i, r in enumerate(ex.map(partial(run_trial, spurious_rate_hz=a.spurious, miss_gate=gate,
+                                                       reinit_every=a.reinit_every), seeds), 1):
             results.append(r)
             print(f"\r{i}/{a.trials} trials, {time.time() - t:.0f} s", end="", file=sys.stderr, flush=True)
     print(file=sys.stderr)
-    print(f"{a.trials} trials, spurious rate {results[0].spurious_rate_hz:g} Hz per channel, {time.time() - t:.0f} s wall\n")
+    opts = ", ".join(x for x in (a.miss_gate_us is not None and f"model option miss gate {a.miss_gate_us:g} us",
+                                 a.reinit_every and f"model option re-init every {a.reinit_every} pulses") if x) or "RTL behaviour"
+    print(f"{a.trials} trials, spurious rate {results[0].spurious_rate_hz:g} Hz per channel, {opts}, {time.time() - t:.0f} s wall\n")
     print("| order | trials | person hid the wall | within N+K+1 pulses | late | missed | latency pulses median / max | latency ms median / max | samples | alias samples | false samples |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for order in (1, 2, 3, None):

@@ -248,6 +248,7 @@ class _Window:
     epoch: int
     n_edges: int = 0
     cancelled: bool = False
+    rejected: bool = False  # (miss_gate option) the first echo was too far from the prediction
 
 
 @dataclass
@@ -271,6 +272,7 @@ class _SensorState:
     init_open: int = 0
     quiet: int = 0  # an init ping may not go before this tick (last t0 + max_tof - blank)
     rx: dict[int, _RxState] = field(default_factory=dict)
+    track_pulses: int = 0  # tracking pulses since the last init ping (reinit_every option)
 
 
 class _Line:
@@ -303,7 +305,7 @@ class FastFiringModel:
 
     def __init__(self, schedule: Schedule, echo_source: EchoSource, *, glitch_min: int = DEFAULT_GLITCH_MIN,
                  max_echoes_per_window: int = 1, win_slots: int = WIN_SLOTS, start_tick: int = 0,
-                 decision_lead: int = 0) -> None:
+                 decision_lead: int = 0, miss_gate: int | None = None, reinit_every: int | None = None) -> None:
         self.schedule = schedule
         self.cfg = schedule.validate()
         self.source = echo_source
@@ -316,6 +318,17 @@ class FastFiringModel:
         self.lead = int(decision_lead)
         if self.lead < 0:
             raise ValueError(f"decision_lead {self.lead} must be >= 0 ticks")
+        #: Experimental safety options, NOT in the RTL (default None = the RTL's behaviour; see
+        #: multisonar.safety): ``miss_gate`` (ticks): a tracking window's first echo farther than
+        #: this from the prediction is reported but neither updates the track nor resets the miss
+        #: count (the window counts as empty), so another pulse's echo cannot keep a lost track
+        #: alive; ``reinit_every`` (pulses): force an initialisation ping after that many
+        #: tracking pulses, bounding the time any obstacle can stay unseen.
+        if miss_gate is not None and miss_gate < 0:
+            raise ValueError(f"miss_gate {miss_gate} must be >= 0 ticks or None")
+        if reinit_every is not None and reinit_every < 1:
+            raise ValueError(f"reinit_every {reinit_every} must be >= 1 pulse or None")
+        self.miss_gate, self.reinit_every = miss_gate, reinit_every
         self.now = int(start_tick)
         n_el = schedule.layout.n
         self.windows: list[list[_Window]] = [[] for _ in range(n_el)]
@@ -406,7 +419,12 @@ class FastFiringModel:
         if first:
             s = self.sensors[w.sensor]
             if w.epoch == s.epoch:
-                self._sample(s, s.rx[rx], w, n - w.t0)
+                st = s.rx[rx]
+                if (self.miss_gate is not None and not w.init and st.tracked
+                        and abs(n - w.t0 - self._predict(s, st, w.seq)) > self.miss_gate):
+                    w.rejected = True
+                    return
+                self._sample(s, st, w, n - w.t0)
 
     def _sample(self, s: _SensorState, st: _RxState, w: _Window, tof: int) -> None:
         if w.init:
@@ -428,9 +446,10 @@ class FastFiringModel:
             return
         self.windows[w.rx].remove(w)
         s = self.sensors[w.sensor]
-        if w.n_edges == 0:
-            self.events.append(ToFEvent(self.now, w.sensor, w.seq & SEQ_MASK, w.rx, w.end - w.t0,
-                                        False, False, True, w.init))
+        if w.n_edges == 0 or w.rejected:
+            if w.n_edges == 0:
+                self.events.append(ToFEvent(self.now, w.sensor, w.seq & SEQ_MASK, w.rx, w.end - w.t0,
+                                            False, False, True, w.init))
             if not w.init and w.epoch == s.epoch:
                 st = s.rx[w.rx]
                 st.miss = min(st.miss + 1, MISS_MAX)
@@ -466,6 +485,9 @@ class FastFiringModel:
             return
         c = s.cfg
         k = s.seq
+        if self.reinit_every is not None and s.tracking and s.track_pulses >= self.reinit_every:
+            s.tracking = False  # forced re-initialisation (experimental option)
+            self._cancel(c.id)
         init = not s.tracking
         if init and t < s.quiet:
             # echoes of this sensor's earlier pulses (within max range) must not reach the
@@ -498,6 +520,9 @@ class FastFiringModel:
             s.epoch ^= 1
             s.rx = {int(e): _RxState() for e in c.rx}
             s.in_init, s.init_open = True, len(wins)
+            s.track_pulses = 0
+        else:
+            s.track_pulses += 1
         for e, a, b in blanks:
             self.blank_until[e] = max(self.blank_until[e], t + b)
         for e, a, b in wins:

@@ -134,15 +134,18 @@ def _schedule(layout, order: int, miss_limit: int, wall_y: float) -> Schedule:
 
 def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: float = 0.8,
               duration: float = 1.6, margin_db: float = 6.0, tol_ticks: int = 600,
-              params: dict[str, Any] | None = None) -> TrialResult:
-    """One randomised person-crossing trial (see the module docstring)."""
+              params: dict[str, Any] | None = None, miss_gate: int | None = None,
+              reinit_every: int | None = None) -> TrialResult:
+    """One randomised person-crossing trial (see the module docstring). ``miss_gate`` /
+    ``reinit_every``: the golden model's experimental safety options (not in the RTL)."""
     p = dict(params) if params is not None else random_trial_params(seed)
     layout = load_layout()
     scene = _scene(p, t_cross, duration, spurious_rate_hz)
     sched = _schedule(layout, p["order"], p["miss_limit"], p["wall_y"])
     order = sched.sensors[0].order
     src = SceneEchoSource(scene, rng=np.random.default_rng(p["seed"]))
-    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD)
+    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD, miss_gate=miss_gate,
+                            reinit_every=reinit_every)
     res = model.run(int(duration * TICK_HZ))
     pulses = [q for q in res.pulses if q.sensor == 0]
     ac = src.model
