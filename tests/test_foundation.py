@@ -106,8 +106,8 @@ def test_cli_version_and_placeholders(capsys):
     assert cli_main(["version"]) == 0
     out = capsys.readouterr().out
     assert f"multisonar {multisonar.__version__}" in out and str(TICK_HZ) in out
-    assert cli_main(["experiment"]) == 2  # the one subcommand still to come (issue #7)
-    assert "not built yet" in capsys.readouterr().err
+    assert cli_main(["experiment"]) == 2  # no name: lists the experiments
+    assert "fig3" in capsys.readouterr().err
     assert cli_main(["stream"]) == 1  # no board on this machine: a clear error, not a hang
     assert "no Multisonar board" in capsys.readouterr().err
     with pytest.raises(SystemExit) as e:

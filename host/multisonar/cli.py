@@ -1,14 +1,10 @@
-"""The ``multisonar`` command line.
-
-Subcommands whose issue has not landed yet say so and exit with status 2, instead of
-pretending to work.
-"""
+"""The ``multisonar`` command line."""
 
 from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 from . import __version__
 from .constants import TICK_HZ, speed_of_sound
@@ -58,14 +54,6 @@ def _cmd_regs(args: argparse.Namespace) -> int:
     return 0
 
 
-def _not_built(issue: int, what: str) -> Callable[[argparse.Namespace], int]:
-    def run(args: argparse.Namespace) -> int:
-        print(f"multisonar {args.command}: not built yet ({what}; issue #{issue})", file=sys.stderr)
-        return 2
-
-    return run
-
-
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="multisonar", description="Multisonar: 24-element ultrasonic ring — tools, golden model and host driver.")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND")
@@ -93,12 +81,68 @@ def build_parser() -> argparse.ArgumentParser:
     # info / configure / stream / record / plot / serve: the host driver (issue #6)
     _register_device_commands(sub)
 
-    for name, issue, what in [
-        ("experiment", 7, "the paper's experiments on the full-system twin"),
-    ]:
-        p = sub.add_parser(name, help=f"{what} (not built yet: issue #{issue})")
-        p.set_defaults(func=_not_built(issue, what))
+    from .experiments import EXPERIMENTS
+
+    p = sub.add_parser("experiment", help="the paper's experiments and the speed/accuracy report (golden model)",
+                       description="Run one experiment; writes NAME.md, NAME.csv and NAME.png into --out. "
+                       + "; ".join(f"{k}: {d}" for k, (_, d) in EXPERIMENTS.items()))
+    p.add_argument("name", nargs="?", choices=list(EXPERIMENTS), metavar="NAME", help=" | ".join(EXPERIMENTS))
+    p.add_argument("--out", default=None, help="output folder [build/experiments/NAME]")
+    p.add_argument("--quick", action="store_true", help="a short version (seconds; what the tests run)")
+    p.add_argument("--workers", type=int, default=None, help="local worker processes [number of cores]")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run the sweep on a Dask distributed cluster, e.g. tcp://10.0.0.5:8786 (needs 'distributed')")
+    p.add_argument("--rtl", action="store_true",
+                   help="fig3: add the RTL scheduler column; simspeed: time the RTL system test (Verilator)")
+    p.set_defaults(func=_cmd_experiment)
+
+    p = sub.add_parser("export", help="export a recording (.msrec) for robotics tools (ROS 2 MCAP)")
+    p.add_argument("recording", metavar="REC", help="recording written by 'multisonar record'")
+    p.add_argument("--mcap", required=True, metavar="OUT.mcap", help="ROS 2 bag in MCAP format to write")
+    p.add_argument("--frame-id", default="base_link", help="robot frame of the messages [%(default)s]")
+    p.add_argument("--temperature", type=float, default=20.0, help="air temperature for ToF -> range, degC [%(default)s]")
+    p.set_defaults(func=_cmd_export)
     return ap
+
+
+def _cmd_experiment(args: argparse.Namespace) -> int:
+    import os
+
+    from .experiments import ExecutorError, ExperimentError, run_experiment
+
+    if args.name is None:
+        from .experiments import EXPERIMENTS
+
+        print("multisonar experiment: name an experiment:\n" + "\n".join(f"  {k:<9} {d}" for k, (_, d) in EXPERIMENTS.items()),
+              file=sys.stderr)
+        return 2
+    opts = {"rtl": True} if args.rtl else {}
+    if args.rtl and args.name not in ("fig3", "simspeed"):
+        raise ValueError("--rtl applies to fig3 and simspeed only (the others run on the golden model for now)")
+    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
+    mode = f"Dask scheduler {args.scheduler}" if args.scheduler else f"{workers} local worker(s)"
+    print(f"experiment {args.name}{' (quick)' if args.quick else ''}: golden model, {mode}", file=sys.stderr)
+    try:
+        res, files = run_experiment(args.name, args.out, quick=args.quick, workers=workers, scheduler=args.scheduler,
+                                    **opts)
+    except (ExecutorError, ExperimentError) as e:
+        print(f"multisonar experiment: error: {e}", file=sys.stderr)
+        return 1
+    print(res.markdown)
+    print(f"experiment {args.name}: {res.summary['wall_s']:.1f} s wall; wrote " + ", ".join(str(f) for f in files))
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from .export import ExportError, export_mcap
+
+    try:
+        stats = export_mcap(args.recording, args.mcap, frame_id=args.frame_id, temperature_c=args.temperature)
+    except ExportError as e:
+        print(f"multisonar export: error: {e}", file=sys.stderr)
+        return 1
+    print(f"export: {args.mcap}: " + ", ".join(f"{k} {v}" for k, v in stats.items()))
+    return 0
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
