@@ -3,11 +3,14 @@
 //
 // Timing contract: one clock (48 MHz), synchronous active-high reset rst_i (the board top
 // synchronises it). echo_i is asynchronous (the receive conditioners synchronise it);
-// drive_o is registered in the sonar core. The host FIFO read side is first-word-fall-through:
-// host_rdata_o is valid while host_rvalid_o is high, host_rd_i pops it in that clock.
+// drive_o is registered in the sonar core. Host link (ms_soc, rtl/link/ms_link.sv): cmd_* are
+// the USB bulk OUT endpoint's entries (ms_usb_device out_*: first-word-fall-through, taken on
+// a clock with cmd_ready_o), host_* the bulk IN byte stream (host_rdata_o valid while
+// host_rvalid_o, taken on a clock with host_rd_i = in_ready; host_flush_o one clock at the end
+// of each packet = in_flush).
 //
-// USB (issue #6): the USB device core goes between the host FIFO read side (host_*) and the
-// USB pins, in the board top or in a wrapper around this module; ms_system has no USB logic.
+// USB: ms_system_usb (rtl/link/ms_system_usb.sv) wraps this module with the USB device core;
+// ms_system itself has no USB logic, so tests can read the link's byte stream directly.
 //
 // Status for LEDs: every led_o bit is a level or a pulse stretched to at least
 // 2^STRETCH_W clocks (2^22 clocks = 87 ms at 48 MHz) so a one-clock event is visible:
@@ -17,7 +20,7 @@
 //   led_o[3] bus error seen by the CPU (stretched pulse)
 //   led_o[4] a transducer drive is active (stretched, any element)
 //   led_o[5] an event waits in the sonar event FIFO
-//   led_o[6] a word waits in the host FIFO (the host has not read it yet)
+//   led_o[6] a byte waits for the bulk IN endpoint (the host has not read it yet)
 //   led_o[7] the firmware wrote the SIM_OUT mailbox (stretched pulse)
 // The watchdog reset of the CPU and the scheduler's "running" flag are not visible here:
 // ms_soc and ms_sonar_core do not export them (see docs/synthesis.md).
@@ -34,10 +37,16 @@ module ms_system #(
   // transducers
   input  logic [NUM_CH-1:0] echo_i,   // comparator outputs, asynchronous
   output logic [NUM_CH-1:0] drive_o,  // burst drive, registered
-  // host FIFO read side (to the USB device core, issue #6)
+  // host link (to the USB device core's bulk endpoints)
+  input  logic              cmd_valid_i,
+  input  logic [7:0]        cmd_data_i,
+  input  logic              cmd_end_i,
+  input  logic              cmd_zlp_i,
+  output logic              cmd_ready_o,
   input  logic              host_rd_i,
   output logic              host_rvalid_o,
-  output logic [32:0]       host_rdata_o,   // bit 32: words were dropped before this one
+  output logic [7:0]        host_rdata_o,
+  output logic              host_flush_o,
   // observation: mailbox (simulation and debugging), raw status, LEDs
   output logic              sim_out_strobe_o,
   output logic [31:0]       sim_out_o,
@@ -60,7 +69,8 @@ module ms_system #(
     .sonar_req_stall_wr_i (stall_wr), .sonar_req_stall_rd_i (stall_rd),
     .sonar_rd_ack_i (rd_ack), .sonar_rd_err_i (rd_err), .sonar_rd_data_i (rd_data),
     .sonar_wr_ack_i (wr_ack), .sonar_wr_err_i (wr_err),
-    .host_rd_i, .host_rvalid_o, .host_rdata_o,
+    .cmd_valid_i, .cmd_data_i, .cmd_end_i, .cmd_zlp_i, .cmd_ready_o,
+    .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o
   );
 

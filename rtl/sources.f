@@ -33,3 +33,9 @@ rtl/usb/ms_usb_ep_out.sv
 rtl/usb/ms_usb_ep_in.sv
 rtl/usb/ms_usb_xact.sv
 rtl/usb/ms_usb_device.sv
+rtl/link/ms_link_pkg.sv
+rtl/link/ms_link_cmd_rx.sv
+rtl/link/ms_link_txq.sv
+rtl/link/ms_link_packer.sv
+rtl/link/ms_link.sv
+rtl/link/ms_system_usb.sv

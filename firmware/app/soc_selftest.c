@@ -1,5 +1,5 @@
 /* SoC self-test, run by tests/rtl/test_ms_soc.py: reports through the SIM_OUT mailbox.
- * 1st boot: identify the sonar core, exercise mul/div, the timer and the host FIFO, then hang
+ * 1st boot: identify the sonar core, exercise mul/div, the timer and the host link (one frame packet), then hang
  * on purpose with a short watchdog timeout. 2nd boot (after the watchdog reset of the CPU):
  * report the reset count and finish. The sequence of reported words is the test's oracle. */
 #include "ms_hw.h"
@@ -24,8 +24,14 @@ int main(void) {
         uint64_t t0 = ms_cycles();
         uint64_t t1 = ms_cycles();
         ms_report((uint32_t)(t1 > t0));
-        for (uint32_t i = 0; i < 5; i++) MS_SOC(HOST_TX) = 0xC0DE0000u + i;
-        ms_report(MS_SOC(HOST_STATUS) & 0xFFFu);
+        /* one frame packet: "MF" v1 type 0x40, length 8, seq 0, two payload words; the host
+         * link appends the CRC-32 when it is committed */
+        MS_SOC(HOST_TX) = 0x4Du | (0x46u << 8) | (1u << 16) | (0x40u << 24);
+        MS_SOC(HOST_TX) = 8u << 16;
+        MS_SOC(HOST_TX) = 0u;
+        for (uint32_t i = 0; i < 2; i++) MS_SOC(HOST_TX) = 0xC0DE0000u + i;
+        ms_report(MS_SOC(HOST_STATUS) & SOC_REGS__HOST_STATUS__WAITING_bm);
+        MS_SOC(HOST_CTRL) = SOC_REGS__HOST_CTRL__FRAME_END_bm;
         MS_SOC(SCRATCH) = 1u;
         MS_SOC(WDT_TIMEOUT) = 3000u;
         ms_wdt_kick();

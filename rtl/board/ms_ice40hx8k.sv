@@ -4,9 +4,9 @@
 //
 // Reduced for the iCE40 (see docs/synthesis.md): NUM_CH transducer channels (default 8, not
 // 24) and RAM_WORDS = 1024 (4 KiB of SoC RAM, firmware linked for it by mk/synth.mk); the
-// sonar register map still reports CAPS.num_ch = 24. USB (issue #6): D+/D- and the D+
-// pull-up switch are declared as inputs, i.e. never driven (detached), until the USB device
-// core lands and drives them through SB_IO (no inferred tristates with the slang frontend).
+// sonar register map still reports CAPS.num_ch = 24. USB: ms_system_usb's device core on
+// usb_dp / usb_dn through SB_IO tristate pads (no inferred tristates with the slang frontend);
+// usb_pu drives the 1.5 kOhm D+ pull-up (high = attached).
 module ms_ice40hx8k #(
   parameter int    NUM_CH    = 8,
   parameter int    RAM_WORDS = 1024,
@@ -17,27 +17,36 @@ module ms_ice40hx8k #(
   output logic [7:0]        led,
   output logic [NUM_CH-1:0] ms_drive,
   input  logic [NUM_CH-1:0] ms_echo,
-  input  logic              usb_dp,
-  input  logic              usb_dn,
-  input  logic              usb_pu       // will drive the 1.5 kOhm D+ pull-up when attached
+  inout  wire               usb_dp,
+  inout  wire               usb_dn,
+  output logic              usb_pu       // drives the 1.5 kOhm D+ pull-up
 );
   logic clk, locked, rst;
 
   ms_pll_ice40 u_pll (.clk12_i (clk_12mhz), .clk48_o (clk), .locked_o (locked));
   ms_reset_sync u_rst (.clk_i (clk), .arst_i (~btn_rst_n | ~locked), .rst_o (rst));
 
-  logic        host_rvalid;
-  logic [32:0] host_rdata;
-  logic        unused_usb;
-  assign unused_usb = ^{usb_dp, usb_dn, usb_pu, host_rvalid, host_rdata};
+  // ---- USB pads: SB_IO, output with tristate enable, plain input
+  logic dp_in, dn_in, dp_out, dn_out, usb_oe, usb_pu_en;
+  SB_IO #(.PIN_TYPE (6'b1010_01), .PULLUP (1'b0)) u_io_dp (
+    .PACKAGE_PIN (usb_dp), .OUTPUT_ENABLE (usb_oe), .D_OUT_0 (dp_out), .D_IN_0 (dp_in));
+  SB_IO #(.PIN_TYPE (6'b1010_01), .PULLUP (1'b0)) u_io_dn (
+    .PACKAGE_PIN (usb_dn), .OUTPUT_ENABLE (usb_oe), .D_OUT_0 (dn_out), .D_IN_0 (dn_in));
+  assign usb_pu = usb_pu_en;
 
-  logic        unused_strobe, unused_trap, unused_bus_err, unused_evt;
+  logic        unused_strobe, unused_trap, unused_bus_err, unused_evt, unused_cfg;
+  logic        unused_tl_valid, unused_tl_end;
+  logic [7:0]  unused_tl_byte;
   logic [31:0] unused_sim_out;
 
-  ms_system #(.NUM_CH(NUM_CH), .RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE)) u_system (
+  ms_system_usb #(.NUM_CH(NUM_CH), .RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE)) u_system (
     .clk_i (clk), .rst_i (rst),
     .echo_i (ms_echo), .drive_o (ms_drive),
-    .host_rd_i (1'b0), .host_rvalid_o (host_rvalid), .host_rdata_o (host_rdata),
+    .usb_dp_i (dp_in), .usb_dn_i (dn_in), .usb_dp_o (dp_out), .usb_dn_o (dn_out), .usb_oe_o (usb_oe),
+    .usb_pullup_o (usb_pu_en), .usb_configured_o (unused_cfg),
+    .tl_en_i (1'b0), .tl_bus_reset_i (1'b0), .tl_rx_start_i (1'b0), .tl_rx_valid_i (1'b0),
+    .tl_rx_byte_i (8'd0), .tl_rx_end_i (1'b0), .tl_tx_valid_o (unused_tl_valid), .tl_tx_byte_o (unused_tl_byte),
+    .tl_tx_end_o (unused_tl_end),
     .sim_out_strobe_o (unused_strobe), .sim_out_o (unused_sim_out), .trap_o (unused_trap),
     .bus_err_o (unused_bus_err), .evt_available_o (unused_evt), .led_o (led)
   );

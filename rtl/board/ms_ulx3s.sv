@@ -3,14 +3,11 @@
 // Pins (constraints/ulx3s_lfe5u25.lpf): 25 MHz oscillator -> EHXPLLL -> 48 MHz system clock;
 // FIRE1 button = reset (synchronised, also held while the PLL is not locked); 8 LEDs show
 // ms_system's led_o; element i drives ms_drive[i] and listens on ms_echo[i], one GP/GN pair of
-// the J1/J2 headers per element. The US2 USB port (D+/D- and the D+ pull-up switch) is
-// declared and held detached: every USB pin is an input for now, i.e. never driven (the pull
-// switches float, the board's 15 kOhm pull-downs win, a host sees no device). Issue #6 turns
-// them into inout pins driven by the USB device core, placed between ms_system's host FIFO
-// (host_*) and these pins, with the ECP5 I/O primitive (BB / TRELLIS_IO) for the tristate
-// (the slang frontend treats a 1'bz assignment as X, so no inferred tristates). Until then
-// nothing reads the host FIFO: the firmware sees it fill (HOST_STATUS), later words are dropped
-// and counted.
+// the J1/J2 headers per element. USB on US2 (direct FPGA USB): ms_system_usb's device core reads
+// and drives the bidirectional single-ended D+/D- (usb_fpga_bd_dp/dn) through ECP5 BB
+// primitives (the slang frontend treats a 1'bz assignment as X, so no inferred tristates) and
+// switches the 1.5 kOhm D+ pull-up with usb_fpga_pu_dp; the D- pull switch and the
+// differential receiver pair (usb_fpga_dp/dn) are unused inputs.
 module ms_ulx3s #(
   parameter int    NUM_CH    = 24,
   parameter int    RAM_WORDS = 16384,
@@ -21,12 +18,12 @@ module ms_ulx3s #(
   output logic [7:0]        led,
   output logic [NUM_CH-1:0] ms_drive,     // transducer burst drive (GP pins)
   input  logic [NUM_CH-1:0] ms_echo,      // comparator outputs (GN pins), asynchronous
-  // US2 (direct FPGA USB, issue #6): differential receiver, single-ended D+/D-, pull-ups
+  // US2 (direct FPGA USB)
   input  logic              usb_fpga_dp,
   input  logic              usb_fpga_dn,
-  input  logic              usb_fpga_bd_dp,
-  input  logic              usb_fpga_bd_dn,
-  input  logic              usb_fpga_pu_dp,
+  inout  wire               usb_fpga_bd_dp,
+  inout  wire               usb_fpga_bd_dn,
+  output logic              usb_fpga_pu_dp,
   input  logic              usb_fpga_pu_dn
 );
   logic clk, locked, rst;
@@ -34,20 +31,26 @@ module ms_ulx3s #(
   ms_pll_ecp5 u_pll (.clk25_i (clk_25mhz), .clk48_o (clk), .locked_o (locked));
   ms_reset_sync u_rst (.clk_i (clk), .arst_i (btn_fire1 | ~locked), .rst_o (rst));
 
-  // ---- USB: detached until issue #6 (host_rd stays low; see the header)
-  logic        host_rvalid;
-  logic [32:0] host_rdata;
-  logic        unused_usb;
-  assign unused_usb = ^{usb_fpga_dp, usb_fpga_dn, usb_fpga_bd_dp, usb_fpga_bd_dn, usb_fpga_pu_dp,
-                        usb_fpga_pu_dn, host_rvalid, host_rdata};
+  // ---- USB pads: BB = bidirectional buffer (T high: tristate)
+  logic dp_in, dn_in, dp_out, dn_out, usb_oe, usb_pu_en;
+  BB u_bb_dp (.I (dp_out), .T (~usb_oe), .O (dp_in), .B (usb_fpga_bd_dp));
+  BB u_bb_dn (.I (dn_out), .T (~usb_oe), .O (dn_in), .B (usb_fpga_bd_dn));
+  assign usb_fpga_pu_dp = usb_pu_en;
 
-  logic        unused_strobe, unused_trap, unused_bus_err, unused_evt;
+  logic        unused_usb, unused_strobe, unused_trap, unused_bus_err, unused_evt, unused_cfg;
+  logic        unused_tl_valid, unused_tl_end;
+  logic [7:0]  unused_tl_byte;
   logic [31:0] unused_sim_out;
+  assign unused_usb = ^{usb_fpga_dp, usb_fpga_dn, usb_fpga_pu_dn};
 
-  ms_system #(.NUM_CH(NUM_CH), .RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE)) u_system (
+  ms_system_usb #(.NUM_CH(NUM_CH), .RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE)) u_system (
     .clk_i (clk), .rst_i (rst),
     .echo_i (ms_echo), .drive_o (ms_drive),
-    .host_rd_i (1'b0), .host_rvalid_o (host_rvalid), .host_rdata_o (host_rdata),
+    .usb_dp_i (dp_in), .usb_dn_i (dn_in), .usb_dp_o (dp_out), .usb_dn_o (dn_out), .usb_oe_o (usb_oe),
+    .usb_pullup_o (usb_pu_en), .usb_configured_o (unused_cfg),
+    .tl_en_i (1'b0), .tl_bus_reset_i (1'b0), .tl_rx_start_i (1'b0), .tl_rx_valid_i (1'b0),
+    .tl_rx_byte_i (8'd0), .tl_rx_end_i (1'b0), .tl_tx_valid_o (unused_tl_valid), .tl_tx_byte_o (unused_tl_byte),
+    .tl_tx_end_o (unused_tl_end),
     .sim_out_strobe_o (unused_strobe), .sim_out_o (unused_sim_out), .trap_o (unused_trap),
     .bus_err_o (unused_bus_err), .evt_available_o (unused_evt), .led_o (led)
   );

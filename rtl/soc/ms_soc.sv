@@ -6,17 +6,21 @@
 // g_vex block), with
 //   0x0000_0000  RAM_WORDS x 32 bit of block RAM holding the firmware image (INIT_FILE)
 //   0x1000_0000  the sonar core's registers (passthrough master port sonar_*; ms_csr)
-//   0x2000_0000  SoC peripherals (soc_regs.rdl): cycle timer, watchdog, host FIFO, mailbox
+//   0x2000_0000  SoC peripherals (soc_regs.rdl): cycle timer, watchdog, host link, mailbox
 //   0x9000_0000, 0xA000_0000: the same registers again (bit 31 is not decoded): uncached
 //                for VexRiscv, whose data cache bypasses only addresses with bit 31 set
 // Addresses come from rtl/regs/soc_map.rdl, which also generates the firmware's header.
 //
 // Watchdog: when WDT_TIMEOUT is non-zero and that many clocks pass without a write to
 // WDT_KICK, the CPU alone is held in reset for 16 clocks and WDT_RESETS counts it; the
-// registers, the sonar core and the host FIFO keep running (the sonar keeps firing).
-// Host FIFO: each write to HOST_TX appends a word; host_* is its first-word-fall-through read
-// side; a word written while full is dropped, counted in HOST_STATUS.drops, and the next
-// stored word has bit 32 (host_rdata_o[32]) set.
+// registers, the sonar core and the host link keep running (the sonar keeps firing).
+// Host link (rtl/link/ms_link.sv, docs/protocol.md section 8): cmd_* takes the bytes of the USB
+// bulk OUT endpoint (ms_usb_device out_*), the firmware reads whole command transfers through
+// CMD_STATUS / CMD_DATA; it writes reply packets to REPLY_TX and frame packets to HOST_TX
+// (header + payload words, committed by HOST_CTRL), and host_* is the byte stream towards the
+// bulk IN endpoint (ms_usb_device in_*): host_rvalid_o / host_rdata_o a byte, taken on a clock
+// with host_rd_i (in_ready); host_flush_o (one clock) ends each packet (in_flush), after its
+// CRC-32, which the link appends.
 module ms_soc #(
   parameter int    RAM_WORDS  = 16384,  // 64 KiB: firmware image + data + stack
   parameter string INIT_FILE  = "",
@@ -41,10 +45,16 @@ module ms_soc #(
   input  logic [31:0]         sonar_rd_data_i,
   input  logic                sonar_wr_ack_i,
   input  logic                sonar_wr_err_i,
-  // host FIFO read side
+  // host link: bulk OUT bytes in (ms_usb_device out_*), bulk IN bytes out (in_*)
+  input  logic                cmd_valid_i,
+  input  logic [7:0]          cmd_data_i,
+  input  logic                cmd_end_i,
+  input  logic                cmd_zlp_i,
+  output logic                cmd_ready_o,
   input  logic                host_rd_i,
   output logic                host_rvalid_o,
-  output logic [32:0]         host_rdata_o,
+  output logic [7:0]          host_rdata_o,
+  output logic                host_flush_o,
   // observation
   output logic                sim_out_strobe_o,  // firmware wrote SIM_OUT
   output logic [31:0]         sim_out_o,
@@ -304,29 +314,60 @@ module ms_soc #(
     end
   end
 
-  // host FIFO (33 bits: the word and the "words were dropped before me" flag)
-  logic        host_push, host_overflow;
-  logic [11:0] host_level;
-  logic        host_wr_ack_q;
-  assign host_push = hwif_out.HOST_TX.req & hwif_out.HOST_TX.req_is_wr;
-  ms_event_fifo #(.WIDTH(33), .DEPTH_W(9), .OVF_BIT(32), .LEVEL_W(12)) u_host_fifo (
+  // host link: command buffer, reply / frame queues, packer (CRC-32 in hardware)
+  logic [9:0]  frm_level;
+  logic [31:0] frames_sent, frames_dropped;
+  logic [15:0] reply_drops;
+  logic        frm_wr_ack_q, rep_wr_ack_q, frm_wr, rep_wr, cmd_rd;
+  logic        cmd_avail, cmd_crc_ok, cmd_overlong, cmd_rd_ack;
+  logic [15:0] cmd_bytes;
+  logic [31:0] cmd_rd_data;
+  assign frm_wr = hwif_out.HOST_TX.req & hwif_out.HOST_TX.req_is_wr;
+  assign rep_wr = hwif_out.REPLY_TX.req & hwif_out.REPLY_TX.req_is_wr;
+  assign cmd_rd = hwif_out.CMD_DATA.req & ~hwif_out.CMD_DATA.req_is_wr;
+  ms_link u_link (
     .clk_i (clk_i), .rst_i (rst_i),
-    .wr_i (host_push), .wdata_i ({1'b0, hwif_out.HOST_TX.wr_data.data}),
-    .rd_i (host_rd_i), .rvalid_o (host_rvalid_o), .rdata_o (host_rdata_o),
-    .overflow_o (host_overflow), .level_o (host_level)
+    .out_valid_i (cmd_valid_i), .out_data_i (cmd_data_i), .out_end_i (cmd_end_i),
+    .out_zlp_i (cmd_zlp_i), .out_ready_o (cmd_ready_o),
+    .in_valid_o (host_rvalid_o), .in_data_o (host_rdata_o), .in_ready_i (host_rd_i),
+    .in_flush_o (host_flush_o),
+    .cmd_avail_o (cmd_avail), .cmd_bytes_o (cmd_bytes), .cmd_crc_ok_o (cmd_crc_ok),
+    .cmd_overlong_o (cmd_overlong), .cmd_rd_i (cmd_rd), .cmd_rd_ack_o (cmd_rd_ack),
+    .cmd_rd_data_o (cmd_rd_data), .cmd_next_i (hwif_out.HOST_CTRL.cmd_next.value),
+    .rep_wr_i (rep_wr), .rep_wdata_i (hwif_out.REPLY_TX.wr_data.data),
+    .rep_end_i (hwif_out.HOST_CTRL.reply_end.value),
+    .frm_wr_i (frm_wr), .frm_wdata_i (hwif_out.HOST_TX.wr_data.data),
+    .frm_end_i (hwif_out.HOST_CTRL.frame_end.value), .frm_discard_i (hwif_out.HOST_CTRL.discard.value),
+    .clear_i (hwif_out.HOST_CTRL.clear.value),
+    .frm_level_o (frm_level), .frames_sent_o (frames_sent), .frames_dropped_o (frames_dropped),
+    .replies_dropped_o (reply_drops)
   );
   always_ff @(posedge clk_i) begin
-    if (rst_i) host_wr_ack_q <= 1'b0;
-    else       host_wr_ack_q <= host_push;
+    if (rst_i) begin
+      frm_wr_ack_q <= 1'b0;
+      rep_wr_ack_q <= 1'b0;
+    end else begin
+      frm_wr_ack_q <= frm_wr;
+      rep_wr_ack_q <= rep_wr;
+    end
   end
 
   always_comb begin
-    hwif_in.TIMER_LO.count.next        = cycles_q[31:0];
-    hwif_in.TIMER_HI.count.next        = cycles_q[63:32];
-    hwif_in.WDT_RESETS.count.incr      = wdt_fire;
-    hwif_in.HOST_TX.wr_ack             = host_wr_ack_q;
-    hwif_in.HOST_STATUS.waiting.next   = host_level;
-    hwif_in.HOST_STATUS.drops.incr     = host_overflow;
+    hwif_in.TIMER_LO.count.next          = cycles_q[31:0];
+    hwif_in.TIMER_HI.count.next          = cycles_q[63:32];
+    hwif_in.WDT_RESETS.count.incr        = wdt_fire;
+    hwif_in.HOST_TX.wr_ack               = frm_wr_ack_q;
+    hwif_in.REPLY_TX.wr_ack              = rep_wr_ack_q;
+    hwif_in.HOST_STATUS.waiting.next     = 12'(frm_level);
+    hwif_in.HOST_STATUS.reply_drops.next = reply_drops;
+    hwif_in.FRAMES_SENT.count.next       = frames_sent;
+    hwif_in.FRAMES_DROPPED.count.next    = frames_dropped;
+    hwif_in.CMD_STATUS.avail.next        = cmd_avail;
+    hwif_in.CMD_STATUS.crc_ok.next       = cmd_crc_ok;
+    hwif_in.CMD_STATUS.overlong.next     = cmd_overlong;
+    hwif_in.CMD_STATUS.bytes.next        = cmd_bytes;
+    hwif_in.CMD_DATA.rd_ack              = cmd_rd_ack;
+    hwif_in.CMD_DATA.rd_data.data        = cmd_rd_data;
   end
 
   // mailbox: the strobe follows the write by one clock, when the register holds the value

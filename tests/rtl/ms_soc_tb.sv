@@ -1,5 +1,6 @@
 // Testbench top for the SoC: ms_soc with the sonar core's register block (ms_csr) on its
-// sonar port, so firmware reads the real generated registers.
+// sonar port, so firmware reads the real generated registers. No commands (cmd_* tied off);
+// host_* is the link's bulk IN byte stream (tests/rtl/link_reader.py).
 module ms_soc_tb #(
   parameter string INIT_FILE = "",
   parameter string CPU       = "picorv32"
@@ -8,12 +9,14 @@ module ms_soc_tb #(
   input  logic        rst_i,
   input  logic        host_rd_i,
   output logic        host_rvalid_o,
-  output logic [32:0] host_rdata_o,
+  output logic [7:0]  host_rdata_o,
+  output logic        host_flush_o,
   output logic        sim_out_strobe_o,
   output logic [31:0] sim_out_o,
   output logic        trap_o,
   output logic        bus_err_o
 );
+  /* verilator lint_off PINCONNECTEMPTY */
   logic        req, req_is_wr, stall_wr, stall_rd, rd_ack, rd_err, wr_ack, wr_err;
   logic [10:0] addr;
   logic [31:0] wr_data, wr_biten, rd_data;
@@ -25,11 +28,11 @@ module ms_soc_tb #(
     .sonar_req_stall_wr_i (stall_wr), .sonar_req_stall_rd_i (stall_rd),
     .sonar_rd_ack_i (rd_ack), .sonar_rd_err_i (rd_err), .sonar_rd_data_i (rd_data),
     .sonar_wr_ack_i (wr_ack), .sonar_wr_err_i (wr_err),
-    .host_rd_i, .host_rvalid_o, .host_rdata_o,
+    .cmd_valid_i (1'b0), .cmd_data_i (8'd0), .cmd_end_i (1'b0), .cmd_zlp_i (1'b0), .cmd_ready_o (),
+    .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o
   );
 
-  /* verilator lint_off PINCONNECTEMPTY */
   ms_csr u_csr (
     .clk_i, .rst_i,
     .bus_req_i (req), .bus_req_is_wr_i (req_is_wr), .bus_addr_i (addr),

@@ -9,9 +9,15 @@ module system_scene_tb #(
   input  logic        rst_i,
   input  logic [23:0] echo_i,
   output logic [23:0] drive_o,
+  input  logic        cmd_valid_i,
+  input  logic [7:0]  cmd_data_i,
+  input  logic        cmd_end_i,
+  input  logic        cmd_zlp_i,
+  output logic        cmd_ready_o,
   input  logic        host_rd_i,
   output logic        host_rvalid_o,
-  output logic [32:0] host_rdata_o,
+  output logic [7:0]  host_rdata_o,
+  output logic        host_flush_o,
   output logic        sim_out_strobe_o,
   output logic [31:0] sim_out_o,
   output logic        trap_o,
@@ -20,7 +26,8 @@ module system_scene_tb #(
 );
   logic [7:0] led;
   ms_system #(.NUM_CH(24), .INIT_FILE(INIT_FILE), .STRETCH_W(4)) u_sys (
-    .clk_i, .rst_i, .echo_i, .drive_o, .host_rd_i, .host_rvalid_o, .host_rdata_o,
+    .clk_i, .rst_i, .echo_i, .drive_o, .cmd_valid_i, .cmd_data_i, .cmd_end_i, .cmd_zlp_i, .cmd_ready_o,
+    .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o, .evt_available_o, .led_o (led)
   );
 endmodule

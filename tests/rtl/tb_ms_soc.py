@@ -5,10 +5,15 @@ Python wakes only on mailbox writes (SIM_OUT) and at the end; the CPU runs in th
 
 from __future__ import annotations
 
-import cocotb
-from cocotb.triggers import ClockCycles, First, FallingEdge, RisingEdge, Timer
+import struct
 
+import cocotb
+
+from cocotb.triggers import ClockCycles, First, RisingEdge, Timer
+
+from link_reader import LinkReader
 from multisonar import TICK_HZ
+from multisonar import protocol as P
 from tbutil import CLK_PERIOD_PS, reset, start_clock
 
 HELLO, HANG, BACK, DONE = 0x5E1F0000, 0xDEAD0001, 0xA1160000, 0x00000D0E
@@ -17,7 +22,8 @@ HELLO, HANG, BACK, DONE = 0x5E1F0000, 0xDEAD0001, 0xA1160000, 0x00000D0E
 @cocotb.test(timeout_time=20, timeout_unit="ms")
 async def firmware_selftest_and_watchdog(dut):
     start_clock(dut.clk_i)
-    dut.host_rd_i.value = 0
+    link = LinkReader(dut)
+    link.start()
     await reset(dut.clk_i, dut.rst_i)
     words: list[int] = []
 
@@ -39,15 +45,14 @@ async def firmware_selftest_and_watchdog(dut):
               (-(77777 // 7)) & 0xFFFFFFFF, 1, 5, HANG, HELLO | 1, BACK | 1, DONE]
     assert [hex(w) for w in words] == [hex(w) for w in expect]
     assert not int(dut.bus_err_o.value)
-    # the host FIFO holds the five words the first boot wrote, in order, no overflow flag
-    got = []
-    for _ in range(40):
-        await FallingEdge(dut.clk_i)
-        valid = int(dut.host_rvalid_o.value)
-        if valid:
-            got.append(int(dut.host_rdata_o.value))
-        dut.host_rd_i.value = valid
-    dut.host_rd_i.value = 0
-    assert got == [0xC0DE0000 + i for i in range(5)]
+    # the frame packet the first boot committed went out as one transfer with a good CRC-32
+    # (appended by the host link), its payload the two words
+    link.stop()
+    assert len(link.transfers) == 1, link.transfers
+    sp = P.StreamParser()
+    packets = sp.feed(link.transfers[0])
+    assert sp.bad_crc == 0 and sp.skipped_bytes == 0 and len(packets) == 1, (sp, link.transfers[0].hex())
+    p = packets[0]
+    assert p.is_frame and p.seq == 0 and p.payload == struct.pack("<II", 0xC0DE0000, 0xC0DE0001), p
     dut._log.info("firmware self-test and watchdog recovery in %d cycles", cycles)
     await ClockCycles(dut.clk_i, 2)

@@ -50,6 +50,7 @@ from multisonar.fastfiring import FastFiringModel, _rows
 from multisonar.layout import load_layout
 from multisonar.tools.fw_schedule import TEMPERATURE_C, schedule_for
 from echo_driver import EchoDriver
+from link_reader import LinkReader, send_command
 from tbutil import CLK_PERIOD_PS, reset, start_clock
 
 LEAD = 4096
@@ -134,7 +135,7 @@ class Bench:
         self.starts: list[int] = []  # model start tick of each table segment
         self.stops: list[int] = []  # stop_at of each apply that restarted
         self.mail: list[int] = []
-        self.words: list[int] = []
+        self.link = LinkReader(dut)
         self.tasks = []
 
     def cycle_start_ps(self, tick: int) -> int:
@@ -147,13 +148,18 @@ class Bench:
         dut = self.dut
         start_clock(dut.clk_i)
         dut.echo_i.value = 0
-        dut.host_rd_i.value = 0
+        for name in ("cmd_valid_i", "cmd_data_i", "cmd_end_i", "cmd_zlp_i"):
+            getattr(dut, name).value = 0
+        self.link.start()
         await reset(dut.clk_i, dut.rst_i)
         await RisingEdge(dut.clk_i)
         await ReadOnly()
         self.origin = (int(self.tick_q.value), int(get_sim_time("ps")))
-        for coro in (self._pulses(), self._running(), self._mailbox(), self._host()):
+        for coro in (self._pulses(), self._running(), self._mailbox()):
             self.tasks.append(cocotb.start_soon(coro))
+        await Timer(1, unit="ns")
+        # the firmware boots idle with its compiled-in table loaded: START it (command port)
+        await send_command(dut, P.encode_command(P.Opcode.START, seq=1))
 
     async def _pulses(self) -> None:
         while True:
@@ -184,31 +190,23 @@ class Bench:
             await ReadOnly()
             self.mail.append(int(self.dut.sim_out_o.value))
 
-    async def _host(self) -> None:
-        dut = self.dut
-        while True:
-            await RisingEdge(dut.host_rvalid_o)
-            while True:
-                await FallingEdge(dut.clk_i)
-                valid = int(dut.host_rvalid_o.value)
-                if valid:
-                    self.words.append(int(dut.host_rdata_o.value))
-                dut.host_rd_i.value = valid
-                if not valid:
-                    break
-
     def stop(self) -> None:
         for t in self.tasks:
             if not t.done():
                 t.cancel()
+        self.link.stop()
         self.echo.stop()
 
 
-def _frames(words: list[int]) -> tuple[list[P.Frame], P.StreamParser]:
-    assert all(not (w >> 32) for w in words), "host FIFO words carry the drop flag"
+def _frames(transfers: list[bytes]) -> tuple[list[P.Frame], list[P.Packet], P.StreamParser]:
+    """Frames and replies of the link's bulk IN stream; each transfer holds exactly one packet."""
     sp = P.StreamParser()
-    packets = sp.feed(b"".join(struct.pack("<I", w & 0xFFFFFFFF) for w in words))
-    return [P.decode_frame(p) for p in packets], sp
+    packets = []
+    for t in transfers:
+        got = sp.feed(t)
+        assert len(got) == 1 and sum(len(p.payload) + 16 for p in got) == len(t), f"transfer of {len(t)} bytes"
+        packets += got
+    return [P.decode_frame(p) for p in packets if p.is_frame], [p for p in packets if not p.is_frame], sp
 
 
 def _golden_geo(tofs: dict[int, int], src_el: int) -> np.void:
@@ -263,12 +261,15 @@ async def sonar_app_on_wall_and_point(dut):
     for w in b.mail:
         tags[w >> 28].append(w & 0x0FFFFFFF)
     assert tags[1], f"no boot word in the mailbox: {[hex(w) for w in b.mail[:8]]}"
+    assert [(v >> 20, (v >> 16) & 0xF) for v in tags[7]] == [(4, 0)], f"START command: {[hex(v) for v in tags[7]]}"
     assert not tags[0xE], f"the sonar core refused the compiled-in table: {[hex(v) for v in tags[0xE]]}"
     reaims = [((v >> 20) & 0xFF, (v >> 16) & 0xF, (v >> 8) & 0xFF, (v >> 4) & 0xF, v & 0xF) for v in tags[3]]
     first_seq_after = tags[5]
 
     # ---- frames
-    frames, sp = _frames(b.words)
+    frames, replies, sp = _frames(b.link.transfers)
+    assert len(replies) == 1 and replies[0].status == P.Status.OK and replies[0].seq == 1, replies
+    assert struct.unpack("<I", replies[0].payload) == (0,), "START's reply: the first frame is seq 0"
     for f in frames:
         dut._log.debug("frame %d vs %d pulse %d t0 %d flags %d tof %s geo %s", f.seq, f.vs, f.pulse_seq, f.t0, f.flags,
                        [tuple(int(v) for v in r) for r in f.tof], [tuple(int(v) for v in g) for g in f.geo])
