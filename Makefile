@@ -55,7 +55,7 @@ GEN_OUTPUTS  := $(GEN)/rtl/ms_layout_pkg.sv $(GEN)/sv/sonar_regs.sv $(GEN)/sv/so
                 $(GEN)/firmware/sonar_regs.h $(GEN)/firmware/ms_layout.h $(PY_REGS)
 
 $(STAMPS)/gen: $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl $(LAYOUT_FILE) host/multisonar/tools/gen_layout.py \
-               host/multisonar/tools/peakrdl_pyconst.py host/multisonar/layout.py $(STAMPS)/venv
+               host/multisonar/tools/peakrdl_pyconst.py host/multisonar/layout.py scripts/gen_vex_icache.py $(STAMPS)/venv
 	@echo "gen: layout parameters and register map ($(RDL)) -> $(GEN)/, $(PY_REGS)"
 	@$(VPY) -m multisonar.tools.gen_layout --layout $(LAYOUT) --out $(GEN) >/dev/null
 	@$(VENV)/bin/peakrdl regblock $(RDL) -I $(GEN)/rdl -o $(GEN)/sv --cpuif passthrough \
@@ -69,6 +69,8 @@ $(STAMPS)/gen: $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl $(LAYOUT_FILE) 
 	    -t ms_soc_map --instantiate -o $(GEN)/firmware/ms_soc_map.h
 	@mkdir -p $(dir $(PY_REGS)) && touch $(dir $(PY_REGS))/__init__.py
 	@$(VENV)/bin/peakrdl pyconst $(RDL) -I $(GEN)/rdl -o $(PY_REGS)
+	@# VexRiscv_Full with a 16 KiB instruction cache, derived from the pinned core (firmware/README.md)
+	@$(VPY) scripts/gen_vex_icache.py --kib 16 --out $(GEN)/cpu/VexRiscv_Full.v >/dev/null
 	@touch $@
 
 # ---------------------------------------------------------------- firmware images

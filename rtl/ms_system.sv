@@ -29,7 +29,7 @@ module ms_system #(
   parameter int    RAM_WORDS = 16384,  // SoC RAM, 32-bit words (firmware image + data + stack)
   parameter string INIT_FILE = "",     // firmware image, hex words for $readmemh
   parameter int    STRETCH_W = 22,     // LED pulse stretch: 2^STRETCH_W clocks
-  parameter string CPU       = "picorv32",  // soft-core: "picorv32" or "vexriscv" (ms_soc)
+  parameter string CPU       = "vexriscv",  // soft-core: "vexriscv" or "picorv32" (ms_soc)
   parameter int    FAST_MUL  = 1       // PicoRV32 only: single-cycle DSP multiplier (ms_soc)
 ) (
   input  logic              clk_i,

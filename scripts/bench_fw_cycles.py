@@ -25,7 +25,7 @@ headroom -> 6400 fixes/s -> 48e6 / 6400 = 7500 cycles per fix. Everything else t
 does per event (reading the FIFO, converting ticks to paths, re-aiming) is not counted.
 
     .venv/bin/python scripts/bench_fw_cycles.py [--cpu picorv32|vexriscv] [--variants f64,f32,q]
-                                                [--max-cases N] [--reuse] [--plot FILE]
+                                                [--max-cases N] [--reuse] [--icache-cold] [--plot FILE]
 
 Simulation is slow (~0.33 M cycles/s of the SoC). q: ~5 min for all cases (the extremes and
 the pillars take the general path, millions of cycles each). f64 / f32 take the general path
@@ -61,7 +61,8 @@ import test_ms_soc_geometry as tsg  # noqa: E402  (run_image, budget constants)
 VARIANTS = ("f64", "f32", "q")
 CPU_INFO = {
     "picorv32": "PicoRV32 (RV32IM, ENABLE_FAST_MUL, one RAM wait state)",
-    "vexriscv": "VexRiscv_Full (RV32IM, 5 stages, 4 KiB I / 4 KiB D cache, 1-cycle MUL, RAM shared by both buses)",
+    "vexriscv": "VexRiscv_Full (RV32IM, 5 stages, 16 KiB I cache (scripts/gen_vex_icache.py) / 4 KiB D cache, "
+                "1-cycle MUL, RAM shared by both buses)",
 }
 DEFAULT_MAX_CASES = {"f64": 4, "f32": 4, "q": 0}  # a soft-float case is ~20 M simulated cycles
 BENCH = ROOT / "build" / "bench"
@@ -77,9 +78,10 @@ def image_size(variant: str, cpu: str) -> tuple[int, int]:
     return text + data, table
 
 
-def measure(variant: str, reuse: bool, max_cases: int = 0, cpu: str = tsg.DEFAULT_CPU) -> dict:
-    js = BENCH / f"fw_cycles_{variant}{'' if cpu == 'picorv32' else '_' + cpu}.json"
-    hexfile = tsg.firmware_hex(f"bench_geom_{variant}", cpu)
+def measure(variant: str, reuse: bool, max_cases: int = 0, cpu: str = tsg.DEFAULT_CPU,
+            defines: tuple[str, ...] = ()) -> dict:
+    js = BENCH / f"fw_cycles_{variant}{'' if cpu == 'picorv32' else '_' + cpu}{'_cold' if defines else ''}.json"
+    hexfile = tsg.firmware_hex(f"bench_geom_{variant}", cpu, defines)
     if reuse and js.exists() and js.stat().st_mtime > hexfile.stat().st_mtime:
         raw = json.loads(js.read_text())
         dec = gc.decode(raw["words"], complete=False)
@@ -88,7 +90,7 @@ def measure(variant: str, reuse: bool, max_cases: int = 0, cpu: str = tsg.DEFAUL
             dec["cases"] = dec["cases"][:max_cases]
     else:
         print(f"simulating {variant} on {cpu} ...", file=sys.stderr, flush=True)
-        dec = tsg.run_image(variant, js, max_cases=max_cases, cpu=cpu)
+        dec = tsg.run_image(variant, js, max_cases=max_cases, cpu=cpu, defines=defines)
     return dec
 
 
@@ -140,6 +142,9 @@ def main() -> None:
     ap.add_argument("--max-cases", type=int, default=None,
                     help="simulate only the first N cases (0: all; default: all for q, the first "
                          f"{DEFAULT_MAX_CASES['f64']} for f64 / f32, whose every call takes the general path)")
+    ap.add_argument("--icache-cold", action="store_true",
+                    help="VexRiscv: empty the instruction cache (FENCE.I) before every timed ms_fix "
+                         "(bench_geom.c -DBENCH_FIX_COLD): the worst case, every line of the fix refetched")
     ap.add_argument("--plot", metavar="FILE", help="write a PNG of the cycles per call against the budget")
     a = ap.parse_args()
     variants = [v for v in a.variants.split(",") if v]
@@ -150,12 +155,14 @@ def main() -> None:
     ref = gc.reference(cs)
     res = {}
     for v in variants:
-        dec = measure(v, a.reuse, DEFAULT_MAX_CASES[v] if a.max_cases is None else a.max_cases, a.cpu)
+        dec = measure(v, a.reuse, DEFAULT_MAX_CASES[v] if a.max_cases is None else a.max_cases, a.cpu,
+                      ("BENCH_FIX_COLD",) if a.icache_cold else ())
         res[v] = stats(dec, cs, ref)
         res[v]["size"], res[v]["table"] = image_size(v, a.cpu)
     budget = tsg.CYCLE_BUDGET
     n_typ = sum(c.group == "typical" for c in cs)
-    print(f"Geometry firmware on the SoC with {CPU_INFO[a.cpu]}, 48 MHz, "
+    cold = ", instruction cache emptied before every timed fix (--icache-cold)" if a.icache_cold else ""
+    print(f"Geometry firmware on the SoC with {CPU_INFO[a.cpu]}{cold}, 48 MHz, "
           f"measured in Verilator: {len(cs)} cases ({n_typ} typical, {len(cs) - n_typ} extreme)\n")
 
     def f(v):

@@ -15,7 +15,10 @@
  *   DONE.
  * Fields are the variant's interface values, lossless: f64 two words (low first), f32 the float
  * bits, q the int32. Inputs (micrometres) are converted before the timer starts, so a count is
- * the library call alone (cache-less core: deterministic). */
+ * the library call alone (deterministic in simulation). On VexRiscv the instruction cache is
+ * warm for ms_fix (point and wall ran the same code just before); built with -DBENCH_FIX_COLD
+ * (scripts/bench_fw_cycles.py --icache-cold) a FENCE.I empties it before the timed ms_fix: the
+ * worst case, every line of the fix fetched from RAM. */
 #include <string.h>
 
 #include "bench_cases.h"
@@ -118,6 +121,10 @@ int main(void)
         ms_wall_prepared(&arr, path, &wf);
         TOC(cw, iw);
 
+#ifdef BENCH_FIX_COLD
+        /* fence.i (encoded: -march=rv32im has no Zifencei): VexRiscv empties its instruction cache */
+        __asm__ volatile(".word 0x0000100f" ::: "memory");
+#endif
         TIC();
         ms_fix(&arr, path, &cl);
         TOC(cc, ic);

@@ -8,6 +8,16 @@
 
 #include <stddef.h>
 
+/* The per-pulse code (ms_fix and the Q fast path it runs) goes into one section of its own, so
+ * it lies contiguous in the image (~11 KB) and does not evict itself from a direct-mapped
+ * instruction cache (VexRiscv_Full with the 16 KiB cache of scripts/gen_vex_icache.py:
+ * firmware/README.md). Only the placement changes, not the code. */
+#if defined(__riscv) && defined(__GNUC__)
+#define MS_HOT __attribute__((section(".text.ms_hot")))
+#else
+#define MS_HOT
+#endif
+
 const char *const ms_reason_names[MS_NREASONS] = {
     "",
     "path shorter than baseline",
@@ -844,6 +854,7 @@ int ms_geom_stat_line;                                 /* the last line where th
 #define FQ_FAIL return 0
 #endif
 #define FQ_INLINE static inline __attribute__((always_inline))
+#define FQ_NOINLINE MS_HOT static __attribute__((noinline))
 
 /* 2^34 / sqrt(i), i = 64..256: 1/sqrt(x) in Q2.30 at x = i/256 (first entry clamped) */
 static const uint32_t fq_rsq_tab[193] = {
@@ -935,7 +946,7 @@ FQ_INLINE int fq_drop30(uint64_t m)
 }
 /* 1/sqrt(s) for 0 < s < 2^64: y in [2^30, 2^31] with 1/sqrt(s) = y * 2^(k2 - 62) (relative
  * error < 2^-28); *hi = the top 32 bits of s normalised by an even shift (for the root) */
-FQ_INLINE uint32_t fq_rsqrt(uint64_t s, int *k2, uint32_t *hio)
+FQ_INLINE uint32_t fq_rsqrt_body(uint64_t s, int *k2, uint32_t *hio)
 {
     uint32_t h = (uint32_t)(s >> 32), l = (uint32_t)s, hi, y0, y1, i, y, y2, xy2;
     int k;
@@ -957,6 +968,9 @@ FQ_INLINE uint32_t fq_rsqrt(uint64_t s, int *k2, uint32_t *hio)
     *hio = hi;
     return y;
 }
+/* one copy (not inlined at its ~18 uses per fix): the per-pulse code stays small enough to
+ * share a 16 KiB instruction cache with the application's loop (firmware/README.md) */
+FQ_NOINLINE uint32_t fq_rsqrt(uint64_t s, int *k2, uint32_t *hio) { return fq_rsqrt_body(s, k2, hio); }
 /* round(sqrt(s)) from fq_rsqrt's results */
 FQ_INLINE int32_t fq_root(uint32_t hi, uint32_t y, int k2)
 {
@@ -1026,7 +1040,7 @@ FQ_INLINE uint32_t fq_recip_q30(uint32_t d)
 static const int32_t fq_atan_c[8] = {1073741824, -357913941, 214748365, -153391689,
                                      119304647,  -97612893,  82595525,  -71582788};
 /* atan2 as a binary angle (2^32 per turn), error < 3e-8 rad */
-static ms_ang_t fq_atan2(int32_t y, int32_t x)
+MS_HOT static ms_ang_t fq_atan2(int32_t y, int32_t x)
 {
     uint32_t ax = x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x;
     uint32_t ay = y < 0 ? (uint32_t)0 - (uint32_t)y : (uint32_t)y;
@@ -1070,7 +1084,7 @@ FQ_INLINE int fq_dist(const ms_array *a, int32_t px, int32_t py, fqd *d)
         uint32_t hi, y;
         int k2;
         if (!(dx | dy)) FQ_FAIL;
-        y = fq_rsqrt((uint64_t)fq_sq(dx, dy), &k2, &hi);
+        y = fq_rsqrt_body((uint64_t)fq_sq(dx, dy), &k2, &hi); /* inlined in this loop only */
         d->L[k] = fq_root(hi, y, k2);
         d->ux[k] = fq_unit(dx, y, k2);
         d->uy[k] = fq_unit(dy, y, k2);
@@ -1134,8 +1148,8 @@ typedef struct {
 /* polish the start p0 = (px, py) with |p0| = rho0 and unit (ux, uy), fill out; 0 -> general path.
  * One Gauss-Newton step; up to two more (full re-evaluations) while the step is longer than
  * rho/128 (the wrong model's fit, e.g. a wall through an edge's echoes, starts further off). */
-static int fq_polish(int wall, const ms_array *a, const int32_t *r, int32_t px, int32_t py, int32_t rho0, int32_t ux,
-                     int32_t uy, uint32_t y0, int k20, fqfit *out)
+MS_HOT static int fq_polish(int wall, const ms_array *a, const int32_t *r, int32_t px, int32_t py, int32_t rho0,
+                            int32_t ux, int32_t uy, uint32_t y0, int k20, fqfit *out)
 {
     int32_t f[3], J[3][2], st[2];
     int64_t c0, c1 = 0, s2, c_prev = INT64_MAX;
@@ -1203,7 +1217,7 @@ typedef struct {
     int k2;
 } fqstart;
 
-static int fq_point_start(const ms_array *a, const int32_t *r, int want_mirror, fqstart st[2])
+MS_HOT static int fq_point_start(const ms_array *a, const int32_t *r, int want_mirror, fqstart st[2])
 {
     int i = a->pi, j = a->pj, ka, kv, k2, q;
     int64_t ai = (fq_smul(r[i], r[i]) - a->cc[i]) >> 1, aj = (fq_smul(r[j], r[j]) - a->cc[j]) >> 1;
@@ -1257,7 +1271,7 @@ static int fq_point_start(const ms_array *a, const int32_t *r, int want_mirror, 
 }
 
 /* is the direction (x, y) more than fov + 20 deg off the axis? */
-static int fq_far_off(const ms_array *a, int64_t x, int64_t y)
+MS_HOT static int fq_far_off(const ms_array *a, int64_t x, int64_t y)
 {
     int64_t d, n2;
     int sh = fq_drop30((uint64_t)(x < 0 ? -x : x) | (uint64_t)(y < 0 ? -y : y));
@@ -1273,7 +1287,7 @@ static int fq_far_off(const ms_array *a, int64_t x, int64_t y)
     return (d * d) > ((n2 >> 30) * (((int64_t)a->cos_mir * a->cos_mir) >> 30));
 }
 
-static int fq_wall_start(const ms_array *a, const int32_t *r, int want_mirror, fqstart st[2])
+MS_HOT static int fq_wall_start(const ms_array *a, const int32_t *r, int want_mirror, fqstart st[2])
 {
     int i = a->pi, q, k2;
     int32_t ri = r[i], rj = r[a->pj], t, al, h, b[2], c[2][2];
@@ -1308,8 +1322,8 @@ static int fq_wall_start(const ms_array *a, const int32_t *r, int want_mirror, f
 }
 
 /* The fast solve: returns 0 -> general path; else *reason and the chosen fit */
-static int fq_solve(int wall, const ms_array *a, const ms_len_t *path, int no_tol, int no_gdop, fqfit *best,
-                    int *reason)
+MS_HOT static int fq_solve(int wall, const ms_array *a, const ms_len_t *path, int no_tol, int no_gdop,
+                           fqfit *best, int *reason)
 {
     int32_t r[3], tol;
     fqstart st[2];
@@ -1346,7 +1360,7 @@ static int fq_solve(int wall, const ms_array *a, const ms_len_t *path, int no_to
     return 1;
 }
 
-static void fq_out_point(const ms_array *a, int reason, const fqfit *k, ms_point_fit *out)
+MS_HOT static void fq_out_point(const ms_array *a, int reason, const fqfit *k, ms_point_fit *out)
 {
     out->reason = (uint8_t)reason;
     out->valid = reason == MS_OK;
@@ -1364,7 +1378,7 @@ static void fq_out_point(const ms_array *a, int reason, const fqfit *k, ms_point
     out->gdop = fq_sqrt((uint64_t)(k->gd2 << 16)); /* Q16.16 */
 }
 
-static void fq_out_wall(const ms_array *a, int reason, const fqfit *k, ms_wall_fit *out)
+MS_HOT static void fq_out_wall(const ms_array *a, int reason, const fqfit *k, ms_wall_fit *out)
 {
     out->reason = (uint8_t)reason;
     out->valid = reason == MS_OK;
@@ -1383,7 +1397,7 @@ static void fq_out_wall(const ms_array *a, int reason, const fqfit *k, ms_wall_f
 }
 
 /* chi-square (Q16.16, unsaturated) of an rms misfit: rms^2 * 3 / sigma^2 */
-static int64_t fq_chi2(const ms_array *a, int32_t rms)
+MS_HOT static int64_t fq_chi2(const ms_array *a, int32_t rms)
 {
     return fq_mulr(fq_smul(rms, rms) * 3, a->sinv, a->ssh - 16);
 }
@@ -1646,7 +1660,7 @@ int ms_solve_wall(const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src, c
 }
 
 /* the edge / wall / uncertain rule of geometry.classify on two chi-squares */
-static void decide(ms_class *out, int sp, int sw, real x2p, real x2w, real tp, real tw, real gap_lim)
+MS_HOT static void decide(ms_class *out, int sp, int sw, real x2p, real x2w, real tp, real tw, real gap_lim)
 {
     int e = (sp == MS_OK || sp == MS_AMBIG) && x2p <= tp;
     int w = (sw == MS_OK || sw == MS_AMBIG) && x2w <= tw;
@@ -1660,37 +1674,14 @@ static void decide(ms_class *out, int sp, int sw, real x2p, real x2w, real tp, r
     }
 }
 
-int ms_fix(const ms_array *a, const ms_len_t *path, ms_class *out)
+/* ms_fix's general path (the step-by-step port): out of the per-pulse section */
+static __attribute__((noinline)) int fix_general(const ms_array *a, const ms_len_t *path, int reason, ms_class *out)
 {
     prob P;
     cand cp = {{0, 0}, 0, 0, 1, 0}, cw = {{0, 0}, 0, 0, 1, 0};
-    int reason, sp = MS_BADIN, sw = MS_BADIN, i, n = a->n;
+    int sp = MS_BADIN, sw = MS_BADIN, i, n = a->n;
     real sig = LEN_IN(a->sigma), x2[2], thr[2];
-    out->kind = MS_KIND_UNCERTAIN;
-    out->accepted = 0;
-    for (i = 0; i < 3; i++) {
-        out->chi2[i] = 0;
-        out->thr[i] = a->thr[i];
-    }
-    reason = (a->bad || n < 3 || !path) ? MS_BADIN : MS_OK;
     if (reason == MS_OK && !(sig > 0 && ISFIN(sig))) reason = MS_BADIN;
-#if MS_GEOM_ARITH == MS_ARITH_Q
-    if (reason == MS_OK) {
-        fqfit kp, kw;
-        if (fq_solve(0, a, path, 1, 1, &kp, &sp) && fq_solve(1, a, path, 1, 1, &kw, &sw)) {
-            int64_t y2p = fq_chi2(a, kp.rms), y2w = fq_chi2(a, kw.rms);
-            out->reason = MS_OK;
-            out->chi2[0] = (ms_num_t)(y2p > INT32_MAX ? INT32_MAX : y2p);
-            out->chi2[1] = (ms_num_t)(y2w > INT32_MAX ? INT32_MAX : y2w);
-            decide(out, sp, sw, y2p, y2w, a->thr[0], a->thr[1], MS_Q_NUM(9.21));
-            fq_out_point(a, sp, &kp, &out->point);
-            fq_out_wall(a, sw, &kw, &out->wall);
-            FQ_STAT(ms_geom_stat_fast);
-            return out->kind;
-        }
-        FQ_STAT(ms_geom_stat_general);
-    }
-#endif
     if (reason == MS_OK) reason = setup(&P, a->rx, path, n, a->src, 3);
     out->reason = (uint8_t)reason;
     if (reason == MS_OK) {
@@ -1712,6 +1703,38 @@ int ms_fix(const ms_array *a, const ms_len_t *path, ms_class *out)
     finish_point(&P, a->src, sp, &cp, &out->point);
     finish_wall(&P, a->src, sw, &cw, &out->wall);
     return out->kind;
+}
+
+MS_HOT int ms_fix(const ms_array *a, const ms_len_t *path, ms_class *out)
+{
+    int reason, i;
+    out->kind = MS_KIND_UNCERTAIN;
+    out->accepted = 0;
+    for (i = 0; i < 3; i++) {
+        out->chi2[i] = 0;
+        out->thr[i] = a->thr[i];
+    }
+    /* sigma > 0 <=> LEN_IN(sigma) > 0; LEN_IN (a 64-bit division in Q) only on the general path */
+    reason = (a->bad || a->n < 3 || !path || a->sigma <= 0) ? MS_BADIN : MS_OK;
+#if MS_GEOM_ARITH == MS_ARITH_Q
+    if (reason == MS_OK) {
+        fqfit kp, kw;
+        int sp, sw;
+        if (fq_solve(0, a, path, 1, 1, &kp, &sp) && fq_solve(1, a, path, 1, 1, &kw, &sw)) {
+            int64_t y2p = fq_chi2(a, kp.rms), y2w = fq_chi2(a, kw.rms);
+            out->reason = MS_OK;
+            out->chi2[0] = (ms_num_t)(y2p > INT32_MAX ? INT32_MAX : y2p);
+            out->chi2[1] = (ms_num_t)(y2w > INT32_MAX ? INT32_MAX : y2w);
+            decide(out, sp, sw, y2p, y2w, a->thr[0], a->thr[1], MS_Q_NUM(9.21));
+            fq_out_point(a, sp, &kp, &out->point);
+            fq_out_wall(a, sw, &kw, &out->wall);
+            FQ_STAT(ms_geom_stat_fast);
+            return out->kind;
+        }
+        FQ_STAT(ms_geom_stat_general);
+    }
+#endif
+    return fix_general(a, path, reason, out);
 }
 
 int ms_classify(const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src, ms_len_t noise_sigma,

@@ -39,7 +39,10 @@ module ms_ice40hx8k #(
   logic [7:0]  unused_tl_byte;
   logic [31:0] unused_sim_out;
 
-  ms_system_usb #(.NUM_CH(NUM_CH), .RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE)) u_system (
+  // PicoRV32 with the iterative multiplier: VexRiscv's caches alone would take the HX8K's whole
+  // block RAM and the DSP-less single-cycle multiplier ~3 k SB_LUT4 (firmware/README.md)
+  ms_system_usb #(.NUM_CH(NUM_CH), .RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE), .CPU("picorv32"),
+                  .FAST_MUL(0)) u_system (
     .clk_i (clk), .rst_i (rst),
     .echo_i (ms_echo), .drive_o (ms_drive),
     .usb_dp_i (dp_in), .usb_dn_i (dn_in), .usb_dp_o (dp_out), .usb_dn_o (dn_out), .usb_oe_o (usb_oe),

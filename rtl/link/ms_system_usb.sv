@@ -13,7 +13,7 @@ module ms_system_usb #(
   parameter int    RAM_WORDS = 16384,
   parameter string INIT_FILE = "",
   parameter int    STRETCH_W = 22,
-  parameter string CPU       = "picorv32",
+  parameter string CPU       = "vexriscv",
   parameter int    FAST_MUL  = 1,
   parameter int    SERIAL    = 'h00000001  // USB serial number (8 hex digits)
 ) (

@@ -13,7 +13,8 @@ module ms_soc_geometry_tb #(
   input  logic        rst_i,
   input  logic        host_rd_i,
   output logic        host_rvalid_o,
-  output logic [32:0] host_rdata_o,
+  output logic [7:0]  host_rdata_o,
+  output logic        host_flush_o,
   output logic        sim_out_strobe_o,
   output logic [31:0] sim_out_o,
   output logic        trap_o,
@@ -30,7 +31,8 @@ module ms_soc_geometry_tb #(
     .sonar_req_stall_wr_i (1'b0), .sonar_req_stall_rd_i (1'b0),
     .sonar_rd_ack_i (req & ~req_is_wr), .sonar_rd_err_i (1'b1), .sonar_rd_data_i (32'd0),
     .sonar_wr_ack_i (req & req_is_wr), .sonar_wr_err_i (1'b1),
-    .host_rd_i, .host_rvalid_o, .host_rdata_o,
+    .cmd_valid_i (1'b0), .cmd_data_i (8'd0), .cmd_end_i (1'b0), .cmd_zlp_i (1'b0), .cmd_ready_o (),
+    .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o
   );
 endmodule

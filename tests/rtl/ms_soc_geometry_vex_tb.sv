@@ -9,14 +9,15 @@ module ms_soc_geometry_vex_tb #(
   input  logic        rst_i,
   input  logic        host_rd_i,
   output logic        host_rvalid_o,
-  output logic [32:0] host_rdata_o,
+  output logic [7:0]  host_rdata_o,
+  output logic        host_flush_o,
   output logic        sim_out_strobe_o,
   output logic [31:0] sim_out_o,
   output logic        trap_o,
   output logic        bus_err_o
 );
   ms_soc_geometry_tb #(.INIT_FILE(INIT_FILE), .CPU("vexriscv")) u_tb (
-    .clk_i, .rst_i, .host_rd_i, .host_rvalid_o, .host_rdata_o,
+    .clk_i, .rst_i, .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o
   );
 endmodule

@@ -273,8 +273,7 @@ async def sonar_app_on_wall_and_point(dut):
     for f in frames:
         dut._log.debug("frame %d vs %d pulse %d t0 %d flags %d tof %s geo %s", f.seq, f.vs, f.pulse_seq, f.t0, f.flags,
                        [tuple(int(v) for v in r) for r in f.tof], [tuple(int(v) for v in g) for g in f.geo])
-    cpu = dut.u_sys.u_soc.g_pico.u_cpu
-    dut._log.debug("fifo level %d, pc 0x%x", int(dut.u_sys.u_sonar.fifo_level.value), int(cpu.reg_pc.value))
+    dut._log.debug("fifo level %d", int(dut.u_sys.u_sonar.fifo_level.value))
     dut._log.debug("mailbox %s; starts %s stops %s; fires %s", [hex(w) for w in b.mail], b.starts, b.stops, b.fires)
     assert sp.bad_crc == 0 and sp.bad_header == 0 and sp.skipped_bytes == 0, sp
     assert frames, "no frame reached the host FIFO"
