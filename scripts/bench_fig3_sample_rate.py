@@ -11,8 +11,8 @@ T_s = (T_E - T_dead - T_V)/n and the interlace limit. Prints the markdown table.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from multisonar.experiments.common import print_result
 from multisonar.experiments import fig3
 from multisonar.experiments.executor import make_executor
 
@@ -26,13 +26,7 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     with make_executor(args.workers) as ex:
         res = fig3.run(ex, temperature_c=args.temperature, rtl=args.rtl)
-    print(res.markdown)
-    if args.plot and res.plot is not None:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        res.plot(Path(args.plot))
-        print(f"plot written to {args.plot}")
+    print_result(res, args.plot)
 
 
 if __name__ == "__main__":

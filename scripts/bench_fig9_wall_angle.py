@@ -11,8 +11,8 @@ the set-up is stated). Prints the markdown tables.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from multisonar.experiments.common import print_result
 from multisonar.experiments import fig9
 from multisonar.experiments.executor import make_executor
 
@@ -30,13 +30,7 @@ def main(argv: list[str] | None = None) -> None:
     with make_executor(args.workers) as ex:
         res = fig9.run(ex, cases=args.cases, step_deg=args.step, distance_m=args.distance, sigma_us=args.sigma_us,
                        seed=args.seed)
-    print(res.markdown)
-    if args.plot and res.plot is not None:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        res.plot(Path(args.plot))
-        print(f"plot written to {args.plot}")
+    print_result(res, args.plot)
 
 
 if __name__ == "__main__":

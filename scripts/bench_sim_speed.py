@@ -12,8 +12,8 @@ Cases run one after the other in this process; numbers depend on the machine and
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from multisonar.experiments.common import print_result
 from multisonar.experiments import simspeed
 
 
@@ -24,13 +24,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--plot", help="write a bar chart PNG")
     args = ap.parse_args(argv)
     res = simspeed.run(None, seconds=args.seconds, rtl=args.rtl)
-    print(res.markdown)
-    if args.plot and res.plot is not None:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        res.plot(Path(args.plot))
-        print(f"plot written to {args.plot}")
+    print_result(res, args.plot)
 
 
 if __name__ == "__main__":

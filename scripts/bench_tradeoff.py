@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import argparse
 import os
-from pathlib import Path
 
+from multisonar.experiments.common import print_result
 from multisonar.experiments import tradeoff
 from multisonar.experiments.executor import make_executor
 
@@ -30,13 +30,7 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     with make_executor(args.workers, args.scheduler) as ex:
         res = tradeoff.run(ex, quick=args.quick, seconds=args.seconds)
-    print(res.markdown)
-    if args.plot and res.plot is not None:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        res.plot(Path(args.plot))
-        print(f"plot written to {args.plot}")
+    print_result(res, args.plot)
 
 
 if __name__ == "__main__":

@@ -61,6 +61,17 @@ def write_outputs(res: ExperimentResult, out: Path) -> list[Path]:
     return files
 
 
+def print_result(res: ExperimentResult, plot: str | Path | None = None) -> None:
+    """What the benchmark wrappers in scripts/ do: print the table, write the plot if asked."""
+    print(res.markdown)
+    if plot and res.plot is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        res.plot(Path(plot))
+        print(f"plot written to {plot}")
+
+
 def _csv_value(v: Any) -> Any:
     if isinstance(v, (float, np.floating)):
         return "" if not math.isfinite(float(v)) else f"{float(v):.6g}"
