@@ -81,7 +81,8 @@
 #define REAIM_BANG ((int32_t)((uint32_t)REAIM_DEG * (4294967296.0 / 360.0)))
 
 /* ---------------------------------------------------------------- register helpers */
-#define SONAR_BASE ((uintptr_t)offsetof(ms_soc_map_t, sonar))
+/* uncached alias (ms_hw.h): READ_REGS must see the registers, not VexRiscv's data cache */
+#define SONAR_BASE (MS_IO_UNCACHED | (uintptr_t)offsetof(ms_soc_map_t, sonar))
 #define SONAR_AT(off) (*(volatile uint32_t *)(SONAR_BASE + (off)))
 #define VS_REG(vs, reg) MS_REG(sonar.VS[vs].reg)
 #define SONAR_OFF(reg) ((uint32_t)offsetof(sonar_regs_t, reg))
@@ -886,7 +887,7 @@ int main(void)
 {
     MS_SOC(WDT_TIMEOUT) = WDT_CYCLES;
     ms_wdt_kick();
-    wdt_base = MS_SOC(WDT_RESETS);
+    /* wdt_base stays 0 at boot (bss): after a watchdog reset the host must see the count */
     for (int i = 0; i < 8; i++)
         vs_index[i] = -1;
     path_k = ((uint64_t)sound_um_s(temperature_cc) << 32) / MS_TICK_HZ;
