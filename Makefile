@@ -24,13 +24,13 @@ SIM   ?= verilator
 WAVES ?= 0
 export SIM WAVES
 
-APT_PACKAGES := g++ make perl iverilog gcc-riscv64-unknown-elf picolibc-riscv64-unknown-elf libusb-1.0-0
+APT_PACKAGES := g++ make perl iverilog gcc-riscv64-unknown-elf picolibc-riscv64-unknown-elf libusb-1.0-0 liblz4-dev zlib1g-dev
 
 # ---------------------------------------------------------------- set-up steps
 # fail STEP: print which set-up step failed, then stop.
 fail = { echo "make: set-up step '$(1)' failed (see the messages above)" >&2; exit 1; }
 
-$(STAMPS)/apt: scripts/setup_apt.sh
+$(STAMPS)/apt: scripts/setup_apt.sh Makefile
 	@mkdir -p $(@D)
 	@bash scripts/setup_apt.sh $(APT_PACKAGES) || $(call fail,apt packages)
 	@touch $@

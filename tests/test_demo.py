@@ -1,4 +1,5 @@
-"""`make demo` end to end on a short span: files written, fixes close to the scene's truth."""
+"""`multisonar demo --backend golden` (the golden model alone) end to end on a short span: files
+written, fixes close to the scene's truth. The twin backend (`make demo`) is tests/test_twin.py."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from multisonar.cli import main as cli_main
 
 
 def test_demo_maps_the_corridor(tmp_path, capsys):
-    assert cli_main(["demo", "--scene", "corridor", "--seconds", "0.6", "--out", str(tmp_path)]) == 0
+    assert cli_main(["demo", "--backend", "golden", "--scene", "corridor", "--seconds", "0.6", "--out", str(tmp_path)]) == 0
     for name in ("map.png", "summary.md", "fixes.csv", "events.npz"):
         assert (tmp_path / name).stat().st_size > 0, name
     rows = list(csv.DictReader(open(tmp_path / "fixes.csv")))
@@ -23,5 +24,5 @@ def test_demo_maps_the_corridor(tmp_path, capsys):
 
 
 def test_demo_rejects_unknown_scene(tmp_path, capsys):
-    assert cli_main(["demo", "--scene", "no_such_scene", "--out", str(tmp_path)]) == 1
+    assert cli_main(["demo", "--backend", "golden", "--scene", "no_such_scene", "--out", str(tmp_path)]) == 1
     assert "no_such_scene" in capsys.readouterr().err

@@ -410,6 +410,11 @@ static void finish(group_t *g)
     }
 }
 
+/* Pops events until the FIFO is empty, or until a finished group leaves a host command
+ * waiting: under load (fixes on the general geometry path take tens of thousands of cycles)
+ * the FIFO never empties, and draining it first would starve the command port (found by the
+ * full-system twin: no reply for seconds while frames kept streaming). The main loop serves
+ * the command and comes back; the events wait in the hardware FIFO (overflows are counted). */
 static void poll_events(void)
 {
     for (;;) {
@@ -419,8 +424,11 @@ static void poll_events(void)
             return;
         uint32_t now = now32(); /* after the pop: the event was written before it */
         group_t *g = take_event(lo, hi, now);
-        if (g)
+        if (g) {
             finish(g);
+            if (!in_reaim && (MS_SOC(CMD_STATUS) & SOC_REGS__CMD_STATUS__AVAIL_bm))
+                return;
+        }
     }
 }
 

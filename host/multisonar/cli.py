@@ -73,7 +73,16 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("demo", help="run the main simulation on the default scene")
     p.add_argument("--out", default="build/demo", help="output folder [%(default)s]")
     p.add_argument("--scene", default="corridor", help="scene name or YAML path [%(default)s]")
-    p.add_argument("--seconds", type=float, default=None, help="sonar time to simulate (default: the scene's)")
+    p.add_argument("--seconds", type=float, default=None,
+                   help="sonar time to simulate (default: twin 2 s or the scene's if shorter; golden: the scene's)")
+    p.add_argument("--backend", choices=("twin", "golden"), default="twin",
+                   help="twin: the RTL full-system twin over USB/IP (Verilator); golden: the golden model alone "
+                        "[%(default)s]")
+    p.add_argument("--fst", default=None, metavar="PATH",
+                   help="twin: write an FST waveform of the whole device (tracing build, several times slower)")
+    p.add_argument("--inproc", action="store_true",
+                   help="twin: reach the device through the in-process pyusb backend instead of USB/IP")
+    p.add_argument("--no-compare", action="store_true", help="twin: do not run the golden model alongside")
     p.set_defaults(func=_cmd_demo)
 
     from .device_cli import register as _register_device_commands
@@ -93,7 +102,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the sweep on a Dask distributed cluster, e.g. tcp://10.0.0.5:8786 (needs 'distributed')")
     p.add_argument("--rtl", action="store_true",
-                   help="fig3: add the RTL scheduler column; simspeed: time the RTL system test (Verilator)")
+                   help="fig3: add the RTL scheduler column; simspeed: time the full-system twin and the RTL system "
+                        "test (Verilator)")
+    p.add_argument("--twin", action="store_true",
+                   help="fig3: add a column measured on the full-system twin (the whole device in Verilator)")
     p.set_defaults(func=_cmd_experiment)
 
     p = sub.add_parser("export", help="export a recording (.msrec) for robotics tools (ROS 2 MCAP)")
@@ -119,6 +131,10 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     opts = {"rtl": True} if args.rtl else {}
     if args.rtl and args.name not in ("fig3", "simspeed"):
         raise ValueError("--rtl applies to fig3 and simspeed only (the others run on the golden model for now)")
+    if args.twin:
+        if args.name != "fig3":
+            raise ValueError("--twin applies to fig3 only (simspeed --rtl times the twin; make demo runs it)")
+        opts["twin"] = True
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
     mode = f"Dask scheduler {args.scheduler}" if args.scheduler else f"{workers} local worker(s)"
     print(f"experiment {args.name}{' (quick)' if args.quick else ''}: golden model, {mode}", file=sys.stderr)
@@ -148,7 +164,14 @@ def _cmd_export(args: argparse.Namespace) -> int:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo import run_demo
 
-    return run_demo(args.scene, args.out, seconds=args.seconds)
+    from .twin import TwinError
+
+    try:
+        return run_demo(args.scene, args.out, seconds=args.seconds, backend=args.backend, fst=args.fst,
+                        usbip=not args.inproc, compare=not args.no_compare)
+    except TwinError as e:
+        print(f"multisonar demo: error: {e}", file=sys.stderr)
+        return 1
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -1,10 +1,20 @@
-"""`make demo`: the most complete simulation the project has, on one scene.
+"""`make demo`: the main job, the most complete simulation the project has, on one scene.
 
-Until the full-system twin exists (RTL + firmware + USB, issue #7) this runs the golden
-model end to end: scene -> acoustic model -> tick-exact fast-firing scheduler and receive
-gating -> geometry (edge / wall classification with three receivers) -> a map in world
-coordinates like the paper's Fig. 10, per-sensor sample rates and an accuracy table checked
-against the scene's ground truth.
+Backends (``--backend``):
+
+* ``twin`` (default): the full-system twin (multisonar.twin): scene -> acoustic model ->
+  the device's RTL in Verilator (sonar core with phased triggers and gated receivers, VexRiscv
+  running firmware/app/sonar_app.c: geometry, classification, re-aiming; host link; USB
+  device core) -> USB/IP on 127.0.0.1 -> the unchanged pyusb driver -> numpy. The map comes
+  from the firmware's geometry records; the golden model runs the same scene alongside for the
+  per-sensor rates.
+* ``golden``: the golden model alone (acoustics -> tick-exact fast-firing scheduler and
+  receive gating -> host geometry), ~100x faster.
+
+Both write build/demo/: map.png (world coordinates like the paper's Fig. 10: edges as dots,
+wall patches as short oriented segments, robot path, ground truth faint), summary.md
+(per-sensor rates, accuracy against the scene's truth), fixes.csv, events.npz and (twin)
+frames.msrec, the frames as recorded by the driver (`multisonar export` reads it).
 """
 
 from __future__ import annotations
@@ -13,8 +23,9 @@ import csv
 import math
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -64,50 +75,70 @@ def _truth_distance(p: np.ndarray, scene, *, walls: bool, points: bool) -> float
     return float(min(d))
 
 
-def _progress(done: float, total: float, t0: float) -> None:
-    frac = min(done / total, 1.0)
+def _progress(done: float, total: float, t0: float, what: str = "") -> None:
+    frac = min(done / total, 1.0) if total > 0 else 1.0
     bar = "#" * int(30 * frac)
-    sys.stderr.write(f"\r  simulating [{bar:<30}] {done:5.2f}/{total:.2f} s sonar time, {time.time() - t0:5.1f} s wall")
+    wall = time.time() - t0
+    rate = f", {done / wall:.4f} sonar-s/wall-s" if wall > 0 and done > 0 else ""
+    sys.stderr.write(f"\r  {what}[{bar:<30}] {done:5.2f}/{total:.2f} s sonar time, {wall:6.1f} s wall{rate}   ")
     sys.stderr.flush()
 
 
-def run_demo(scene_name: str = "corridor", out: str | Path = "build/demo", seconds: float | None = None) -> int:
+def demo_sensors() -> list[Any]:
+    from .schedule import VirtualSensor
+
+    return [VirtualSensor(name, tx=tx, rx=rx, order=1) for name, tx, rx in DEMO_SENSORS]
+
+
+@dataclass
+class DemoRun:
+    """What a backend produced: per-sensor pulse / sample counts, fixes in world coordinates,
+    the ToF events as named columns."""
+    backend: str
+    duration: float
+    wall_s: float
+    resolved: list[Any]
+    pulses: dict[int, int]
+    init_pings: dict[int, int]
+    samples: dict[int, int]
+    fixes: list[Fix]
+    events: dict[str, np.ndarray]
+    notes: list[str] = field(default_factory=list)
+
+
+def _world(scene: Any, t: float, p: Any) -> tuple[np.ndarray, float]:
+    px, py, ph = (float(v) for v in scene.pose(t))
+    rot = np.array([[math.cos(ph), -math.sin(ph)], [math.sin(ph), math.cos(ph)]])
+    return rot @ np.asarray(p, float) + (px, py), ph
+
+
+def run_golden(scene: Any, duration: float, *, progress: bool = True) -> DemoRun:
+    """The golden model on the demo's sensors: tick-exact scheduler and gating, host geometry."""
     from . import geometry
     from .fastfiring import SEQ_W, FastFiringModel, SceneEchoSource
-    from .scene import load_scene
-    from .schedule import Schedule, VirtualSensor
+    from .schedule import Schedule
 
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    scene = load_scene(scene_name)
     layout = scene.layout
-    duration = float(seconds if seconds is not None else scene.duration_s)
-    if not duration > 0:
-        raise ValueError(f"sonar time to simulate must be positive, got {duration}")
-    sensors = [VirtualSensor(name, tx=tx, rx=rx, order=1) for name, tx, rx in DEMO_SENSORS]
-    schedule = Schedule(layout, sensors, temperature_c=scene.temperature_c)
+    schedule = Schedule(layout, demo_sensors(), temperature_c=scene.temperature_c)
     resolved = schedule.validate()
     model = FastFiringModel(schedule, SceneEchoSource(scene))
     c = scene.speed_of_sound
-    print(f"demo: scene {scene.name!r} ({scene.n_reflectors} reflectors), {len(sensors)} virtual sensors, "
-          f"{duration:.2f} s of sonar time, golden model (RTL twin: issue #7)")
-
     t_wall = time.time()
     chunk = int(0.05 * TICK_HZ)
     events, pulses = [], []
-    done = 0
-    total = int(duration * TICK_HZ)
+    done, total = 0, int(duration * TICK_HZ)
     while done < total:
         step = min(chunk, total - done)
         res = model.run(step)
         events += res.events
         pulses += res.pulses
         done += step
-        _progress(done / TICK_HZ, duration, t_wall)
-    sys.stderr.write("\n")
+        if progress:
+            _progress(done / TICK_HZ, duration, t_wall, "golden model ")
+    if progress:
+        sys.stderr.write("\n")
     wall_s = time.time() - t_wall
 
-    # ---- group first echoes per pulse, solve geometry
     # Events carry the pulse number modulo 2**SEQ_W (as the RTL's FIFO word does): map each
     # back to the latest pulse of that sensor and residue issued before the event.
     issued: dict[tuple[int, int], list[tuple[int, int]]] = {}
@@ -135,57 +166,217 @@ def run_demo(scene_name: str = "corridor", out: str | Path = "build/demo", secon
             paths = c * tof_s + np.min(np.linalg.norm(layout.positions[r.tx] - source, axis=1))
         cls = geometry.classify(layout.positions[rx], paths, source=source)
         t = t0_of[(sid, seq)] / TICK_HZ
-        px, py, ph = (float(v) for v in scene.pose(t))
-        rot = np.array([[math.cos(ph), -math.sin(ph)], [math.sin(ph), math.cos(ph)]])
         if cls.kind == "wall" and cls.wall.valid:
-            foot = rot @ np.asarray(cls.wall.foot) + (px, py)
+            foot, ph = _world(scene, t, cls.wall.foot)
             err = _truth_distance(foot, scene, walls=True, points=False)
             fixes.append(Fix(t, r.name, "wall", *foot, cls.wall.normal_angle + ph, err))
         elif cls.kind == "edge" and cls.point.valid:
-            p = rot @ np.asarray(cls.point.position) + (px, py)
+            p, _ = _world(scene, t, cls.point.position)
             fixes.append(Fix(t, r.name, "edge", *p, 0.0, _truth_distance(p, scene, walls=True, points=True)))
+    ev = {k: np.array([getattr(e, k) for e in events]) for k in
+          ("tick", "sensor", "seq", "rx", "tof", "in_window", "first_echo", "window_empty", "init_ping")}
+    return DemoRun("golden", duration, wall_s, list(resolved),
+                   pulses={r.id: sum(1 for p in pulses if p.sensor == r.id) for r in resolved},
+                   init_pings={r.id: sum(1 for p in pulses if p.sensor == r.id and p.init) for r in resolved},
+                   samples={r.id: sum(1 for e in events if e.sensor == r.id and e.first_echo and e.in_window)
+                            for r in resolved},
+                   fixes=fixes, events=ev)
 
-    # ---- tables
-    lines = [f"# Multisonar demo: scene `{scene.name}`", "",
-             f"Golden model, {duration:.2f} s of sonar time in {wall_s:.1f} s wall time "
-             f"({duration / wall_s:.2f} sonar-s per wall-s).", "",
-             "| sensor | tx | rx | pulses | init pings | samples/s per receiver | fixes (wall / edge) |",
-             "|---|---|---|---:|---:|---:|---|"]
-    for r in resolved:
-        ps = [p for p in pulses if p.sensor == r.id]
-        n_samples = sum(1 for e in events if e.sensor == r.id and e.first_echo and e.in_window)
-        fw = sum(1 for f in fixes if f.sensor == r.name and f.kind == "wall")
-        fe = sum(1 for f in fixes if f.sensor == r.name and f.kind == "edge")
-        rate = n_samples / len(r.rx) / duration
-        lines.append(f"| {r.name} | {list(map(int, r.tx))} | {list(map(int, r.rx))} | {len(ps)} | "
-                     f"{sum(p.init for p in ps)} | {rate:.1f} | {fw} / {fe} |")
-    lines += ["", "| fix kind | count | median error [mm] | 95% error [mm] | max error [mm] |", "|---|---:|---:|---:|---:|"]
-    for kind in ("wall", "edge"):
-        errs = np.array([f.error for f in fixes if f.kind == kind])
-        if len(errs):
-            lines.append(f"| {kind} | {len(errs)} | {np.median(errs) * 1e3:.1f} | {np.percentile(errs, 95) * 1e3:.1f} | {errs.max() * 1e3:.1f} |")
-        else:
-            lines.append(f"| {kind} | 0 | - | - | - |")
-    lines += ["", "Error: distance from the fix to the nearest true wall segment or cylinder surface (walls),",
-              "or to the nearest true edge/rod, wall or cylinder surface (edges). Fixes are plotted in world coordinates from the pose at",
-              "pulse time; the robot's motion during the ~5 ms flight is not compensated."]
-    summary = "\n".join(lines) + "\n"
+
+def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, usbip: bool = True,
+             progress: bool = True) -> DemoRun:
+    """The full-system twin on the demo's sensors: configured, started and streamed through the
+    driver; fixes are the firmware's geometry records (robot frame) placed with the pose at t0."""
+    from . import protocol as P
+    from .device import RecordingWriter
+    from .twin import open_twin
+
+    t_wall = time.time()
+    frames: list[Any] = []
+    notes: list[str] = []
+    if progress:
+        sys.stderr.write("demo: building / loading the twin (make twin: Verilator, about 1-2 min the first time)\n")
+    with open_twin(scene, usbip=usbip, fst=fst) as tw:
+        t_boot = time.time()
+        dev = tw.device
+        sched = dev.configure(demo_sensors(), temperature_c=scene.temperature_c)
+        resolved = sched.validate()
+        total = int(round(duration * TICK_HZ))
+        meta = {"format": 1, "protocol_version": P.PROTOCOL_VERSION, "url": tw.url, "started_unix": time.time(),
+                "device_info": dev.info().__dict__, "sensors": dev._sensor_meta(), "scene": scene.name,
+                "source": "multisonar demo --backend twin"}
+        t_run = time.time()
+        start = tw.start()
+        last = 0.0
+        with RecordingWriter(out / "frames.msrec", meta) as rec:
+            for f in dev.stream(idle_timeout_s=600.0):
+                frames.append(f)
+                rec.write(f)
+                done = tw.sim.tick - start
+                if progress and time.time() - last > 0.5:
+                    last = time.time()
+                    _progress(done / TICK_HZ, duration, t_run, "RTL twin ")
+                if done >= total:
+                    break
+        wall_run = time.time() - t_run
+        if progress:
+            _progress(duration, duration, t_run, "RTL twin ")
+            sys.stderr.write("\n")
+        counters = dev.counters()
+        harness = tw.sim.counters()
+        mail = np.array(tw.sim.mailbox(), dtype=np.uint32)
+        tags = mail >> 28
+        commit = (mail[tags == 0x2] & 0x0FFFFFFF).astype(float)
+        busy = (mail[tags == 0x4] & 0x0FFFFFFF).astype(float)
+        reaims = int(np.sum((tags == 0x3) & ((mail & 0xF0) == 0)))
+        usb = dict(tw.function.stats)
+        notes.append(f"Device time simulated: {tw.sim.seconds:.3f} s ({tw.sim.cycles:,} clocks at 48 MHz: boot, "
+                     f"enumeration and configuration {(start / TICK_HZ) * 1e3:.1f} ms, then {duration:.2f} s of sonar "
+                     f"time) in {time.time() - t_wall:.1f} s wall ({t_boot - t_wall:.1f} s build/load); "
+                     f"streaming ran at {duration / wall_run:.4f} sonar-s per wall-s "
+                     f"({total / wall_run / 1e6:.3f} M clocks/s).")
+        notes.append(f"Device counters: frames sent {counters['frames_sent']}, dropped {counters['frames_dropped']}, "
+                     f"FIFO overflows {counters['fifo_overflows']}, watchdog {counters['watchdog']}, bad commands "
+                     f"{counters['bad_commands']}; driver: {counters['host_frames']} frames, lost {counters['host_lost']}, "
+                     f"bad CRC {counters['host_bad_crc']}.")
+        notes.append(f"USB (full-speed bus time kept, transaction level): {usb['bytes_in']:,} bytes in / "
+                     f"{usb['bytes_out']:,} out in {usb['in_packets']} / {usb['out_packets']} data packets, "
+                     f"{usb['in_naks']} NAKed IN polls (every 50 us while no frame waits).")
+        if len(commit):
+            notes.append(f"Firmware (mailbox): {len(commit)} frames; group completion to committed frame (fix + frame) "
+                         f"median {np.median(commit) / 48:.0f} us, 95 % {np.percentile(commit, 95) / 48:.0f} us, max "
+                         f"{commit.max() / 48:.0f} us; main-loop busy cycles per frame median {np.median(busy):.0f}, "
+                         f"max {busy.max():.0f}; {reaims} re-aims taken.")
+        notes.append("Harness: " + ", ".join(f"{k} {v}" for k, v in harness.items()) + f", pulses fired "
+                     f"{len(tw.sim.fires)}, comparator pulses driven {tw.sim.echo_rows}.")
+        if harness["echoes_late"] or harness["trig_orphans"] or harness["fires_incomplete"]:
+            notes.append("**Warning: the harness clipped echoes or could not attribute triggers (see counters).**")
+        fixes: list[Fix] = []
+        for f in frames:
+            t = tw.scene_time(f.t0)
+            name = resolved[f.vs].name if f.vs < len(resolved) else f"vs{f.vs}"
+            for g in f.geo:
+                kind = P.GEO_CLASSES[int(g["cls"])] if int(g["cls"]) < len(P.GEO_CLASSES) else "none"
+                p_robot = (int(g["x_mm"]) * 1e-3, int(g["y_mm"]) * 1e-3)
+                if kind == "wall":
+                    foot, ph = _world(scene, t, p_robot)
+                    normal = int(g["normal"]) * 2 * math.pi / 65536 + ph
+                    fixes.append(Fix(t, name, "wall", *foot, normal,
+                                     _truth_distance(foot, scene, walls=True, points=False)))
+                elif kind in ("edge", "cylinder"):
+                    p, _ = _world(scene, t, p_robot)
+                    fixes.append(Fix(t, name, "edge", *p, 0.0, _truth_distance(p, scene, walls=True, points=True)))
+    ev_rows = P.frames_to_events(frames)
+    flags = ev_rows["flags"].astype(int)
+    ev = {"t0": ev_rows["t0"], "timestamp": ev_rows["timestamp"], "sensor": ev_rows["vs"],
+          "seq": ev_rows["pulse_seq"], "rx": ev_rows["rx"], "tof": ev_rows["tof"],
+          "in_window": (flags & 1) > 0, "first_echo": (flags & 2) > 0, "window_empty": (flags & 4) > 0,
+          "init_ping": (flags & 8) > 0}
+    vs = np.array([f.vs for f in frames], dtype=int)
+    init = np.array([bool(f.flags & 1) for f in frames], dtype=bool)
+    samples = ev["first_echo"] & ev["in_window"]
+    return DemoRun("twin", duration, time.time() - t_wall, list(resolved),
+                   pulses={r.id: int(np.sum(vs == r.id)) for r in resolved},
+                   init_pings={r.id: int(np.sum(init & (vs == r.id))) for r in resolved},
+                   samples={r.id: int(np.sum(samples & (ev["sensor"] == r.id))) for r in resolved},
+                   fixes=fixes, events=ev, notes=notes)
+
+
+BACKENDS = ("twin", "golden")
+#: sonar time of the twin demo by default: the corridor's straight run past the door
+TWIN_DEFAULT_SECONDS = 2.0
+
+
+def run_demo(scene_name: str = "corridor", out: str | Path = "build/demo", seconds: float | None = None, *,
+             backend: str = "twin", fst: str | None = None, usbip: bool = True, compare: bool = True) -> int:
+    from .scene import load_scene
+
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown demo backend {backend!r}; known: {', '.join(BACKENDS)}")
+    if fst is not None and backend != "twin":
+        raise ValueError("--fst needs the twin backend (the golden model has no waveforms)")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    scene = load_scene(scene_name)
+    if seconds is None:
+        seconds = min(scene.duration_s, TWIN_DEFAULT_SECONDS) if backend == "twin" else scene.duration_s
+    duration = float(seconds)
+    if not duration > 0:
+        raise ValueError(f"sonar time to simulate must be positive, got {duration}")
+    what = ("RTL twin (Verilator: sonar core + VexRiscv firmware + USB device; driver over "
+            + ("USB/IP)" if usbip else "an in-process backend)")) if backend == "twin" else "golden model"
+    print(f"demo: scene {scene.name!r} ({scene.n_reflectors} reflectors), {len(DEMO_SENSORS)} virtual sensors, "
+          f"{duration:.2f} s of sonar time, {what}")
+    if backend == "twin":
+        main = run_twin(scene, duration, out=out, fst=fst, usbip=usbip)
+        ref = run_golden(scene, duration) if compare else None
+    else:
+        main, ref = run_golden(scene, duration), None
+    summary = _summary(scene, main, ref, fst)
     (out / "summary.md").write_text(summary)
     with open(out / "fixes.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["t_s", "sensor", "kind", "x_m", "y_m", "normal_rad", "error_m"])
-        for f in fixes:
+        for f in main.fixes:
             w.writerow([f"{f.t:.6f}", f.sensor, f.kind, f"{f.x:.5f}", f"{f.y:.5f}", f"{f.normal:.5f}", f"{f.error:.5f}"])
-    np.savez_compressed(out / "events.npz",
-                        **{k: np.array([getattr(e, k) for e in events]) for k in
-                           ("tick", "sensor", "seq", "rx", "tof", "in_window", "first_echo", "window_empty", "init_ping")})
-    _plot_map(scene, fixes, duration, out / "map.png")
+    np.savez_compressed(out / "events.npz", **main.events)
+    _plot_map(scene, main.fixes, duration, out / "map.png", main.backend)
     print(summary)
-    print(f"demo: wrote {out / 'map.png'}, {out / 'summary.md'}, {out / 'fixes.csv'}, {out / 'events.npz'}")
+    files = [out / "map.png", out / "summary.md", out / "fixes.csv", out / "events.npz"]
+    if backend == "twin":
+        files.append(out / "frames.msrec")
+    if fst:
+        files.append(Path(fst))
+    print("demo: wrote " + ", ".join(str(f) for f in files))
     return 0
 
 
-def _plot_map(scene, fixes: list[Fix], duration: float, path: Path) -> None:
+def _summary(scene: Any, run: DemoRun, ref: DemoRun | None, fst: str | None) -> str:
+    title = "RTL twin" if run.backend == "twin" else "Golden model"
+    lines = [f"# Multisonar demo: scene `{scene.name}`, {title}", "",
+             f"{title}, {run.duration:.2f} s of sonar time in {run.wall_s:.1f} s wall time "
+             f"({run.duration / run.wall_s:.4f} sonar-s per wall-s, all included).", ""]
+    for n in run.notes:
+        lines += [n, ""]
+    head = "| sensor | tx | rx | pulses | init pings | samples/s per receiver | fixes (wall / edge) |"
+    rule = "|---|---|---|---:|---:|---:|---|"
+    if ref is not None:
+        head += " golden model: samples/s per receiver | golden fixes (wall / edge) |"
+        rule += "---:|---|"
+    lines += [head, rule]
+    for r in run.resolved:
+        fw = sum(1 for f in run.fixes if f.sensor == r.name and f.kind == "wall")
+        fe = sum(1 for f in run.fixes if f.sensor == r.name and f.kind == "edge")
+        row = (f"| {r.name} | {list(map(int, r.tx))} | {list(map(int, r.rx))} | {run.pulses[r.id]} | "
+               f"{run.init_pings[r.id]} | {run.samples[r.id] / len(r.rx) / run.duration:.1f} | {fw} / {fe} |")
+        if ref is not None:
+            gw = sum(1 for f in ref.fixes if f.sensor == r.name and f.kind == "wall")
+            ge = sum(1 for f in ref.fixes if f.sensor == r.name and f.kind == "edge")
+            row += f" {ref.samples[r.id] / len(r.rx) / ref.duration:.1f} | {gw} / {ge} |"
+        lines.append(row)
+    lines += ["", "| fix kind | source | count | median error [mm] | 95% error [mm] | max error [mm] |",
+              "|---|---|---:|---:|---:|---:|"]
+    for kind in ("wall", "edge"):
+        for src in [run] + ([ref] if ref is not None else []):
+            label = "firmware (twin)" if src.backend == "twin" else "host geometry (golden)"
+            errs = np.array([f.error for f in src.fixes if f.kind == kind])
+            if len(errs):
+                lines.append(f"| {kind} | {label} | {len(errs)} | {np.median(errs) * 1e3:.1f} | "
+                             f"{np.percentile(errs, 95) * 1e3:.1f} | {errs.max() * 1e3:.1f} |")
+            else:
+                lines.append(f"| {kind} | {label} | 0 | - | - | - |")
+    lines += ["", "Error: distance from the fix to the nearest true wall segment or cylinder surface (walls),",
+              "or to the nearest true edge/rod, wall or cylinder surface (edges). Fixes are plotted in world coordinates from the pose at",
+              "pulse time; the robot's motion during the ~5 ms flight is not compensated."]
+    if run.backend == "twin":
+        lines += ["The twin's firmware re-aims its virtual sensors at what it finds (adaptive re-aiming); the golden",
+                  "model keeps the configured table, so rates differ where the firmware re-aimed."]
+    if fst:
+        lines += ["", f"Waveform: {fst} (FST, every signal of ms_system_usb)."]
+    return "\n".join(lines) + "\n"
+
+
+def _plot_map(scene, fixes: list[Fix], duration: float, path: Path, backend: str = "golden") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -213,7 +404,8 @@ def _plot_map(scene, fixes: list[Fix], duration: float, path: Path) -> None:
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title(f"Multisonar map building, scene '{scene.name}' (golden model)")
+    what = "RTL twin: firmware fixes" if backend == "twin" else "golden model"
+    ax.set_title(f"Multisonar map building, scene '{scene.name}' ({what})")
     ax.legend(loc="upper left")
     fig.tight_layout()
     fig.savefig(path, dpi=120)

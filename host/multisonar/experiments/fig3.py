@@ -6,7 +6,9 @@ rate of the tracking phase (one sample per receiver per pulse). Next to it: the 
 formula T_s = (T_E - T_dead - T_V)/n (Eq. (2) generalised, at the highest feasible n <= order)
 and the interlace limit 1/(T_dead + T_V + T_N). With ``rtl=True`` a few (distance, order)
 cases also run on the RTL scheduler (ms_scheduler in Verilator through cocotb, the machinery of
-scripts/bench_rtl_sample_rate.py) and fill the RTL column.
+scripts/bench_rtl_sample_rate.py) and fill the RTL column. With ``twin=True`` the same cases run
+on the full-system twin (multisonar.twin: the whole device in Verilator, configured and streamed
+through the driver; the rate from the pulses the device fired) and fill the twin column.
 """
 
 from __future__ import annotations
@@ -51,8 +53,36 @@ def measure_rate(distance_m: float, order: int, temperature_c: float = 20.0) -> 
     return {"measured_hz": TICK_HZ / float(np.mean(np.diff(t0))), "order_used": int(track[-1].order)}
 
 
-def run(executor: Executor, *, quick: bool = False, rtl: bool = False, temperature_c: float = 20.0,
-        progress: bool = True) -> ExperimentResult:
+def twin_rate(distance_m: float, order: int, temperature_c: float = 20.0, seconds: float = 0.14) -> dict[str, Any]:
+    """One (distance, order) point on the full-system twin: the sensor of :func:`measure_rate`
+    configured over the driver, streamed for ``seconds`` of device time; the tracking-phase rate
+    from the ticks the device fired (after the first 40 ms, as the golden model's)."""
+    from ..fastfiring import SyntheticEchoSource
+    from ..schedule import VirtualSensor
+    from ..twin import open_twin
+
+    sensor = VirtualSensor("s", tx=[0], rx=[0], order=order, max_range_m=4.5, t_v=T_V_S, t_n=T_N_S)
+    src = SyntheticEchoSource(distance_m, temperature_c=temperature_c)
+    with open_twin("empty", usbip=False, echo_source=src) as tw:
+        tw.device.configure([sensor], temperature_c=temperature_c)
+        tw.start()
+        inits = []
+        end = tw.sim.tick + int(seconds * TICK_HZ)
+        for f in tw.device.stream(idle_timeout_s=300):
+            inits.append((f.t0, bool(f.flags & 1)))
+            if tw.sim.tick >= end:
+                break
+        s0 = tw.sim.first_schedule_start
+        t0s = np.array([t0 for t0, _, _, _ in tw.sim.fires], dtype=np.int64)
+    late = t0s[t0s >= s0 + int(0.04 * TICK_HZ)]
+    init_late = any(init for t0, init in inits if t0 >= s0 + int(0.04 * TICK_HZ))
+    if len(late) < 3 or init_late:
+        return {"twin_hz": float("nan"), "pulses": int(len(t0s))}
+    return {"twin_hz": TICK_HZ / float(np.mean(np.diff(late))), "pulses": int(len(t0s))}
+
+
+def run(executor: Executor, *, quick: bool = False, rtl: bool = False, twin: bool = False,
+        temperature_c: float = 20.0, progress: bool = True) -> ExperimentResult:
     from ..layout import load_layout
     from ..schedule import analytic_period_s, interlace_limit_s, min_tof_for_order
 
@@ -69,7 +99,8 @@ def run(executor: Executor, *, quick: bool = False, rtl: bool = False, temperatu
         ana = 1.0 / analytic_period_s(d, n, t_dead_s=t_dead, t_v_s=T_V_S, t_n_s=T_N_S, c=c)
         rows.append({"distance_m": d, "t_e_ms": 2 * d / c * 1e3, "order": n, "order_used": m["order_used"],
                      "measured_hz": m["measured_hz"], "analytic_hz": ana,
-                     "rel_diff": m["measured_hz"] / ana - 1.0, "interlace_limit_hz": limit, "rtl_hz": float("nan")})
+                     "rel_diff": m["measured_hz"] / ana - 1.0, "interlace_limit_hz": limit, "rtl_hz": float("nan"),
+                     "twin_hz": float("nan")})
     rtl_note = "RTL column: not run (add --rtl; needs Verilator)."
     if rtl:
         rtl_rows = rtl_rates(RTL_CASES[:2] if quick else RTL_CASES)
@@ -81,10 +112,26 @@ def run(executor: Executor, *, quick: bool = False, rtl: bool = False, temperatu
                 rows.append({"distance_m": rr["distance_m"], "t_e_ms": 2 * rr["distance_m"] / c * 1e3,
                              "order": rr["order"], "order_used": _max_order(rr["order_used"]), "measured_hz": rr["model_hz"],
                              "analytic_hz": float("nan"), "rel_diff": float("nan"), "interlace_limit_hz": limit,
-                             "rtl_hz": rr["rtl_hz"]})
+                             "rtl_hz": rr["rtl_hz"], "twin_hz": float("nan")})
         rtl_note = ("RTL column: ms_scheduler in Verilator (cocotb, tests/rtl/ms_scheduler_tb.sv) on the same "
                     "static reflector; pulse ticks compared with the golden model: "
                     + ", ".join(f"{r['distance_m']:g} m / order {r['order']}: {r['identical_pulses']}" for r in rtl_rows))
+
+    twin_note = "Twin column: not run (add --twin; the whole device in Verilator, ~20 s per case)."
+    if twin:
+        cases = RTL_CASES[:2] if quick else RTL_CASES
+        twin_rows = []
+        for k, (d, n) in enumerate(cases):
+            if progress:
+                print(f"  fig3: twin case {k + 1}/{len(cases)}: {d:g} m, order {n}", file=sys.stderr)
+            tr = twin_rate(d, n, temperature_c)
+            twin_rows.append((d, n, tr))
+            for r in rows:
+                if abs(r["distance_m"] - d) < 1e-9 and r["order"] == n:
+                    r["twin_hz"] = tr["twin_hz"]
+        twin_note = ("Twin column: the full-system twin (RTL scheduler, firmware, USB, driver; rate from the pulses "
+                     "the device fired after 40 ms): " + ", ".join(
+                         f"{d:g} m / order {n}: {tr['twin_hz']:.2f} Hz" for d, n, tr in twin_rows))
 
     # wide table: one line per distance
     wide = []
@@ -95,6 +142,8 @@ def run(executor: Executor, *, quick: bool = False, rtl: bool = False, temperatu
                 cell = f"{r['measured_hz']:.1f} [{r['order_used']}] / {r['analytic_hz']:.1f}"
                 if np.isfinite(r["rtl_hz"]):
                     cell += f" / RTL {r['rtl_hz']:.1f}"
+                if np.isfinite(r.get("twin_hz", float("nan"))):
+                    cell += f" / twin {r['twin_hz']:.1f}"
                 line[f"o{r['order']}"] = cell
         wide.append(line)
     cols = [("d", "d (m)"), ("te", "T_E (ms)")] + [(f"o{n}", f"order {n}: model [n] / analytic") for n in ORDERS] \
@@ -116,7 +165,7 @@ def run(executor: Executor, *, quick: bool = False, rtl: bool = False, temperatu
         md_table(cols, wide, {"d": ".2f", "te": ".2f", "limit": ".0f"}), "",
         f"Largest |measured/analytic - 1|: {max_dev:.2%} (tick quantisation: the model's periods are whole ticks).",
         "", "Minimum distance for fast firing of order n (T_E >= (n+1)(T_dead+T_V) + n*T_N, Eq. (1) generalised):",
-        *feas, "", rtl_note, ""])
+        *feas, "", rtl_note, "", twin_note, ""])
 
     def plot(path: Path) -> None:
         import matplotlib.pyplot as plt
@@ -133,11 +182,14 @@ def run(executor: Executor, *, quick: bool = False, rtl: bool = False, temperatu
             rt = [r for r in sel if np.isfinite(r["rtl_hz"])]
             if rt:
                 ax.plot([r["distance_m"] for r in rt], [r["rtl_hz"] for r in rt], "x", ms=9, mew=2, color=col)
+            tw = [r for r in sel if np.isfinite(r.get("twin_hz", float("nan")))]
+            if tw:
+                ax.plot([r["distance_m"] for r in tw], [r["twin_hz"] for r in tw], "s", ms=10, mfc="none", color=col)
         ax.axhline(limit, ls="--", color="k", lw=0.8, label="interlace limit")
         ax.axhline(100, ls=":", color="grey", lw=0.8, label="100 Hz (10 ms control)")
         ax.set_xlabel("distance d (m)")
         ax.set_ylabel("samples per second per sensor")
-        ax.set_title("Fast firing: sample rate vs distance (dots: golden model, x: RTL)")
+        ax.set_title("Fast firing: sample rate vs distance (dots: golden model, x: RTL scheduler, squares: twin)")
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
         fig.tight_layout()
@@ -145,7 +197,7 @@ def run(executor: Executor, *, quick: bool = False, rtl: bool = False, temperatu
         plt.close(fig)
 
     columns = ["distance_m", "t_e_ms", "order", "order_used", "measured_hz", "analytic_hz", "rel_diff",
-               "interlace_limit_hz", "rtl_hz"]
+               "interlace_limit_hz", "rtl_hz", "twin_hz"]
     return ExperimentResult("fig3", "sample rate vs distance", columns, rows, md, plot,
                             summary={"max_rel_diff": max_dev, "interlace_limit_hz": limit})
 

@@ -4,7 +4,8 @@ Golden-model rows (always): the fast-firing model alone on a synthetic echo sour
 acoustic model on a static wall, on the person-crossing scene and on the corridor with the
 demo's five sensors; the corridor with the per-pulse geometry as well (what ``make demo``
 does); the simulated USB device driven through the host driver (``sim://corridor``,
-lock-step: frames on the wire, decoded by the host). RTL rows (``rtl=True``, Verilator):
+lock-step: frames on the wire, decoded by the host). RTL rows (``rtl=True``, Verilator): the
+full-system twin (bare device clock; corridor through the driver in-process and over USB/IP);
 the whole-system scene test (ms_system = SoC running the sonar firmware + sonar core,
 tests/rtl/tb_system_scene.py) at two sonar durations; the marginal rate (difference of sonar
 time over difference of wall time) removes the fixed cost (simulator start, firmware boot,
@@ -124,6 +125,46 @@ def rtl_rows(durations_ms: tuple[float, float] = (62.0, 124.0)) -> list[dict[str
     return rows
 
 
+def twin_rows(seconds: float = 0.1) -> list[dict[str, Any]]:
+    """Time the full-system twin (multisonar.twin; built by `make twin` when needed): the bare
+    verilated device with no echoes and no host, then the corridor with the demo's sensors
+    streamed through the driver in-process and over USB/IP (what `make demo` runs)."""
+    from ..demo import demo_sensors
+    from ..scene import load_scene
+    from ..twin import TwinError, TwinSim, open_twin
+
+    rows = []
+    try:
+        with TwinSim(None) as sim:
+            sim.reset()
+            sim.run(48_000)
+            t = time.perf_counter()
+            sim.run(int(seconds * TICK_HZ))
+            wall = time.perf_counter() - t
+        rows.append(_row("twin: bare device clock", "RTL: whole device, Verilator, no echoes, no host", seconds, wall,
+                         0, 0, f"{seconds * TICK_HZ / wall / 1e6:.3f} M clocks/s (firmware idle)"))
+        scene = load_scene("corridor")
+        for usbip in (False, True):
+            with open_twin(scene, usbip=usbip) as tw:
+                tw.device.configure(demo_sensors(), temperature_c=scene.temperature_c)
+                start = tw.start()
+                end = start + int(seconds * TICK_HZ)
+                n = 0
+                t = time.perf_counter()
+                for _ in tw.device.stream(idle_timeout_s=300):
+                    n += 1
+                    if tw.sim.tick >= end:
+                        break
+                wall = time.perf_counter() - t
+                sonar = (tw.sim.tick - start) / TICK_HZ
+            how = "USB/IP on 127.0.0.1" if usbip else "in-process pyusb backend"
+            rows.append(_row(f"twin: corridor, driver {how}", "RTL twin: acoustics + device RTL + USB + driver",
+                             sonar, wall, n, 0, "5 demo sensors, frames to numpy (make demo)"))
+    except TwinError as e:
+        raise ExperimentError(f"twin rows: {e}") from None
+    return rows
+
+
 def run(executor: Executor | None = None, *, quick: bool = False, seconds: float | None = None, rtl: bool = False,
         progress: bool = True) -> ExperimentResult:
     secs = seconds or (0.1 if quick else 1.0)
@@ -132,8 +173,15 @@ def run(executor: Executor | None = None, *, quick: bool = False, seconds: float
     rows = golden_rows(secs)
     note = "RTL rows: not run (--rtl; Verilator)."
     if rtl:
-        rows += rtl_rows()
-        note = "RTL rows: tests/rtl/tb_system_scene.py with SCENE_MS set; wall time includes cocotb and the checks."
+        if progress:
+            print("  simspeed: timing the full-system twin (make twin on first use) and the cocotb scene test",
+                  file=sys.stderr)
+        rows += twin_rows(0.05 if quick else 0.1)
+        if not quick:
+            rows += rtl_rows()
+        note = ("RTL rows: the full-system twin (multisonar.twin: Verilator, harness in C++, Python per pulse and "
+                "per USB packet); the ms_system scene test (tests/rtl/tb_system_scene.py with SCENE_MS set, cocotb: "
+                "wall time includes the checks; not with --quick).")
     cols = [("case", "case"), ("fidelity", "fidelity"), ("sonar_s", "sonar time (s)"), ("wall_s", "wall time (s)"),
             ("speed", "sonar-s per wall-s"), ("pulses_per_wall_s", "pulses (frames) per wall-s"), ("note", "note")]
     md = "\n".join(["# Simulation speed: sonar-seconds per wall-second", "",

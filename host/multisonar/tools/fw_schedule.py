@@ -48,7 +48,16 @@ def scene_sensors() -> list[VirtualSensor]:
     ]
 
 
-CONFIGS: dict[str, Callable[[], list[VirtualSensor]]] = {"scene": scene_sensors}
+def demo_sensors() -> list[VirtualSensor]:
+    """`make demo`'s table (multisonar.demo.DEMO_SENSORS): compiled into the twin's image so
+    that the firmware knows the phased front group's virtual source (a group loaded over USB
+    that matches a compiled-in one, rotations included, gets its geometry)."""
+    from ..demo import demo_sensors as sensors
+
+    return sensors()
+
+
+CONFIGS: dict[str, Callable[[], list[VirtualSensor]]] = {"scene": scene_sensors, "demo": demo_sensors}
 
 
 def rotate_sensor(s: VirtualSensor, k: int, n: int) -> VirtualSensor:

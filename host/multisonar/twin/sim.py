@@ -1,0 +1,276 @@
+"""The verilated device (sim/twin/ms_twin.cpp through ctypes) with the acoustic model in the loop.
+
+:class:`TwinSim` owns one simulation of ``ms_system_usb``: the VexRiscv SoC running
+firmware/app/sonar_app.c, the sonar core (scheduler, phased transmitters, 24 gated receivers),
+the host link and the USB device core. Time runs in C++; Python is called per pulse and per
+USB packet:
+
+* per pulse: the scheduler decides a pulse LEAD ticks before its t0; once its elements are
+  armed, the harness hands (t0, elements, trigger ticks) to the echo source (the golden
+  model's acoustics, :class:`multisonar.fastfiring.SceneEchoSource`), whose comparator pulses
+  (rx, start tick, width) go back to C++ before the first of them can start;
+* per USB packet: :meth:`usb_packet` puts one packet (PID .. CRC) into the device's packet
+  layer and returns its answer (:mod:`multisonar.twin.usbhost` builds transactions on it).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import subprocess
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..constants import TICK_HZ
+
+_I64P = ctypes.POINTER(ctypes.c_int64)
+_INTP = ctypes.POINTER(ctypes.c_int)
+_U8P = ctypes.POINTER(ctypes.c_uint8)
+
+NUM_CH = 24
+#: counters of the harness (twin_counter): pulses added after their start (clipped), triggers
+#: the harness could not attribute to a pulse, pulses whose triggers did not all come, mailbox
+#: words, rises of the scheduler's running_o (START; a re-aim restarts the schedule)
+COUNTERS = ("echoes_late", "trig_orphans", "fires_incomplete", "mailbox_words", "schedule_starts")
+_COUNTER_INDEX = {"echoes_late": 0, "trig_orphans": 1, "fires_incomplete": 2, "mailbox_words": 3,
+                  "schedule_starts": 5}
+
+
+class TwinError(RuntimeError):
+    """The twin cannot be built, loaded or run (the message says what to do)."""
+
+
+def repo_root() -> Path | None:
+    """The repository this package runs from (an editable install), or None."""
+    p = Path(__file__).resolve()
+    for parent in p.parents:
+        if (parent / "Makefile").exists() and (parent / "sim" / "twin" / "ms_twin.cpp").exists():
+            return parent
+    return None
+
+
+def library_path(fst: bool = False) -> Path:
+    root = repo_root()
+    if root is None:
+        raise TwinError("the twin needs the Multisonar repository (sim/twin, rtl/): run from a clone "
+                        "with `pip install -e host`")
+    return root / "build" / "twin" / ("fst" if fst else "fast") / "libmstwin.so"
+
+
+def build(fst: bool = False, *, quiet: bool = False) -> Path:
+    """`make twin` (or twin-fst) in the repository: verilates the device when a source changed."""
+    root = repo_root()
+    lib = library_path(fst)
+    assert root is not None
+    cmd = ["make", "--no-print-directory", "-C", str(root), "twin-fst" if fst else "twin"]
+    r = subprocess.run(cmd, capture_output=quiet, text=True)
+    if r.returncode != 0:
+        tail = (r.stdout or "")[-2000:] + (r.stderr or "")[-2000:] if quiet else ""
+        raise TwinError(f"building the twin failed ({' '.join(cmd)}){': ' + tail if tail else ''}")
+    if not lib.exists():
+        raise TwinError(f"{lib} missing after {' '.join(cmd)}")
+    return lib
+
+
+def _load(path: Path) -> ctypes.CDLL:
+    lib = ctypes.CDLL(str(path))
+    vp = ctypes.c_void_p
+    sig: dict[str, tuple[Any, list[Any]]] = {
+        "twin_new": (vp, [ctypes.c_char_p]),
+        "twin_free": (None, [vp]),
+        "twin_has_fst": (ctypes.c_int, []),
+        "twin_reset": (None, [vp, ctypes.c_int]),
+        "twin_tick": (ctypes.c_int64, [vp]),
+        "twin_cycles": (ctypes.c_uint64, [vp]),
+        "twin_trap": (ctypes.c_int, [vp]),
+        "twin_configured": (ctypes.c_int, [vp]),
+        "twin_led": (ctypes.c_int, [vp]),
+        "twin_counter": (ctypes.c_uint64, [vp, ctypes.c_int]),
+        "twin_mailbox": (ctypes.c_int, [vp, ctypes.POINTER(ctypes.c_uint32), ctypes.c_int]),
+        "twin_run": (ctypes.c_uint64, [vp, ctypes.c_uint64]),
+        "twin_fires_ready": (ctypes.c_int, [vp]),
+        "twin_pop_fire": (ctypes.c_int, [vp, _I64P, _INTP, _INTP, _I64P]),
+        "twin_add_echoes": (None, [vp, _I64P, ctypes.c_int]),
+        "twin_bus_reset": (None, [vp, ctypes.c_int]),
+        "twin_usb_packet": (ctypes.c_int, [vp, _U8P, ctypes.c_int, ctypes.c_int, _U8P, ctypes.c_int, _INTP]),
+    }
+    for name, (res, args) in sig.items():
+        f = getattr(lib, name)
+        f.restype, f.argtypes = res, args
+    return lib
+
+
+class TwinSim:
+    """One running device. ``echo_source``: an object with ``fire(t0_tick, elements,
+    delay_ticks) -> rows (rx, start, width)`` and optionally ``noise(t_start, t_end) -> rows``
+    (:class:`multisonar.fastfiring.EchoSource`); None = no echoes.
+
+    ``fst``: path of an FST waveform to write (needs the tracing build, ``make twin-fst``;
+    several times slower). ``build_first``: run ``make twin`` before loading."""
+
+    NOISE_CHUNK = 48_000  # ticks of noise pulses added ahead of time (1 ms)
+
+    def __init__(self, echo_source: Any = None, *, fst: str | os.PathLike[str] | None = None,
+                 library: str | os.PathLike[str] | None = None, build_first: bool = True) -> None:
+        want_fst = fst is not None
+        if library is not None:
+            path = Path(library)
+        else:
+            path = build(want_fst, quiet=False) if build_first else library_path(want_fst)
+        if not path.exists():
+            raise TwinError(f"{path} not built: run `make {'twin-fst' if want_fst else 'twin'}`")
+        self.lib = _load(path)
+        if want_fst and not self.lib.twin_has_fst():
+            raise TwinError(f"{path} was built without FST tracing: use `make twin-fst`")
+        if want_fst:
+            Path(fst).parent.mkdir(parents=True, exist_ok=True)  # type: ignore[arg-type]
+        self._h = self.lib.twin_new(str(fst).encode() if want_fst else None)
+        self.echo_source = echo_source
+        self.fires: list[tuple[int, int, np.ndarray, np.ndarray]] = []  #: (t0, vs, elements, delays)
+        self.keep_fires = True
+        self.on_fire: Callable[[int, int, np.ndarray, np.ndarray], None] | None = None
+        self.echo_rows = 0
+        self._noise_until = 0
+        self._t0 = np.zeros(1, np.int64)
+        self._vs = ctypes.c_int()
+        self._el = (ctypes.c_int * NUM_CH)()
+        self._trig = (ctypes.c_int64 * NUM_CH)()
+        self._rx = (ctypes.c_uint8 * 1100)()
+        self._delay = ctypes.c_int()
+        self.usb_packets = 0
+        self._mail: list[int] = []
+        self._mailbuf = (ctypes.c_uint32 * 4096)()
+
+    # ------------------------------------------------------------------ lifecycle
+    def close(self) -> None:
+        if self._h:
+            self.lib.twin_free(self._h)
+            self._h = None
+
+    def __enter__(self) -> "TwinSim":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:  # a forgotten close still flushes the FST file
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001
+            pass
+
+    def reset(self, cycles: int = 16) -> None:
+        self.lib.twin_reset(self._h, cycles)
+        self._noise_until = self.tick
+
+    # ------------------------------------------------------------------ state
+    @property
+    def tick(self) -> int:
+        """The sonar core's tick counter in the current cycle (48 MHz)."""
+        return int(self.lib.twin_tick(self._h))
+
+    @property
+    def cycles(self) -> int:
+        return int(self.lib.twin_cycles(self._h))
+
+    @property
+    def seconds(self) -> float:
+        return self.cycles / TICK_HZ
+
+    @property
+    def trapped(self) -> bool:
+        return bool(self.lib.twin_trap(self._h))
+
+    def counters(self) -> dict[str, int]:
+        return {name: int(self.lib.twin_counter(self._h, _COUNTER_INDEX[name])) for name in COUNTERS}
+
+    @property
+    def schedule_start(self) -> int | None:
+        """The scheduler's start tick (running_o rise - 1) of its last start, the tick the golden
+        model's ``start_tick`` must be to reproduce it; None before the first START."""
+        v = ctypes.c_int64(self.lib.twin_counter(self._h, 4)).value
+        return None if v < 0 else v
+
+    @property
+    def first_schedule_start(self) -> int | None:
+        """The start tick of the scheduler's first start (START); None before it."""
+        v = ctypes.c_int64(self.lib.twin_counter(self._h, 6)).value
+        return None if v < 0 else v
+
+    def mailbox(self) -> list[int]:
+        """Words the firmware wrote to its simulation mailbox (SIM_OUT; tags documented in
+        firmware/app/sonar_app.c) since the last call."""
+        self._drain_mailbox()
+        out, self._mail = self._mail, []
+        return out
+
+    def _drain_mailbox(self) -> None:
+        n = self.lib.twin_mailbox(self._h, self._mailbuf, len(self._mailbuf))
+        if n:
+            self._mail += self._mailbuf[:n]
+
+    # ------------------------------------------------------------------ time
+    def run(self, cycles: int) -> None:
+        """Let the device run `cycles` clocks, serving every pulse it fires meanwhile."""
+        left = int(cycles)
+        while left > 0:
+            self._noise_ahead()
+            step = min(left, self.NOISE_CHUNK)
+            left -= int(self.lib.twin_run(self._h, step))
+            self._serve_fires()
+            self._drain_mailbox()
+
+    def run_seconds(self, seconds: float) -> None:
+        self.run(int(round(seconds * TICK_HZ)))
+
+    def _noise_ahead(self) -> None:
+        src = self.echo_source
+        if src is None or not hasattr(src, "noise"):
+            return
+        t = self.tick
+        if self._noise_until < t + self.NOISE_CHUNK:
+            start = max(self._noise_until, t + 1)
+            end = start + 2 * self.NOISE_CHUNK
+            self._add_rows(src.noise(start, end))
+            self._noise_until = end
+
+    def _serve_fires(self) -> None:
+        while True:
+            n = self.lib.twin_pop_fire(self._h, self._t0.ctypes.data_as(_I64P), ctypes.byref(self._vs),
+                                       self._el, self._trig)
+            if n < 0:
+                return
+            t0 = int(self._t0[0])
+            elements = np.array(self._el[:n], dtype=np.int64)
+            delays = np.array(self._trig[:n], dtype=np.int64) - t0
+            if self.keep_fires:
+                self.fires.append((t0, int(self._vs.value), elements, delays))
+            if self.on_fire is not None:
+                self.on_fire(t0, int(self._vs.value), elements, delays)
+            if self.echo_source is not None and n:
+                self._add_rows(self.echo_source.fire(t0, elements, delays))
+
+    def _add_rows(self, rows: Any) -> None:
+        from ..fastfiring import _rows
+
+        r = np.ascontiguousarray(_rows(rows), dtype=np.int64)
+        if len(r):
+            self.lib.twin_add_echoes(self._h, r.ctypes.data_as(_I64P), len(r))
+            self.echo_rows += len(r)
+
+    # ------------------------------------------------------------------ USB
+    def usb_packet(self, packet: bytes, listen_clocks: int) -> tuple[bytes, int]:
+        """One host packet into the device's packet layer; (answer, clocks to its first byte)."""
+        buf = (ctypes.c_uint8 * len(packet)).from_buffer_copy(packet) if packet else (ctypes.c_uint8 * 1)()
+        n = self.lib.twin_usb_packet(self._h, buf, len(packet), listen_clocks, self._rx, len(self._rx),
+                                     ctypes.byref(self._delay))
+        self.usb_packets += 1
+        self._serve_fires()
+        return bytes(self._rx[:min(n, len(self._rx))]), int(self._delay.value)
+
+    def bus_reset(self, cycles: int = 256) -> None:
+        self.lib.twin_bus_reset(self._h, cycles)
+        self._serve_fires()

@@ -1,0 +1,48 @@
+# mk/twin.mk: the full-system twin (issue #7); included by the top Makefile.
+#   make twin        build/twin/fast/libmstwin.so: ms_system_usb (VexRiscv + firmware/app/sonar_app.c,
+#                    sonar core, host link, USB device on its transaction-level port) verilated
+#                    with the C++ harness sim/twin/ms_twin.cpp, loaded by multisonar.twin (ctypes)
+#   make twin-fst    the same with FST tracing compiled in (build/twin/fst/), for --fst
+# The RTL is read from rtl/sources.f (the list lint, the cocotb tests and synthesis read).
+# Firmware: firmware/app/sonar_app.c built as build/fw/sonar_app.hex is, but with the demo's
+# table compiled in (multisonar.tools.fw_schedule --config demo: the power-on default and the
+# phased groups whose virtual source the firmware knows) -> build/twin/fw/sonar_app.hex.
+TWIN_DIR     := $(BUILD)/twin
+TWIN_HEX     := $(TWIN_DIR)/fw/sonar_app.hex
+
+$(TWIN_DIR)/fw/sonar_app_cfg.h: host/multisonar/tools/fw_schedule.py host/multisonar/demo.py host/multisonar/schedule.py \
+                                host/multisonar/regmap.py $(LAYOUT_FILE) $(STAMPS)/gen $(STAMPS)/venv mk/twin.mk
+	@mkdir -p $(@D)
+	$(VPY) -m multisonar.tools.fw_schedule --header $@ --config demo
+
+$(TWIN_DIR)/fw/sonar_app.elf: firmware/app/sonar_app.c $(GEOM_SRC) firmware/geometry/ms_geom.h \
+                              $(TWIN_DIR)/fw/sonar_app_cfg.h $(wildcard firmware/app/*.h) $(STAMPS)/gen Makefile mk/twin.mk
+	@mkdir -p $(@D)
+	$(FW_CC) $(FW_CFLAGS) -ffunction-sections -fdata-sections -Ifirmware/geometry -I$(TWIN_DIR)/fw \
+	    -DMS_GEOM_ARITH=MS_ARITH_Q firmware/app/sonar_app.c $(GEOM_SRC) -o $@ $(SONAR_APP_LDFLAGS)
+
+$(TWIN_DIR)/fw/sonar_app.hex: $(TWIN_DIR)/fw/sonar_app.elf
+	riscv64-unknown-elf-objcopy -O binary $< $(@:.hex=.bin)
+	$(VPY) -m multisonar.tools.bin2memh $(@:.hex=.bin) $@ --words $(FW_WORDS)
+# the image is read by $readmemh when the simulation starts (INIT_FILE is its path): a firmware
+# change rebuilds the image, not the verilated model
+TWIN_DEPS    := sim/twin/ms_twin_top.sv sim/twin/ms_twin.cpp rtl/sources.f $(wildcard rtl/*.sv rtl/*/*.sv) \
+                $(STAMPS)/gen mk/twin.mk
+TWIN_VFLAGS  := --cc --exe --build -j 2 -O3 --x-assign fast --x-initial fast -Wno-fatal -Wno-lint -Wno-style \
+                --quiet --timescale 1ns/1ps --top-module ms_twin_top -GINIT_FILE='"$(abspath $(TWIN_HEX))"' \
+                -CFLAGS "-fPIC -O2 -std=c++17" -LDFLAGS "-shared" -o libmstwin.so
+
+.PHONY: twin twin-fst
+twin: $(TWIN_HEX) $(TWIN_DIR)/fast/libmstwin.so
+twin-fst: $(TWIN_HEX) $(TWIN_DIR)/fst/libmstwin.so
+
+$(TWIN_DIR)/fast/libmstwin.so: $(TWIN_DEPS)
+	@mkdir -p $(@D)
+	@echo "twin: verilating ms_system_usb + sim/twin/ms_twin.cpp -> $@ (about 2 min on 2 cores)"
+	verilator $(TWIN_VFLAGS) --Mdir $(TWIN_DIR)/fast $(RTL_SOURCES) sim/twin/ms_twin_top.sv sim/twin/ms_twin.cpp
+
+$(TWIN_DIR)/fst/libmstwin.so: $(TWIN_DEPS)
+	@mkdir -p $(@D)
+	@echo "twin: verilating with FST tracing -> $@"
+	verilator $(TWIN_VFLAGS) --trace-fst --trace-structs --Mdir $(TWIN_DIR)/fst $(RTL_SOURCES) \
+	    sim/twin/ms_twin_top.sv sim/twin/ms_twin.cpp

@@ -1,0 +1,344 @@
+// ms_twin.cpp: C harness of the full-system twin, loaded by host/multisonar/twin/sim.py (ctypes).
+//
+// Why C++: cocotb wakes Python per awaited edge (~80 k clocks/s); here the clock, the echo
+// comparators and the USB packet layer run in C++ and Python is called only per pulse (to
+// ask the acoustic model for its echoes) and per USB packet.
+//
+// Cycle convention (the same as the cocotb benches, tests/rtl/echo_driver.py): after the
+// rising edge that starts cycle T, tick_o reads T. An echo pulse (rx, start, width) is high in
+// cycles start .. start + width - 1, i.e. it is first sampled at the edge that ends cycle
+// `start`. The scheduler's registered strobes (pulse_o, trig_valid_o) seen in cycle T belong
+// to tick T; a trigger fires its element trig_delay_o ticks after T.
+//
+// A pulse is handed to Python ("fire") once all its elements have been armed: pulse_o gives
+// t0, the sensor and its transmit mask; the elements' triggers follow one per clock in the
+// order the pulses were decided. twin_run() returns as soon as a fire is ready (the decision
+// is LEAD = 4096 ticks before t0, so Python adds the echoes before the first can start).
+#include <cstdint>
+#include <cstring>
+#include <deque>
+#include <memory>
+#include <queue>
+#include <vector>
+
+#include "Vms_twin_top.h"
+#include "verilated.h"
+#if VM_TRACE_FST
+#include "verilated_fst_c.h"
+#endif
+
+namespace {
+
+constexpr int kNumCh = 24;
+
+struct Fire {
+  int64_t t0 = 0;
+  int vs = 0;
+  uint32_t mask = 0;
+  int need = 0;
+  int got = 0;
+  int64_t decided = 0;
+  int elements[kNumCh] = {};
+  int64_t trigger[kNumCh] = {};
+};
+
+struct EchoEdge {
+  int64_t tick;
+  int rx;
+  int delta;
+  bool operator>(const EchoEdge& o) const { return tick > o.tick; }
+};
+
+struct Twin {
+  std::unique_ptr<VerilatedContext> ctx;
+  std::unique_ptr<Vms_twin_top> top;
+#if VM_TRACE_FST
+  std::unique_ptr<VerilatedFstC> fst;
+#endif
+  bool tracing = false;
+  uint64_t cycles = 0;
+  int64_t tick = 0;  // tick_o after the last rising edge
+  std::deque<Fire> pending;
+  std::deque<Fire> ready;
+  std::priority_queue<EchoEdge, std::vector<EchoEdge>, std::greater<EchoEdge>> edges;
+  int echo_count[kNumCh] = {};
+  uint32_t echo_level = 0;
+  uint64_t echoes_late = 0;      // pulses added after their start tick (clipped)
+  uint64_t trig_orphans = 0;     // triggers without a pending pulse (should stay 0)
+  uint64_t fires_incomplete = 0; // pulses whose triggers never all came (should stay 0)
+  bool running = false;
+  int64_t run_start = -1;        // tick before the scheduler's running_o rose (its start tick)
+  int64_t first_start = -1;      // the same for the first rise
+  uint64_t run_starts = 0;       // rises of running_o (START, re-aims restart the schedule)
+  uint32_t mailbox[4096];
+  uint32_t mailbox_n = 0;
+  uint64_t mailbox_total = 0;
+
+  void dump() {
+#if VM_TRACE_FST
+    if (tracing) fst->dump(ctx->time());
+#endif
+  }
+
+  // One clock: inputs for cycle `tick` are already set; falling edge, rising edge, observe.
+  void step() {
+    while (!edges.empty() && edges.top().tick <= tick) {
+      const EchoEdge e = edges.top();
+      edges.pop();
+      echo_count[e.rx] += e.delta;
+      if (echo_count[e.rx] > 0) echo_level |= 1u << e.rx;
+      else echo_level &= ~(1u << e.rx);
+    }
+    top->echo_i = echo_level;
+    top->clk_i = 0;
+    top->eval();
+    ctx->timeInc(10417);
+    dump();
+    top->clk_i = 1;
+    top->eval();
+    ctx->timeInc(10416);
+    dump();
+    ++cycles;
+    tick = static_cast<int64_t>(top->tick_o);
+    observe();
+  }
+
+  void observe() {
+    if (top->running_o && !running) {
+      run_start = tick - 1;
+      if (first_start < 0) first_start = run_start;
+      ++run_starts;
+    }
+    running = top->running_o;
+    if (top->pulse_o) {
+      Fire f;
+      f.t0 = static_cast<int64_t>(top->pulse_t0_o);
+      f.vs = top->pulse_vs_o;
+      f.mask = top->pulse_tx_mask_o & 0xFFFFFFu;
+      f.need = __builtin_popcount(f.mask);
+      f.decided = tick;
+      if (f.need == 0) ready.push_back(f);
+      else pending.push_back(f);
+    }
+    if (top->trig_valid_o) {
+      const int el = top->trig_el_o;
+      const int64_t at = tick + static_cast<int64_t>(top->trig_delay_o);
+      bool placed = false;
+      for (Fire& f : pending) {
+        if ((f.mask >> el) & 1u) {
+          bool dup = false;
+          for (int k = 0; k < f.got; ++k) dup |= f.elements[k] == el;
+          if (dup) continue;
+          f.elements[f.got] = el;
+          f.trigger[f.got] = at;
+          ++f.got;
+          placed = true;
+          break;
+        }
+      }
+      if (!placed) ++trig_orphans;
+      while (!pending.empty() && pending.front().got == pending.front().need) {
+        ready.push_back(pending.front());
+        pending.pop_front();
+      }
+    }
+    // a pulse whose triggers stop coming (a schedule stop between decision and arming) is
+    // handed over with the elements it has, and counted
+    while (!pending.empty() && tick - pending.front().decided > 1024) {
+      ++fires_incomplete;
+      ready.push_back(pending.front());
+      pending.pop_front();
+    }
+    if (top->sim_out_strobe_o) {
+      if (mailbox_n < 4096) mailbox[mailbox_n++] = top->sim_out_o;
+      ++mailbox_total;
+    }
+  }
+};
+
+}  // namespace
+
+extern "C" {
+
+void* twin_new(const char* fst_path) {
+  auto* t = new Twin;
+  t->ctx = std::make_unique<VerilatedContext>();
+  t->ctx->timeunit(-12);
+  t->ctx->timeprecision(-12);
+  if (fst_path && fst_path[0]) {
+#if VM_TRACE_FST
+    t->ctx->traceEverOn(true);
+#endif
+  }
+  t->top = std::make_unique<Vms_twin_top>(t->ctx.get(), "TOP");
+#if VM_TRACE_FST
+  if (fst_path && fst_path[0]) {
+    t->fst = std::make_unique<VerilatedFstC>();
+    t->top->trace(t->fst.get(), 99);
+    t->fst->open(fst_path);
+    t->tracing = true;
+  }
+#endif
+  return t;
+}
+
+int twin_has_fst(void) {
+#if VM_TRACE_FST
+  return 1;
+#else
+  return 0;
+#endif
+}
+
+void twin_free(void* p) {
+  auto* t = static_cast<Twin*>(p);
+#if VM_TRACE_FST
+  if (t->tracing) t->fst->close();
+#endif
+  t->top->final();
+  delete t;
+}
+
+// Hold reset for `cycles` clocks, then release it (inputs idle).
+void twin_reset(void* p, int cycles) {
+  auto* t = static_cast<Twin*>(p);
+  Vms_twin_top* top = t->top.get();
+  top->rst_i = 1;
+  top->tl_bus_reset_i = 0;
+  top->tl_rx_start_i = 0;
+  top->tl_rx_valid_i = 0;
+  top->tl_rx_byte_i = 0;
+  top->tl_rx_end_i = 0;
+  for (int i = 0; i < cycles; ++i) t->step();
+  top->rst_i = 0;
+  t->pending.clear();
+  t->ready.clear();
+}
+
+int64_t twin_tick(void* p) { return static_cast<Twin*>(p)->tick; }
+uint64_t twin_cycles(void* p) { return static_cast<Twin*>(p)->cycles; }
+int twin_trap(void* p) { return static_cast<Twin*>(p)->top->trap_o; }
+int twin_configured(void* p) { return static_cast<Twin*>(p)->top->configured_o; }
+int twin_led(void* p) { return static_cast<Twin*>(p)->top->led_o; }
+
+// Counters: 0 echoes_late, 1 trig_orphans, 2 fires_incomplete, 3 mailbox words seen,
+// 4 the scheduler's last start tick (running_o rise - 1; -1: never), 5 running_o rises,
+// 6 its first start tick.
+uint64_t twin_counter(void* p, int which) {
+  auto* t = static_cast<Twin*>(p);
+  switch (which) {
+    case 0: return t->echoes_late;
+    case 1: return t->trig_orphans;
+    case 2: return t->fires_incomplete;
+    case 3: return t->mailbox_total;
+    case 4: return static_cast<uint64_t>(t->run_start);
+    case 5: return t->run_starts;
+    case 6: return static_cast<uint64_t>(t->first_start);
+    default: return 0;
+  }
+}
+
+// Copy out (and clear) the firmware's mailbox words (sim_out_o strobes), up to cap.
+int twin_mailbox(void* p, uint32_t* out, int cap) {
+  auto* t = static_cast<Twin*>(p);
+  int n = static_cast<int>(t->mailbox_n) < cap ? static_cast<int>(t->mailbox_n) : cap;
+  std::memcpy(out, t->mailbox, sizeof(uint32_t) * n);
+  t->mailbox_n = 0;
+  return n;
+}
+
+// Run up to `cycles` clocks; stop early when a fire is ready. Returns the clocks run.
+uint64_t twin_run(void* p, uint64_t cycles) {
+  auto* t = static_cast<Twin*>(p);
+  uint64_t n = 0;
+  while (n < cycles && t->ready.empty()) {
+    t->step();
+    ++n;
+  }
+  return n;
+}
+
+int twin_fires_ready(void* p) { return static_cast<int>(static_cast<Twin*>(p)->ready.size()); }
+
+// Pop the oldest ready fire: returns its element count (-1 if none); t0, sensor, elements and
+// their absolute trigger ticks.
+int twin_pop_fire(void* p, int64_t* t0, int* vs, int* elements, int64_t* trigger) {
+  auto* t = static_cast<Twin*>(p);
+  if (t->ready.empty()) return -1;
+  const Fire f = t->ready.front();
+  t->ready.pop_front();
+  *t0 = f.t0;
+  *vs = f.vs;
+  for (int k = 0; k < f.got; ++k) {
+    elements[k] = f.elements[k];
+    trigger[k] = f.trigger[k];
+  }
+  return f.got;
+}
+
+// Comparator pulses: rows of (rx, start tick, width ticks), n rows. A pulse whose start is
+// already past is clipped to the next cycle and counted in echoes_late.
+void twin_add_echoes(void* p, const int64_t* rows, int n) {
+  auto* t = static_cast<Twin*>(p);
+  for (int i = 0; i < n; ++i) {
+    const int rx = static_cast<int>(rows[3 * i]);
+    int64_t start = rows[3 * i + 1];
+    const int64_t end = rows[3 * i + 1] + rows[3 * i + 2];
+    if (rx < 0 || rx >= kNumCh || end <= start) continue;
+    if (start <= t->tick) {
+      ++t->echoes_late;
+      start = t->tick + 1;
+      if (end <= start) continue;
+    }
+    t->edges.push({start, rx, +1});
+    t->edges.push({end, rx, -1});
+  }
+}
+
+// Hold the USB bus in reset for `cycles` clocks (transaction level: tl_bus_reset_i).
+void twin_bus_reset(void* p, int cycles) {
+  auto* t = static_cast<Twin*>(p);
+  t->top->tl_bus_reset_i = 1;
+  for (int i = 0; i < cycles; ++i) t->step();
+  t->top->tl_bus_reset_i = 0;
+  for (int i = 0; i < 16; ++i) t->step();
+}
+
+// One USB packet from the host (PID first, CRC included) into the device's packet layer, one
+// byte per clock; then, with listen > 0, wait up to `listen` clocks for the device's packet.
+// Returns the answer's length (0: no answer), its bytes in rx (up to cap) and the clocks from
+// the end of the host packet to the answer's first byte in *delay.
+int twin_usb_packet(void* p, const uint8_t* tx, int len, int listen, uint8_t* rx, int cap, int* delay) {
+  auto* t = static_cast<Twin*>(p);
+  Vms_twin_top* top = t->top.get();
+  top->tl_rx_start_i = 1;
+  t->step();
+  top->tl_rx_start_i = 0;
+  for (int i = 0; i < len; ++i) {
+    top->tl_rx_valid_i = 1;
+    top->tl_rx_byte_i = tx[i];
+    t->step();
+  }
+  top->tl_rx_valid_i = 0;
+  top->tl_rx_end_i = 1;
+  t->step();
+  top->tl_rx_end_i = 0;
+  int n = 0;
+  *delay = -1;
+  bool receiving = false;
+  for (int waited = 0; waited <= listen || receiving; ++waited) {
+    if (listen <= 0) break;
+    t->step();
+    if (top->tl_tx_valid_o) {
+      if (!receiving) *delay = waited;
+      receiving = true;
+      if (n < cap) rx[n] = top->tl_tx_byte_o;
+      ++n;
+    }
+    if (receiving && top->tl_tx_end_o) break;
+    if (waited > listen + 4096) break;  // a device that never ends its packet
+  }
+  return n;
+}
+
+}  // extern "C"
