@@ -378,7 +378,8 @@ class Device:
         self._expect = first
 
     def stop(self, drain_s: float = 0.5) -> None:
-        """Stop firing; frames already produced stay readable (queued)."""
+        """Stop firing; frames already produced stay readable (queued). Frames the device numbered
+        before STOP but never delivered (dropped at the end of the run) are counted in ``lost``."""
         end = struct.unpack("<I", self.command(P.Opcode.STOP))[0]
         deadline = time.monotonic() + drain_s
         while self._expect is not None and ((end - self._expect) & 0xFFFFFFFF) and \
@@ -386,6 +387,12 @@ class Device:
             for p in self._read_packets(0.05):
                 if p.is_frame and (f := self._frame(p)) is not None:
                     self._queue(f)
+        # frames numbered before STOP's sequence number that never came were dropped after the
+        # last one that did (queue full up to the end): no later frame shows them as a gap
+        tail = (end - self._expect) & 0xFFFFFFFF if self._expect is not None else 0
+        if 0 < tail < 1 << 31:
+            self.stats.lost += tail
+            self._expect = end
 
     def counters(self) -> dict[str, int]:
         """Device counters (READ_COUNTERS) and host counters (``host_*``)."""

@@ -10,6 +10,9 @@ BAD_ADDRESS, BAD_PARAM, CFG_REJECTED, BUSY), configure (validated Schedule -> WR
 read-back -> START) on a wall scene, frames (CRC checked by the parser, consecutive sequence
 numbers, ToF records equal to the golden model's events of each pulse), counters, STOP.
 
+``bus_reset_mid_stream``: a USB bus reset in the middle of a bulk IN transfer while frames
+stream, re-enumeration, the driver's clean error, re-open, restart (its docstring).
+
 ``wire_level_end_to_end``: the wire-level host (D+/D-, NRZI, bit stuffing): enumeration,
 one command round trip (DEVICE_INFO) and one frame reaching the host.
 """
@@ -32,12 +35,13 @@ from cocotb.utils import get_sim_time
 
 from multisonar import protocol as P
 from multisonar.constants import TICK_HZ, speed_of_sound
-from multisonar.device import Device
+from multisonar.device import Device, DeviceDisconnected
 from multisonar.fastfiring import FastFiringModel, _rows
 from multisonar.generated import sonar_regs as R
 from multisonar.layout import load_layout
 from multisonar.regmap import schedule_writes
 from multisonar.schedule import Schedule, VirtualSensor
+from multisonar.usb.function import Disconnected
 from multisonar.usb.usbip_server import UsbipServer
 from echo_driver import EchoDriver
 from tbutil import CLK_PERIOD_PS, reset, start_clock
@@ -317,6 +321,144 @@ async def driver_against_rtl(dut):
     cyc = [v & 0xFFFF for v in tags[7]]
     dut._log.info("firmware cycles per command (arrival -> reply committed): median %d max %d over %d commands",
                   int(np.median(cyc)), max(cyc), len(cyc))
+
+
+def check_against_model(frames, n_streamed, sched, start_tick, end_tick) -> None:
+    """ToF records of the frames equal the golden model's events of each pulse (frames after
+    index n_streamed were closed by STOP: a subset)."""
+    res = FastFiringModel(sched, WallSource(), start_tick=start_tick, decision_lead=LEAD).run(end_tick - start_tick)
+    groups = defaultdict(list)
+    for e in res.events:
+        groups[(e.sensor, e.seq & 0xFF)].append((e.tof, e.rx, e.seq & 0xFF, e.sensor, int(e.in_window)
+                                                 | int(e.first_echo) << 1 | int(e.window_empty) << 2
+                                                 | int(e.init_ping) << 3))
+    for i, f in enumerate(frames):
+        got = [tuple(int(r[n]) for n in ("tof", "rx", "seq", "vs", "flags")) for r in f.tof]
+        want = groups[(f.vs, f.pulse_seq)]
+        if i < n_streamed:
+            assert got == want, f"pulse {(f.vs, f.pulse_seq)}: frame {got} model {want}"
+        else:
+            assert got and set(got) <= set(want), f"pulse {(f.vs, f.pulse_seq)} after STOP: frame {got} model {want}"
+
+
+@cocotb.test(timeout_time=3000, timeout_unit="ms")
+async def bus_reset_mid_stream(dut):
+    """USB bus reset while frames stream (issue #9): the host resets the bus in the middle of
+    a bulk IN transfer (one packet of it ACKed, the next sent by the device and not ACKed) and
+    re-enumerates the device. The driver gets a clean DeviceDisconnected for the interrupted
+    transfer and on every later call of the old handle; re-opened, the device is still
+    running (a bus reset reaches the USB core only, docs/usb_core.md): START is BUSY, frames
+    keep coming with good CRCs, the ones whose bytes went with the interrupted transfer
+    missing by sequence number (the rest of the cut frame is skipped by the parser; the
+    un-ACKed packet comes again), none dropped by the device; STOP, START again: frames
+    stream again, consecutive from START's seq and equal to the golden model."""
+    start_clock(dut.clk_i)
+    dut.echo_i.value = 0
+    host = UsbHost(dut, tl=True)
+    await reset(dut.clk_i, dut.rst_i)
+    bench = Echoes(dut)
+    await bench.start()
+    fn = RtlUsbFunction(host)
+    await fn.enumerate()
+    server = cocotb.start_soon(fn.serve())
+    sched = schedule()
+    configured_after_reset: list[int] = []
+
+    async def watch_configured():
+        # configured_o must drop with the bus reset and come back with SET_CONFIGURATION
+        while True:
+            await dut.configured_o.value_change
+            configured_after_reset.append(int(dut.configured_o.value))
+
+    watch = cocotb.start_soon(watch_configured())
+
+    def body():
+        out: dict = {}
+        dev = Device.attach(fn, timeout_s=60.0)
+        dev.configure(sched)
+        dev.start()
+        before = list(dev.stream(max_frames=1, idle_timeout_s=300))
+        fn.request_bus_reset()
+        try:
+            for f in dev.stream(max_frames=100, idle_timeout_s=300):
+                before.append(f)
+            raise AssertionError("the stream went on after the bus reset")
+        except DeviceDisconnected as e:
+            out["error"] = str(e)
+        assert dev.closed
+        before += list(dev.queue)  # frames received before the reset stay readable
+        dev.queue.clear()
+        for call in (lambda: dev.info(refresh=True), lambda: dev.command(P.Opcode.ECHO, b"x"),
+                     lambda: list(dev.stream(max_frames=1))):
+            try:
+                call()
+                raise AssertionError("the old handle still works after the bus reset")
+            except DeviceDisconnected:
+                pass
+        try:  # below the driver too: the function refuses the stale handle
+            fn.bulk_in(P.EP_IN, 64, 1.0)
+            raise AssertionError("stale bulk IN went through")
+        except Disconnected:
+            pass
+        out["before"] = [f.seq for f in before]
+        out["old_stats"] = dev.stats.as_dict()
+        fn.reconnect()
+        d2 = Device.attach(fn, timeout_s=60.0)
+        assert d2.info().channels == 24
+        expect_error(lambda: d2.command(P.Opcode.START), P.Status.BUSY)  # still running
+        after = list(d2.stream(max_frames=1, idle_timeout_s=300))
+        out["after"] = [f.seq for f in after]
+        out["after_stats"] = d2.stats.as_dict()
+        d2.stop(drain_s=30)
+        out["counters_reset"] = d2.counters()
+        d2.start()
+        first = d2._expect
+        frames = list(d2.stream(max_frames=2, idle_timeout_s=300))
+        out["n_streamed"] = len(frames)
+        d2.stop(drain_s=30)
+        frames += list(d2.queue)
+        d2.queue.clear()
+        out["first"] = first
+        out["counters"] = d2.counters()
+        out["stats"] = d2.stats.as_dict()
+        d2.close()
+        return frames, out
+
+    frames, out = await run_in_thread(dut, fn, body)
+    fn.stop()
+    await server
+    watch.cancel()
+    end_tick = int(bench.sonar.tick_q.value)
+    bench.stop()
+    rs = fn.resets
+    dut._log.info("bus reset: %s; interrupted transfer discarded %d bytes, un-ACKed packet %s; driver: %s",
+                  [round(r["sim_ns"]) for r in rs], len(rs[0]["discarded"]),
+                  None if rs[0]["unacked"] is None else len(rs[0]["unacked"]), out["error"])
+    dut._log.info("frames before %s, after re-open %s (host stats %s); restart seq %d: %d frames, stats %s, "
+                  "counters %s", out["before"], out["after"], out["after_stats"], out["first"], len(frames),
+                  out["stats"], out["counters"])
+    assert len(rs) == 1 and len(rs[0]["discarded"]) >= 64 and rs[0]["unacked"], rs
+    assert "Device.open() it again" in out["error"], out["error"]
+    assert 0 in configured_after_reset and configured_after_reset[-1] == 1, configured_after_reset
+    assert not int(dut.trap_o.value) and not int(dut.bus_err_o.value)
+    # re-opened mid-run: good CRCs, the rest of the cut frame skipped, the frames that went
+    # with the interrupted transfer missing by seq (the device dropped none)
+    a, b = out["before"], out["after"]
+    assert a == list(range(a[0], a[0] + len(a))) and b == list(range(b[0], b[0] + len(b))), (a, b)
+    heads = rs[0]["discarded"].count(b"MF\x01\x40")  # frames whose head went with the transfer
+    assert heads >= 1 and b[0] - a[-1] - 1 == heads, (a, b, heads)
+    st = out["after_stats"]
+    # the un-ACKed packet came again (DATA0 after the reset): its bytes, the tail of a cut
+    # frame, are the only ones the new parser skips
+    assert st["bad_crc"] == 0 and st["bad_frames"] == 0 and st["skipped_bytes"] == len(rs[0]["unacked"]), st
+    assert out["counters_reset"]["frames_dropped"] == 0, out["counters_reset"]
+    # restarted: consecutive from START's seq, CRCs good, equal to the golden model
+    assert len(frames) >= 2 and [f.seq for f in frames] == list(range(out["first"], out["first"] + len(frames)))
+    st = {k: v - out["after_stats"][k] for k, v in out["stats"].items()}  # since the re-open's frames
+    assert st["bad_crc"] == 0 and st["bad_header"] == 0 and st["lost"] == 0 and st["skipped_bytes"] == 0, st
+    assert out["counters"]["frames_dropped"] == 0, out["counters"]
+    assert len(bench.starts) == 2, bench.starts
+    check_against_model(frames, out["n_streamed"], sched, bench.starts[1], end_tick)
 
 
 async def wire_bulk_out(host: UsbHost, data: bytes, toggle: bool) -> bool:

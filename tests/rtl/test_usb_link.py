@@ -1,6 +1,6 @@
 """The whole device behind USB: the unchanged host driver against the RTL (SoC + firmware +
-sonar core + host link + USB device core), and one wire-level end-to-end run. Details:
-tb_usb_link.py."""
+sonar core + host link + USB device core), a bus reset in the middle of the frame stream
+(clean error, re-open, restart), and one wire-level end-to-end run. Details: tb_usb_link.py."""
 
 import subprocess
 

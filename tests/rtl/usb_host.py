@@ -13,51 +13,16 @@ from dataclasses import dataclass
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, First, RisingEdge, Timer
 
-SE0, J, K, REL = 0, 1, 2, 3
+# packet bytes (PIDs, CRC5 / CRC16, token / data packets, the host's check of a device packet)
+# are shared with the full-system twin's host (multisonar.twin.usbhost)
+from multisonar.usb.packets import (PID_ACK, PID_DATA0, PID_DATA1, PID_IN, PID_NAK, PID_NAMES,  # noqa: F401
+                                    PID_OUT, PID_SETUP, PID_SOF, PID_STALL, UsbProtocolError, crc5, crc16,
+                                    data_bytes, parse_reply, pid_byte, token_bytes)
 
-PID_OUT, PID_IN, PID_SOF, PID_SETUP = 0x1, 0x9, 0x5, 0xD
-PID_DATA0, PID_DATA1 = 0x3, 0xB
-PID_ACK, PID_NAK, PID_STALL = 0x2, 0xA, 0xE
-PID_NAMES = {PID_DATA0: "DATA0", PID_DATA1: "DATA1", PID_ACK: "ACK", PID_NAK: "NAK",
-             PID_STALL: "STALL", PID_OUT: "OUT", PID_IN: "IN", PID_SETUP: "SETUP", PID_SOF: "SOF"}
+SE0, J, K, REL = 0, 1, 2, 3
 
 HOST_TIMEOUT_BITS = 18      # USB 2.0 7.1.19.1: the host times out 16..18 bit times after its EOP
 MAX_RESPONSE_BITS = 7.5     # device response must start within 6.5 bit times (+1 for sampling)
-
-
-class UsbProtocolError(AssertionError):
-    """The device put something on the wire that a USB host would reject."""
-
-
-def crc5(addr: int, ep: int) -> int:
-    """USB CRC5 of an 11-bit token field, as placed in token byte 2 bits [7:3]."""
-    bits, c = addr | (ep << 7), 0x1F
-    for i in range(11):
-        c = (c >> 1) ^ 0x14 if (c ^ (bits >> i)) & 1 else c >> 1
-    return c ^ 0x1F
-
-
-def crc16(data: bytes) -> int:
-    """USB CRC16 as transmitted (inverted), low byte first on the wire."""
-    c = 0xFFFF
-    for byte in data:
-        for i in range(8):
-            c = (c >> 1) ^ 0xA001 if (c ^ (byte >> i)) & 1 else c >> 1
-    return c ^ 0xFFFF
-
-
-def pid_byte(pid: int) -> int:
-    return pid | ((pid ^ 0xF) << 4)
-
-
-def token_bytes(pid: int, addr: int, ep: int, *, bad_crc: bool = False) -> bytes:
-    c = crc5(addr, ep) ^ (0x01 if bad_crc else 0)
-    return bytes([pid_byte(pid), addr | ((ep & 1) << 7), (ep >> 1) | (c << 3)])
-
-
-def data_bytes(pid: int, payload: bytes, *, bad_crc: bool = False) -> bytes:
-    c = crc16(payload) ^ (0x8000 if bad_crc else 0)
-    return bytes([pid_byte(pid)]) + payload + bytes([c & 0xFF, c >> 8])
 
 
 def encode(packet: bytes, *, gap_bits: int = 2, stuff_error_at_byte: int | None = None) -> list[int]:
@@ -132,26 +97,6 @@ class Reply:
     @property
     def name(self) -> str:
         return "TIMEOUT" if self.pid is None else PID_NAMES.get(self.pid, hex(self.pid))
-
-
-def parse_reply(raw: bytes) -> tuple[int, bytes]:
-    if not raw or (raw[0] >> 4) != (raw[0] & 0xF) ^ 0xF:
-        raise UsbProtocolError(f"bad PID byte in {raw.hex()}")
-    pid = raw[0] & 0xF
-    if pid in (PID_ACK, PID_NAK, PID_STALL):
-        if len(raw) != 1:
-            raise UsbProtocolError(f"handshake of {len(raw)} bytes")
-        return pid, b""
-    if pid in (PID_DATA0, PID_DATA1):
-        if len(raw) < 3:
-            raise UsbProtocolError("data packet shorter than its CRC")
-        payload, got = raw[1:-2], raw[-2] | (raw[-1] << 8)
-        if crc16(payload) != got:
-            raise UsbProtocolError(f"CRC16 {got:#06x} != {crc16(payload):#06x} for {payload.hex()}")
-        if len(payload) > 64:
-            raise UsbProtocolError(f"data packet of {len(payload)} bytes > 64")
-        return pid, payload
-    raise UsbProtocolError(f"device sent PID {pid:#x}")
 
 
 class UsbHost:

@@ -9,6 +9,15 @@ engine, EP0 and bulk endpoints are the real RTL; only the line coding is skipped
 simulated time run (``idle_ps`` per poll) while no request waits, so the firmware and the sonar
 core keep working. A NAKed bulk IN is retried every ``nak_ps`` of simulated time until data
 arrive or the call's wall-clock timeout passes (then pyusb sees a timeout, as with libusb).
+
+Bus reset (:meth:`RtlUsbFunction.request_bus_reset`, from either thread): the next bulk IN
+transfer that has received a full packet takes one more packet from the device without
+ACKing it (it stays in the device and comes again as DATA0), then the bridge resets the bus
+(``tl_bus_reset_i``) and re-enumerates the device, as a host does after a port reset. The
+interrupted transfer fails with :class:`Disconnected` (pyusb: ENODEV, the driver:
+DeviceDisconnected) and its data are discarded, like libusb's handle of a re-enumerated
+device; every later call fails the same way until :meth:`reconnect` (the application
+finding the re-enumerated device; ``Device.attach(fn)`` then opens it again).
 """
 
 from __future__ import annotations
@@ -22,7 +31,7 @@ from typing import Any
 from cocotb.triggers import Timer
 from cocotb.utils import get_sim_time
 
-from multisonar.usb.function import Descriptors, Identity, Stall, UsbFunction, UsbTimeout
+from multisonar.usb.function import Descriptors, Disconnected, Identity, Stall, UsbFunction, UsbTimeout
 from usb_host import PID_ACK, PID_DATA0, PID_DATA1, PID_NAK, PID_STALL, StallError, UsbHost, UsbProtocolError
 
 ADDR = 5  # the address the bridge gives the device
@@ -41,6 +50,11 @@ class RtlUsbFunction(UsbFunction):
         self.stats = {"requests": 0, "in_naks": 0, "out_naks": 0, "in_packets": 0, "out_packets": 0}
         #: (kind, sim ns at the start, sim ns at the end, bytes) of every request, for benchmarks
         self.log: list[tuple[str, float, float, int]] = []
+        self.reset_requested = False
+        self.gone = False  # after a bus reset until reconnect(): the old handle is dead
+        #: per bus reset: sim ns, bytes of the interrupted transfer the host discarded, the
+        #: payload of the packet left un-ACKed in the device (None if it NAKed)
+        self.resets: list[dict] = []
 
     # ------------------------------------------------------------------ cocotb side
     async def enumerate(self) -> None:
@@ -132,6 +146,8 @@ class RtlUsbFunction(UsbFunction):
                 data += r.payload
                 if len(r.payload) < 64 or len(data) >= length:
                     return data
+                if self.reset_requested:
+                    await self._reset_mid_transfer(ep, data)
                 continue
             if r.pid == PID_STALL:
                 raise Stall(f"endpoint 0x{ep:02X} stalled")
@@ -142,12 +158,31 @@ class RtlUsbFunction(UsbFunction):
                 raise UsbTimeout("bulk IN: no data (NAK)")
             await Timer(self.nak_ps, unit="ps")
 
+    async def _reset_mid_transfer(self, ep: int, got: bytes) -> None:
+        r = await self.host.in_token(ADDR, ep & 0x7F, ack=False)  # the device's next packet: lost ACK
+        unacked = r.payload if r.pid in (PID_DATA0, PID_DATA1) else None
+        await self.host.bus_reset()
+        self.reset_requested = False
+        self.out_toggle, self.in_toggle = False, None
+        self.gone = True
+        await self.enumerate()  # the host re-enumerates (address, descriptors; unconfigured)
+        self.resets.append({"sim_ns": get_sim_time("ns"), "discarded": bytes(got), "unacked": unacked})
+        raise Disconnected("bus reset during a bulk IN transfer: the device was re-enumerated")
+
     # ------------------------------------------------------------------ pyusb side (other thread)
+    def request_bus_reset(self) -> None:
+        """Reset the bus in the middle of the next multi-packet bulk IN transfer."""
+        self.reset_requested = True
+
+    def reconnect(self) -> None:
+        """The application found the re-enumerated device: calls work again."""
+        self.gone = False
+
     def _call(self, kind: str, *args: Any) -> Any:
         if self.stopped:
-            from multisonar.usb.function import Disconnected
-
             raise Disconnected("the simulation has ended")
+        if self.gone:
+            raise Disconnected("the device was reset and re-enumerated: open it again")
         fut: Future = Future()
         self.requests.put((kind, args, fut))
         return fut.result(timeout=self.call_timeout_s)
