@@ -60,18 +60,25 @@ def library_path(fst: bool = False) -> Path:
     return root / "build" / "twin" / ("fst" if fst else "fast") / "libmstwin.so"
 
 
+_BUILT: set[bool] = set()
+
+
 def build(fst: bool = False, *, quiet: bool = False) -> Path:
-    """`make twin` (or twin-fst) in the repository: verilates the device when a source changed."""
+    """`make twin` (or twin-fst) in the repository: verilates the device when a source changed
+    (once per process)."""
     root = repo_root()
     lib = library_path(fst)
     assert root is not None
-    cmd = ["make", "--no-print-directory", "-C", str(root), "twin-fst" if fst else "twin"]
+    if fst in _BUILT and lib.exists():
+        return lib
+    cmd = ["make", "-s", "--no-print-directory", "-C", str(root), "twin-fst" if fst else "twin"]
     r = subprocess.run(cmd, capture_output=quiet, text=True)
     if r.returncode != 0:
         tail = (r.stdout or "")[-2000:] + (r.stderr or "")[-2000:] if quiet else ""
         raise TwinError(f"building the twin failed ({' '.join(cmd)}){': ' + tail if tail else ''}")
     if not lib.exists():
         raise TwinError(f"{lib} missing after {' '.join(cmd)}")
+    _BUILT.add(fst)
     return lib
 
 
