@@ -136,3 +136,15 @@ def test_twin_writes_fst(tmp_path):
     assert len(data) > 1000 and data[0] == 0  # FST block type 0: the header block
     with pytest.raises(TwinError, match="without FST"):
         TwinSim(None, fst=tmp_path / "never.fst", library=library_path(False))
+
+
+def test_cli_reaches_the_twin_by_url(capsys):
+    """`--url twin://SCENE`: the CLI's device commands on the twin in-process."""
+    assert cli_main(["info", "--url", "twin://corridor"]) == 0
+    out = capsys.readouterr().out
+    assert "24" in out and "48000000" in out.replace(",", "").replace("_", ""), out
+    assert cli_main(["stream", "--url", "twin://corridor", "--frames", "6", "--seconds", "120",
+                     "--format", "summary"]) == 0
+    cap = capsys.readouterr()
+    out = cap.out + cap.err
+    assert "6 frames in" in out and "dropped 0; host: lost 0, bad crc 0" in out, out

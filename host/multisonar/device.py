@@ -103,6 +103,9 @@ class Device:
         * ``"usbip://HOST:PORT"``: a (simulated) device exported over USB/IP.
         * ``"sim://SCENE?rate=R&source=model|replay&queue=N&seed=S"``: the simulated device
           in this process (in-process pyusb backend; fastest, for tests and tools).
+        * ``"twin://SCENE"``: the full-system twin in this process (the device's RTL in
+          Verilator with the scene's echoes, multisonar.twin; ~100x slower than real time;
+          timeouts of at least 120 s).
         """
         import usb.core
 
@@ -148,8 +151,25 @@ class Device:
             be = InProcessBackend(sim)
             dev = usb.core.find(idVendor=P.USB_VID, idProduct=P.USB_PID, backend=be)
             cleanup = sim.close
+        elif u.scheme == "twin":
+            from .fastfiring import SceneEchoSource
+            from .twin import BOOT_CLOCKS, TWIN_TIMEOUT_S, TwinError, TwinSim, TwinUsbFunction
+            from .usb.inproc import InProcessBackend
+
+            scene = (u.netloc + u.path).strip("/") or "corridor"
+            try:
+                tsim = TwinSim(SceneEchoSource(scene))
+                tsim.reset()
+                tsim.run(BOOT_CLOCKS)
+                fn = TwinUsbFunction(tsim)
+            except (TwinError, KeyError, OSError) as e:
+                raise DeviceNotFound(f"{url}: cannot build the twin: {e}") from None
+            be = InProcessBackend(fn)
+            dev = usb.core.find(idVendor=P.USB_VID, idProduct=P.USB_PID, backend=be)
+            cleanup = tsim.close
+            timeout_s = max(timeout_s, TWIN_TIMEOUT_S)
         else:
-            raise ValueError(f"unknown device URL {url!r}: use usb://, usbip://HOST:PORT or sim://SCENE")
+            raise ValueError(f"unknown device URL {url!r}: use usb://, usbip://HOST:PORT, sim://SCENE or twin://SCENE")
         try:
             try:
                 cfg = dev.get_active_configuration()

@@ -20,7 +20,8 @@ DEFAULT_SENSORS = "demo"
 
 def add_url(p: argparse.ArgumentParser) -> None:
     p.add_argument("--url", default=os.environ.get("MULTISONAR_URL"),
-                   help="device: usb:// (board, default), usbip://HOST:PORT, sim://SCENE [$MULTISONAR_URL]")
+                   help="device: usb:// (board, default), usbip://HOST:PORT, sim://SCENE (model), twin://SCENE "
+                        "(the RTL twin) [$MULTISONAR_URL]")
     p.add_argument("--timeout", type=float, default=2.0, help="command timeout, s [%(default)s]")
 
 
@@ -249,12 +250,24 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    from .simdevice import SimDevice
     from .usb.usbip_server import UsbipServer
 
-    srv = UsbipServer(SimDevice(args.scene, rate=args.rate, source=args.source, queue_frames=args.queue),
-                      args.host, args.port)
-    print(f"serving the simulated Multisonar (scene {args.scene!r}) at {srv.url}; Ctrl-C stops", flush=True)
+    if args.twin:  # the device's RTL (multisonar.twin), the scene's echoes in the loop
+        from .fastfiring import SceneEchoSource
+        from .twin import BOOT_CLOCKS, TwinSim, TwinUsbFunction
+
+        sim = TwinSim(SceneEchoSource(args.scene))
+        sim.reset()
+        sim.run(BOOT_CLOCKS)
+        fn: Any = TwinUsbFunction(sim)
+        what = "the full-system twin (RTL in Verilator; use long timeouts)"
+    else:
+        from .simdevice import SimDevice
+
+        fn = SimDevice(args.scene, rate=args.rate, source=args.source, queue_frames=args.queue)
+        what = "the simulated Multisonar"
+    srv = UsbipServer(fn, args.host, args.port)
+    print(f"serving {what} (scene {args.scene!r}) at {srv.url}; Ctrl-C stops", flush=True)
     try:
         srv.serve_forever()
     except KeyboardInterrupt:
@@ -303,4 +316,6 @@ def register(sub: Any) -> None:
                    help="sonar time per wall time (frames are dropped when not read); default: lock-step")
     p.add_argument("--source", choices=("model", "replay"), default="model", help="[%(default)s]")
     p.add_argument("--queue", type=int, default=256, help="device frame queue [%(default)s]")
+    p.add_argument("--twin", action="store_true",
+                   help="serve the full-system twin (the device's RTL in Verilator, make twin) instead of the model")
     p.set_defaults(func=cmd_serve)
