@@ -7,8 +7,10 @@ and K are random per seed. Reported: how often the person is reported within the
 N + K + 1 pulses after it first hides the wall on one of the sensor's receivers ("detected"),
 later ("late") or not at all ("missed"); latency in pulses and ms; tracking samples that were
 another pulse's echo (interlacing aliases) or no echo at all (spurious / crosstalk).
+The gated miss rule is the RTL's default (RX_FILTER.miss_gate reset value, 50 us);
+--miss-gate-us 0 measures the rule without it.
 
-    .venv/bin/python scripts/bench_safety.py --trials 200 [--workers 2] [--spurious 50] [--plot F.png] [--csv F.csv]
+    .venv/bin/python scripts/bench_safety.py --trials 200 [--workers 2] [--spurious 50] [--miss-gate-us 0] [--plot F.png] [--csv F.csv]
 """
 from __future__ import annotations
 
@@ -22,6 +24,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "host"))
 
+from multisonar.constants import TICK_HZ  # noqa: E402
+from multisonar.fastfiring import DEFAULT_MISS_GATE  # noqa: E402
 from multisonar.safety import as_rows, run_trial, summarise  # noqa: E402
 
 
@@ -31,15 +35,18 @@ def main() -> int:
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--spurious", type=float, default=None, help="spurious pulses per channel and second (default: the scene's 2 Hz)")
-    ap.add_argument("--miss-gate-us", type=float, default=None,
-                    help="model option (not in the RTL): a sample farther than this from the prediction counts as a miss")
+    ap.add_argument("--miss-gate-us", type=float, default=DEFAULT_MISS_GATE / TICK_HZ * 1e6,
+                    help="gated miss rule (RX_FILTER.miss_gate): a tracking window's first echo farther than this "
+                         "from the prediction counts as a miss; 0 = off (default: the register's reset value, %(default)g us)")
     ap.add_argument("--reinit-every", type=int, default=None,
                     help="model option (not in the RTL): force an init ping after this many tracking pulses")
     ap.add_argument("--plot", type=Path)
     ap.add_argument("--csv", type=Path)
     a = ap.parse_args()
     seeds = range(a.first_seed, a.first_seed + a.trials)
-    gate = None if a.miss_gate_us is None else round(a.miss_gate_us * 48)
+    gate = round(a.miss_gate_us * TICK_HZ / 1e6)
+    if not 0 <= gate < 1 << 16:
+        ap.error(f"--miss-gate-us {a.miss_gate_us:g} does not fit RX_FILTER.miss_gate (0..65535 ticks)")
     t = time.time()
     results = []
     with ProcessPoolExecutor(max_workers=a.workers) as ex:
@@ -48,8 +55,9 @@ def main() -> int:
             results.append(r)
             print(f"\r{i}/{a.trials} trials, {time.time() - t:.0f} s", end="", file=sys.stderr, flush=True)
     print(file=sys.stderr)
-    opts = ", ".join(x for x in (a.miss_gate_us is not None and f"model option miss gate {a.miss_gate_us:g} us",
-                                 a.reinit_every and f"model option re-init every {a.reinit_every} pulses") if x) or "RTL behaviour"
+    opts = ", ".join(x for x in (f"miss gate {a.miss_gate_us:g} us ({gate} ticks)" if gate else "miss gate off",
+                                 a.reinit_every and f"model option re-init every {a.reinit_every} pulses (not in the RTL)")
+                     if x)
     print(f"{a.trials} trials, spurious rate {results[0].spurious_rate_hz:g} Hz per channel, {opts}, {time.time() - t:.0f} s wall\n")
     print("| order | trials | person hid the wall | within N+K+1 pulses | late | missed | latency pulses median / max | latency ms median / max | samples | alias samples | false samples |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")

@@ -114,6 +114,83 @@ def test_cfg_rejected_codes(replay_sim):
     assert _cmd(sim, P.Opcode.START).payload == bytes([P.CfgError.BAD_MODE, 3])
 
 
+def _load_table(sim: SimDevice, sensors=None) -> list[tuple[int, int]]:
+    from multisonar.layout import load_layout
+    from multisonar.regmap import schedule_writes
+    from multisonar.schedule import Schedule
+
+    writes = schedule_writes(Schedule(load_layout(), sensors or SENSORS))
+    for i in range(0, len(writes), 128):
+        assert _cmd(sim, P.Opcode.WRITE_REGS, P.write_regs_payload(writes[i:i + 128])).status == P.Status.OK
+    return writes
+
+
+def _read_reg(sim: SimDevice, addr: int) -> int:
+    return struct.unpack("<I", _cmd(sim, P.Opcode.READ_REGS, P.read_regs_payload([addr])).payload)[0]
+
+
+def test_delay_memory_width_as_the_rtl(replay_sim):
+    """The DELAY memory keeps DELAY_W = 16 bits per entry as the RTL (rtl/ms_csr.sv stores
+    wr_data[DELAY_W-1:0]; the register map's memwidth is the 32-bit bus word): the host's
+    Schedule uses the RTL's width, SimDevice reads back the low 16 bits like the RTL and refuses
+    a table whose delay was written out of range at START with CFG_REJECTED(DELAY, vs)."""
+    import re
+    from pathlib import Path
+
+    from multisonar.schedule import DELAY_W
+
+    rtl = (Path(__file__).resolve().parents[1] / "rtl/ms_sonar_core.sv").read_text()
+    assert int(re.search(r"localparam\s+int\s+DELAY_W\s*=\s*(\d+)\s*;", rtl).group(1)) == DELAY_W == 16
+    sim = replay_sim()
+    _load_table(sim)
+    vs = 1  # an enabled sensor: the delay entry of its first tx element
+    tx_mask = _read_reg(sim, R.REGISTERS["VS_TX_MASK"].addr(vs))
+    e = (tx_mask & -tx_mask).bit_length() - 1
+    a = R.DELAY_BASE + 4 * (vs * 32 + e)
+    good = _read_reg(sim, a)
+    for bad in (1 << DELAY_W, (1 << DELAY_W) + good, 0xFFFFFFFF):
+        assert _cmd(sim, P.Opcode.WRITE_REGS, P.write_regs_payload([(a, bad)])).status == P.Status.OK
+        assert _read_reg(sim, a) == bad & 0xFFFF  # the RTL keeps the low 16 bits
+        r = _cmd(sim, P.Opcode.START)
+        assert r.status == P.Status.CFG_REJECTED and r.payload == bytes([P.CfgError.DELAY, vs]), r
+        st_reg = _read_reg(sim, R.STATUS_ADDR)
+        assert (st_reg >> 4) & 0xF == P.CfgError.DELAY and (st_reg >> 8) & 0xF == vs
+    # a delay entry no enabled tx element uses is not checked (the RTL reads only the table's)
+    assert _read_reg(sim, R.REGISTERS["VS_MODE"].addr(7)) & 3 == 0  # vs 7 is off
+    unused = R.DELAY_BASE + 4 * (7 * 32 + 0)
+    # an in-range rewrite clears the refusal
+    assert _cmd(sim, P.Opcode.WRITE_REGS, P.write_regs_payload([(unused, 1 << 20), (a, good)])).status == P.Status.OK
+    r = _cmd(sim, P.Opcode.START)
+    assert r.status == P.Status.OK, r
+    assert _cmd(sim, P.Opcode.STOP).status == P.Status.OK
+    # host side: the Schedule refuses delays beyond the field (ScheduleError names the width)
+    with pytest.raises(ScheduleError, match="16 bits"):
+        from multisonar.layout import load_layout
+        from multisonar.schedule import Schedule
+
+        Schedule(load_layout(), [VirtualSensor("wide", tx=list(range(7)), rx=[3], source=(0.35, 0.0))]).resolved
+
+
+def test_rx_filter_write_sets_the_glitch_filter():
+    """WRITE_REGS to RX_FILTER changes the device's glitch filter as on the RTL (the firmware's
+    GLITCH_MIN parameter is RX_FILTER.glitch_min): GET_PARAM reads it back, the model started by
+    START filters with it, and SET_PARAM writes the same field (miss_gate kept)."""
+    sim = SimDevice("corridor")  # the model itself (START builds a FastFiringModel)
+    _load_table(sim)
+    rf = R.REGISTERS["RX_FILTER"]
+    word = rf.fields["GLITCH_MIN"].put(rf.fields["MISS_GATE"].put(0, 1234), 40)
+    assert _cmd(sim, P.Opcode.WRITE_REGS, P.write_regs_payload([(rf.addr(), word)])).status == P.Status.OK
+    assert P.parse_set_param(_cmd(sim, P.Opcode.GET_PARAM, struct.pack("<H", P.Param.GLITCH_MIN)).payload)[1] == 40
+    assert _cmd(sim, P.Opcode.START).status == P.Status.OK
+    assert sim.model.g == 40
+    assert _cmd(sim, P.Opcode.STOP).status == P.Status.OK
+    assert _cmd(sim, P.Opcode.SET_PARAM, P.set_param_payload(P.Param.GLITCH_MIN, 7)).status == P.Status.OK
+    assert _read_reg(sim, rf.addr()) == rf.fields["GLITCH_MIN"].put(word, 7)
+    assert _cmd(sim, P.Opcode.START).status == P.Status.OK
+    assert sim.model.g == 7
+    assert _cmd(sim, P.Opcode.STOP).status == P.Status.OK
+
+
 @settings(max_examples=150, deadline=None)
 @given(data=st.one_of(st.binary(max_size=120),
                       st.builds(lambda op, pl, cut: P.encode_command(op, pl)[:cut],

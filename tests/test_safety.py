@@ -1,15 +1,18 @@
 """Safety property of fast firing on the golden model (issue #9; multisonar.safety).
 
 A person stepping between the robot and a tracked wall must be reported within the bound the
-design promises: the N pulses in flight, K empty windows, one initialisation ping. The
-randomised version of the property (scripts/bench_safety.py, 200 seeds) does not hold yet:
-echoes of neighbouring pulses (interlacing aliases) land in the tracked windows and reset the
-K-miss counter (see the xfail below and the script's table)."""
+design promises: the N pulses in flight, K empty windows, one initialisation ping. Echoes of
+neighbouring pulses (interlacing aliases) that land in a tracked window used to reset the K-miss
+counter; the gated miss rule (RX_FILTER.miss_gate, 50 us by default, in RTL and model) makes a
+first echo far from the prediction count as a miss. With it the sampled property holds on the
+CI seeds, but not on every seed: scripts/bench_safety.py --trials 60 reports 56/60 within the
+bound (the strict xfail below keeps a known late seed honest)."""
 
 from __future__ import annotations
 
 import pytest
 
+from multisonar.fastfiring import DEFAULT_MISS_GATE
 from multisonar.safety import random_trial_params, run_trial, summarise
 
 BASE = dict(seed=100, wall_y=2.0, person_y=1.2, person_radius=0.25, person_speed=-1.5, robot_speed=1.0)
@@ -35,28 +38,37 @@ def test_trial_parameters_are_reproducible_and_in_domain():
         assert abs(p["person_speed"] - p["robot_speed"]) >= 1.0 or abs(p["person_speed"]) == 2.2
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "known hazard (issue #9): with interlaced pulses an echo of a neighbouring pulse from the "
-    "person lands in the tracked window, counts as a sample and resets the K-miss counter, so "
-    "some crossings are reported late or not at all (scripts/bench_safety.py: 148/200 within the "
-    "bound, max 87 pulses / 713 ms; with the model's 50 us gated miss rule 192/200, max 13 pulses). "
-    "Needs the gated miss rule (and/or a forced re-init every M pulses) in model + RTL."))
 def test_randomised_person_crossings_all_reported_within_the_bound():
+    """The sampled property with the default gated miss rule (seeds 0-3, as before the rule
+    existed: without the gate seed 0 is late, 7 pulses for a bound of 5, the former strict xfail)."""
     results = [run_trial(seed) for seed in range(4)]
     s = summarise(results)
     assert s["counted"] >= 3
     assert s["detected"] == s["counted"], f"late {s['late']}, missed {s['missed']} of {s['counted']}"
 
 
-def test_gated_miss_rule_model_option_removes_an_alias_delay():
-    """Seed 12 (order 2, K 3): an echo of the neighbouring pulse keeps the lost wall track alive
-    (late) with the RTL's rule; the model's experimental gated miss rule (a sample > 50 us from
-    the prediction counts as a miss) reports the person within the bound."""
-    rtl_rule = run_trial(12)
-    gated = run_trial(12, miss_gate=2400)
-    assert rtl_rule.outcome == "late" and rtl_rule.alias_samples > 0
+@pytest.mark.xfail(strict=True, reason=(
+    "known residual hazard (issue #9): even with the 50 us gated miss rule some crossings are "
+    "reported late: seed 16 (order 1, K 3) 7 pulses for a bound of 5, its alias echoes landing "
+    "within 50 us of the prediction (scripts/bench_safety.py --trials 60: 56/60 within the bound, "
+    "max 13 pulses / 89 ms). A forced re-init every M pulses (model option reinit_every) or a "
+    "narrower gate would be needed."))
+def test_known_late_crossing_with_the_gate_is_reported_within_the_bound():
+    r = run_trial(16)
+    assert r.onset_pulse > 0
+    assert r.outcome == "detected", r
+
+
+def test_gated_miss_rule_removes_an_alias_delay():
+    """Seed 12 (order 2, K 3): without the gate an echo of the neighbouring pulse keeps the lost
+    wall track alive (late); with the default gated miss rule (a first echo > 50 us from the
+    prediction counts as a miss) the person is reported within the bound."""
+    ungated = run_trial(12, miss_gate=0)
+    gated = run_trial(12)
+    assert DEFAULT_MISS_GATE == 2400
+    assert ungated.outcome == "late" and ungated.alias_samples > 0
     assert gated.outcome == "detected", gated
-    assert gated.latency_pulses < rtl_rule.latency_pulses
+    assert gated.latency_pulses < ungated.latency_pulses
 
 
 def test_model_safety_options_are_validated():
@@ -66,5 +78,14 @@ def test_model_safety_options_are_validated():
     sched = Schedule(load_layout(), [VirtualSensor("s", tx=[0], rx=[0])])
     with pytest.raises(ValueError, match="miss_gate"):
         FastFiringModel(sched, SyntheticEchoSource({0: 1.0}), miss_gate=-1)
+    with pytest.raises(ValueError, match="miss_gate"):
+        FastFiringModel(sched, SyntheticEchoSource({0: 1.0}), miss_gate=1 << 16)  # RX_FILTER.miss_gate is 16 bits
+    assert FastFiringModel(sched, SyntheticEchoSource({0: 1.0}), miss_gate=0).miss_gate is None  # 0 = off
     with pytest.raises(ValueError, match="reinit_every"):
         FastFiringModel(sched, SyntheticEchoSource({0: 1.0}), reinit_every=0)
+
+
+def test_model_default_gate_is_the_register_reset_value():
+    from multisonar.generated import sonar_regs as R
+    f = R.REGISTERS["RX_FILTER"].fields["MISS_GATE"]
+    assert f.reset == DEFAULT_MISS_GATE and f.width == 16

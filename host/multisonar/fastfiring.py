@@ -29,6 +29,8 @@ from .schedule import (DEFAULT_GLITCH_MIN, ELEM_W, MISS_W, SEQ_W, TIMESTAMP_W, T
                        ResolvedSensor, Schedule, effective_order, pulse_period)
 
 SEQ_MASK = (1 << SEQ_W) - 1
+#: RX_FILTER.miss_gate reset value, ticks (50 us): the gated miss rule of the RTL scheduler
+DEFAULT_MISS_GATE = 2400
 TIMESTAMP_MASK = (1 << TIMESTAMP_W) - 1
 MISS_MAX = (1 << MISS_W) - 1
 
@@ -248,7 +250,7 @@ class _Window:
     epoch: int
     n_edges: int = 0
     cancelled: bool = False
-    rejected: bool = False  # (miss_gate option) the first echo was too far from the prediction
+    rejected: bool = False  # (gated miss rule) the first echo was too far from the prediction
 
 
 @dataclass
@@ -259,6 +261,7 @@ class _RxState:
     v: int = 0  # ticks per pulse
     miss: int = 0
     init: bool = False  # the last sample came from the init ping (its period differs)
+    vel: bool = False  # v was measured (the last sample followed one of the previous pulse): gated miss rule on
 
 
 @dataclass
@@ -305,7 +308,8 @@ class FastFiringModel:
 
     def __init__(self, schedule: Schedule, echo_source: EchoSource, *, glitch_min: int = DEFAULT_GLITCH_MIN,
                  max_echoes_per_window: int = 1, win_slots: int = WIN_SLOTS, start_tick: int = 0,
-                 decision_lead: int = 0, miss_gate: int | None = None, reinit_every: int | None = None) -> None:
+                 decision_lead: int = 0, miss_gate: int | None = DEFAULT_MISS_GATE,
+                 reinit_every: int | None = None) -> None:
         self.schedule = schedule
         self.cfg = schedule.validate()
         self.source = echo_source
@@ -318,17 +322,23 @@ class FastFiringModel:
         self.lead = int(decision_lead)
         if self.lead < 0:
             raise ValueError(f"decision_lead {self.lead} must be >= 0 ticks")
-        #: Experimental safety options, NOT in the RTL (default None = the RTL's behaviour; see
-        #: multisonar.safety): ``miss_gate`` (ticks): a tracking window's first echo farther than
-        #: this from the prediction is reported but neither updates the track nor resets the miss
-        #: count (the window counts as empty), so another pulse's echo cannot keep a lost track
-        #: alive; ``reinit_every`` (pulses): force an initialisation ping after that many
-        #: tracking pulses, bounding the time any obstacle can stay unseen.
-        if miss_gate is not None and miss_gate < 0:
-            raise ValueError(f"miss_gate {miss_gate} must be >= 0 ticks or None")
+        #: Gated miss rule (RTL: RX_FILTER.miss_gate, latched at apply; docs/fast_firing.md
+        #: section 4.4): a tracking window's first echo farther than ``miss_gate`` ticks from the
+        #: prediction is reported but neither updates the track nor resets the miss count (the
+        #: window counts as empty), so another pulse's echo cannot keep a lost track alive. It
+        #: applies once the track's velocity is measured (``_RxState.vel``: the last sample
+        #: followed one of the previous pulse; before that the prediction assumes v = 0 and a
+        #: moving reflector would fail the gate).
+        #: 0 or None = off (the rule before the register existed). Default: the register's reset
+        #: value. ``reinit_every`` (pulses), an experimental option NOT in the RTL (default None;
+        #: see multisonar.safety): force an initialisation ping after that many tracking pulses,
+        #: bounding the time any obstacle can stay unseen.
+        if miss_gate is not None and not 0 <= miss_gate < (1 << 16):
+            raise ValueError(f"miss_gate {miss_gate} must be 0..65535 ticks (RX_FILTER.miss_gate, 0 = off) or None")
         if reinit_every is not None and reinit_every < 1:
             raise ValueError(f"reinit_every {reinit_every} must be >= 1 pulse or None")
-        self.miss_gate, self.reinit_every = miss_gate, reinit_every
+        self.miss_gate = int(miss_gate) if miss_gate else None
+        self.reinit_every = reinit_every
         self.now = int(start_tick)
         n_el = schedule.layout.n
         self.windows: list[list[_Window]] = [[] for _ in range(n_el)]
@@ -420,15 +430,17 @@ class FastFiringModel:
             s = self.sensors[w.sensor]
             if w.epoch == s.epoch:
                 st = s.rx[rx]
-                if (self.miss_gate is not None and not w.init and st.tracked
+                if (self.miss_gate is not None and not w.init and st.tracked and st.vel
                         and abs(n - w.t0 - self._predict(s, st, w.seq)) > self.miss_gate):
-                    w.rejected = True
+                    w.rejected = True  # counts as a miss at close; re-evaluated like a sample
+                    if s.due - self.lead <= self.now:
+                        self._push(self.now, _SCHED, s.cfg.id, None)
                     return
                 self._sample(s, st, w, n - w.t0)
 
     def _sample(self, s: _SensorState, st: _RxState, w: _Window, tof: int) -> None:
         if w.init:
-            st.tracked, st.tof, st.seq, st.v, st.miss, st.init = True, tof, w.seq, 0, 0, True
+            st.tracked, st.tof, st.seq, st.v, st.miss, st.init, st.vel = True, tof, w.seq, 0, 0, True, False
         else:
             if not st.tracked:
                 return
@@ -436,7 +448,8 @@ class FastFiringModel:
             if gap <= 0:
                 return
             vmax = s.cfg.vmax
-            st.v = max(-vmax, min(vmax, tof - st.tof)) if gap == 1 and not st.init else 0
+            st.vel = gap == 1 and not st.init
+            st.v = max(-vmax, min(vmax, tof - st.tof)) if st.vel else 0
             st.tof, st.seq, st.miss, st.init = tof, w.seq, 0, False
         if s.due - self.lead <= self.now:
             self._push(self.now, _SCHED, s.cfg.id, None)

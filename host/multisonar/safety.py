@@ -40,7 +40,7 @@ import numpy as np
 import yaml
 
 from .constants import DEVICE_DECISION_LEAD, TICK_HZ
-from .fastfiring import FastFiringModel, SceneEchoSource
+from .fastfiring import DEFAULT_MISS_GATE, FastFiringModel, SceneEchoSource
 from .layout import load_layout
 from .schedule import Schedule, ScheduleError, VirtualSensor
 from .scene import parse_scene
@@ -134,10 +134,11 @@ def _schedule(layout, order: int, miss_limit: int, wall_y: float) -> Schedule:
 
 def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: float = 0.8,
               duration: float = 1.6, margin_db: float = 6.0, tol_ticks: int = 600,
-              params: dict[str, Any] | None = None, miss_gate: int | None = None,
+              params: dict[str, Any] | None = None, miss_gate: int | None = DEFAULT_MISS_GATE,
               reinit_every: int | None = None) -> TrialResult:
-    """One randomised person-crossing trial (see the module docstring). ``miss_gate`` /
-    ``reinit_every``: the golden model's experimental safety options (not in the RTL)."""
+    """One randomised person-crossing trial (see the module docstring). ``miss_gate``: the
+    gated miss rule, ticks (RX_FILTER.miss_gate; default its reset value, 0 or None = off);
+    ``reinit_every``: the golden model's experimental forced re-initialisation (not in the RTL)."""
     p = dict(params) if params is not None else random_trial_params(seed)
     layout = load_layout()
     scene = _scene(p, t_cross, duration, spurious_rate_hz)

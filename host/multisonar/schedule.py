@@ -39,7 +39,11 @@ MISS_W: int = 4  #: MODE.miss_limit and the per-receiver miss counter (saturatin
 TV_W: int = 16  #: WINDOW.t_v, WINDOW.t_n
 DEAD_W: int = 20  #: T_DEAD, T_XTALK
 TOF_W: int = 24  #: MAX_TOF, T_E, time of flight in events, pulse period, phase
-DELAY_W: int = 16  #: phasing delay per (sensor, element)
+#: phasing delay per (sensor, element): the RTL keeps the low DELAY_W bits of each 32-bit word of
+#: the DELAY memory (rtl/ms_sonar_core.sv DELAY_W; the register map's memwidth is the bus word);
+#: larger delays are refused here (ScheduleError) and by SimDevice at START (CfgError.DELAY).
+#: tests/test_device.py checks this value against the RTL parameter.
+DELAY_W: int = 16
 VMAX_W: int = 16  #: velocity clamp, ticks per pulse
 XT_NB_W: int = 2  #: crosstalk neighbours each side (0..3)
 SEQ_W: int = 8  #: pulse sequence number (wraps)
@@ -415,6 +419,7 @@ class Schedule:
                 assert 0 <= v < 2**w, (name, v, w)
             sensors.append(f)
             for e, d in zip(r.tx, r.delays):
+                assert 0 <= int(d) < 2**DELAY_W, ("delay", int(d), DELAY_W)
                 delay_mem[r.id * 32 + int(e)] = int(d)
         return {
             "globals": {"tick_hz": TICK_HZ, "burst_half_period": int(round(TICK_HZ / self.layout.transducer.frequency_hz / 2)),

@@ -83,12 +83,20 @@ class RegisterFile:
                 self.names[a] = reg.name + ("[" + ",".join(map(str, ix)) + "]" if ix else "")
                 if wmask and reg.name not in self.DECODER_OWNED:
                     self.writable_mask[a] = wmask
+        from .schedule import DELAY_W
+
+        #: memory entries last written with bits beyond what the RTL stores (DELAY: DELAY_W =
+        #: 16 bits of the 32-bit word, rtl/ms_csr.sv); START refuses them (CfgError.DELAY)
+        self.over_width: set[int] = set()
+        self.mem_entries: set[int] = set()
         for mem in R.MEMORIES.values():
+            width = DELAY_W if mem.name == "DELAY" else mem.width
             for i in range(mem.entries):
                 a = mem.address + i * mem.stride
                 self.values[a] = 0
                 self.names[a] = f"{mem.name}[{i}]"
-                self.writable_mask[a] = (1 << mem.width) - 1
+                self.writable_mask[a] = (1 << width) - 1
+                self.mem_entries.add(a)
 
     def readable(self, addr: int) -> bool:
         return addr in self.values
@@ -156,9 +164,12 @@ def decode_vs_table(regs: RegisterFile, layout: Any) -> list[Any]:
         burst_ticks = int(round(burst * TICK_HZ / layout.transducer.frequency_hz))
         if t_v < 1 or t_n < 1 or t_dead < burst_ticks or t_xt < 1:
             raise _CfgErr(P.CfgError.WINDOW, vs, f"T_V={t_v} T_N={t_n} T_dead={t_dead} T_xtalk={t_xt} ticks")
-        delays = np.array([regs.values[mem.address + (vs * 32 + int(e)) * mem.stride] for e in tx], dtype=np.int64)
-        if delays.max() >= 2**DELAY_W:
-            raise _CfgErr(P.CfgError.DELAY, vs, f"phasing delay {int(delays.max())} ticks")
+        d_addr = [mem.address + (vs * 32 + int(e)) * mem.stride for e in tx]
+        delays = np.array([regs.values[a] for a in d_addr], dtype=np.int64)
+        over = [int(e) for e, a in zip(tx, d_addr) if a in regs.over_width]
+        if over or delays.max() >= 2**DELAY_W:
+            raise _CfgErr(P.CfgError.DELAY, vs, f"phasing delay of tx element {over[0] if over else ''} written "
+                          f">= 2^{DELAY_W} ticks (the DELAY memory keeps {DELAY_W} bits)")
         xt_el, xt_d = _xtalk(tx, delays, nb, n_el)
         blank = max(t_dead, t_xt) + int(delays.max())
         if max_tof - t_n < blank + t_v:
@@ -369,6 +380,10 @@ class SimDevice(UsbFunction):
                 return P.Status.BAD_ADDRESS, struct.pack("<HHI", i, 0, a)
             m = self.regs.writable_mask[a]
             self.regs.values[a] = (self.regs.values[a] & ~m) | (v & m)
+            if a in self.regs.mem_entries:  # stored as the RTL (low bits); an overflow is refused at START
+                (self.regs.over_width.add if v & ~m else self.regs.over_width.discard)(a)
+            elif a == _regs().REGISTERS["RX_FILTER"].addr():  # GLITCH_MIN is RX_FILTER.glitch_min (as the firmware)
+                self.params[P.Param.GLITCH_MIN] = self.regs.field("RX_FILTER", "GLITCH_MIN")
         return P.Status.OK, struct.pack("<H", len(pl) // 8)
 
     def _cmd_read_regs(self, pl: bytes) -> tuple[P.Status, bytes]:
@@ -490,6 +505,7 @@ class SimDevice(UsbFunction):
             self.model = FastFiringModel(sched, SceneEchoSource(self.scene),
                                          glitch_min=self.params[P.Param.GLITCH_MIN],
                                          max_echoes_per_window=self.params[P.Param.MAX_ECHOES],
+                                         miss_gate=self.regs.field("RX_FILTER", "MISS_GATE"),  # latched at start
                                          start_tick=self.now, decision_lead=DEVICE_DECISION_LEAD)
         self._wall0, self._tick0 = time.monotonic(), self.now
         self.running = True
@@ -501,6 +517,8 @@ class SimDevice(UsbFunction):
         from .fastfiring import FastFiringModel, SceneEchoSource
 
         key = (self.scene_name, self.replay_s, self.params[P.Param.GEOMETRY], self.params[P.Param.TOF_RECORDS],
+               self.regs.field("RX_FILTER", "MISS_GATE"),
+               self.params[P.Param.GLITCH_MIN], self.params[P.Param.MAX_ECHOES],
                tuple((r.id, int(r.tx.sum()), tuple(r.rx), r.order, r.max_tof, r.phase, r.mode) for r in resolved))
         if key in SimDevice._replay_cache:
             return SimDevice._replay_cache[key]
@@ -508,6 +526,7 @@ class SimDevice(UsbFunction):
         saved = (self.model, self.now, self._open, self._closing, self._ready, dict(self.counters))
         self.model = FastFiringModel(sched, SceneEchoSource(self.scene), glitch_min=self.params[P.Param.GLITCH_MIN],
                                      max_echoes_per_window=self.params[P.Param.MAX_ECHOES],
+                                     miss_gate=self.regs.field("RX_FILTER", "MISS_GATE"),
                                      decision_lead=DEVICE_DECISION_LEAD)
         self._open, self._closing, self._ready, self.now = {}, [], [], 0
         total = int(self.replay_s * TICK_HZ)

@@ -75,6 +75,7 @@ module ms_scheduler #(
   input  logic [NUM_VS-1:0][23:0]        vs_phase_i,
   input  logic [15:0]                    burst_half_period_i,
   input  logic [7:0]                     glitch_min_i,
+  input  logic [15:0]                    miss_gate_i,     // RX_FILTER.miss_gate, ticks (0 off), latched at apply
   output logic [7:0]                     delay_raddr_o,
   input  logic [DELAY_W-1:0]             delay_rdata_i,
   input  logic [NUM_CH-1:0]              rise_i,
@@ -155,6 +156,7 @@ module ms_scheduler #(
   logic [NUM_VS-1:0][7:0]        sh_burst_q;
   logic [NUM_VS-1:0][NUM_VS-1:0] sh_share_q;
   logic [NUM_VS-1:0][1:0]        sh_nb_q;
+  logic [15:0]                   sh_gate_q;  // gated miss rule (0 off)
   logic [6:0]                    sp_q;  // S_COPY: crosstalk masks (0..7), then sensor pairs (8..71)
   // per (sensor, element) blank interval offsets from t0: [a, b) (tx: delay, delay + T_dead;
   // crosstalk neighbour: first, last tx delay within nb + T_xtalk)
@@ -177,6 +179,7 @@ module ms_scheduler #(
     logic signed [16:0] v;
     logic [3:0]         miss;
     logic               init;
+    logic               vel;   // v measured (last sample followed one of the previous pulse): gate on
   } rxs_t;
   rxs_t rxs_q [NUM_VS * 32];
 
@@ -200,6 +203,7 @@ module ms_scheduler #(
   // compared every clock), the rest in distributed RAM (32 entries, one word per element).
   logic [NUM_CH-1:0][WSLOTS-1:0]         wv_q;         // slot valid
   logic [WSLOTS-1:0]                     wh_m [32];    // slot saw its first edge
+  logic [WSLOTS-1:0]                     wr_m [32];    // that edge failed the miss gate (counts as a miss)
   logic [WSLOTS-1:0][VW-1:0]             wsid_m [32];  // sensor of the window
   logic [31:0]                           bu_m [32];    // blank_until (when bu_ok_q[e])
   logic [NUM_CH-1:0]                     bu_ok_q;      // else blank_until = bu_start_q
@@ -354,13 +358,14 @@ module ms_scheduler #(
       default:               ei = rel;  // S_CONF, S_IEL
     endcase
   end
-  logic [WSLOTS-1:0]         wv_e, wh_e;
+  logic [WSLOTS-1:0]         wv_e, wh_e, wr_e;
   logic [WSLOTS-1:0][VW-1:0] wsid_e;
   logic [31:0]               bu_e, hd_close_e;
   logic [KW-1:0]             hd_slot_e;
   logic                      hd_vld_e;
   assign wv_e       = wv_q[ei];
   assign wh_e       = wh_m[ei];
+  assign wr_e       = wr_m[ei];
   assign wsid_e     = wsid_m[ei];
   assign bu_e       = bu_ok_q[ei] ? bu_m[ei] : bu_start_q;
   assign hd_vld_e   = hd_vld_q[ei];
@@ -376,6 +381,28 @@ module ms_scheduler #(
   assign e_ws    = ew.t0 + 32'(ew.ws);
   assign e_we    = ew.t0 + 32'(ew.we);
   assign e_match = ($signed(n_edge - e_ws) >= 0) && ($signed(n_edge - e_we) < 0);
+  // gated miss rule, step 1 (EDGE): the prediction for slot sk's pulse from its sensor's
+  // tracking state of receiver er (model _predict(s, st, w.seq), signed pulse gap), registered
+  // for HIT (nothing writes RXS in between)
+  logic [VW-1:0]      g_s;
+  rxs_t               grx;
+  logic signed [7:0]  g_gap;
+  logic signed [26:0] g_pred;
+  logic [23:0]        g_lo, g_hi, g_te, g_te_q;
+  assign g_s    = wsid_e[sk];
+  assign grx    = rxs_rd;
+  assign g_gap  = $signed(ew.seq - grx.seq);
+  assign g_pred = $signed({3'd0, grx.tof}) + g_gap * grx.v;
+  assign g_lo   = sh_dbl_q[g_s] + 24'(sh_tv_q[g_s]);
+  assign g_hi   = sh_rmax_q[g_s] - 24'(sh_tn_q[g_s]);
+  always_comb begin
+    if (g_pred < $signed({3'd0, g_lo}))      g_te = g_lo;
+    else if (g_pred > $signed({3'd0, g_hi})) g_te = g_hi;
+    else                                     g_te = g_pred[23:0];
+  end
+  always_ff @(posedge clk_i) begin
+    if (st_q == S_EDGE) g_te_q <= g_te;
+  end
 
   // HIT: window fslot_q of receiver er, its sensor's tracking state
   win_t        hw;
@@ -393,6 +420,15 @@ module ms_scheduler #(
   assign h_gap  = hw.seq - hrx.seq;
   assign h_dv   = $signed({1'b0, h_tof}) - $signed({1'b0, hrx.tof});
   assign h_vmax = sh_vmax_q[h_s];
+  // gated miss rule, step 2 (HIT): once the track's velocity is measured (vel), a tracking
+  // window's first echo farther than the gate from the prediction is reported but neither
+  // updates the track nor stops the window counting as a miss (model FastFiringModel miss_gate)
+  logic signed [24:0] h_err;
+  logic [24:0]        h_abs;
+  logic               h_rej;
+  assign h_err = $signed({1'b0, h_tof}) - $signed({1'b0, g_te_q});
+  assign h_abs = h_err[24] ? 25'(-h_err) : 25'(h_err);
+  assign h_rej = (sh_gate_q != 16'd0) && !hw.init && hrx.trk && hrx.vel && (h_abs > {9'd0, sh_gate_q});
   always_comb begin
     if (h_dv > $signed({9'd0, h_vmax}))       h_v = $signed({1'b0, h_vmax});
     else if (h_dv < -$signed({9'd0, h_vmax})) h_v = -$signed({1'b0, h_vmax});
@@ -412,8 +448,10 @@ module ms_scheduler #(
   assign crx     = rxs_rd;
   assign c_valid = wv_e[c_slot] && (cw.t0 + 32'(cw.we) - 32'd1 + 32'(lat) == cur_tick_q);
   assign c_miss  = (crx.miss == 4'hF) ? 4'hF : crx.miss + 4'd1;
+  logic c_empty;   // a miss: no echo, or the first one failed the miss gate
+  assign c_empty  = !wh_e[c_slot] || wr_e[c_slot];
   logic c_safety;  // K empty windows in a row: every window of sensor c_s is cancelled
-  assign c_safety = c_valid && !wh_e[c_slot] && !cw.init && cw.epoch == epoch_q[c_s]
+  assign c_safety = c_valid && c_empty && !cw.init && cw.epoch == epoch_q[c_s]
                     && c_miss >= sh_k_q[c_s] && tracking_q[c_s];
 
   // HEAD / conflict scan: slot sk of element el_q
@@ -455,6 +493,7 @@ module ms_scheduler #(
       default: win_ra = $bits(win_ra)'(int'(el_q) * WSLOTS + int'(sk));  // S_HEAD, S_CSLOT
     endcase
     unique case (st_q)
+      S_EDGE:  rxs_ra = {g_s, er};
       S_HIT:   rxs_ra = {h_s, er};
       S_CLOSE: rxs_ra = {c_s, clr};
       default: rxs_ra = {s_q, rel};  // S_CAND, S_IEL
@@ -689,6 +728,7 @@ module ms_scheduler #(
               sh_rmax_q[s]  <= vs_max_tof_i[s];
               sh_phase_q[s] <= vs_phase_i[s];
               sh_burst_q[s] <= vs_burst_cycles_i[s];
+              sh_gate_q     <= miss_gate_i;
               sh_dbl_q[s]   <= 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
                                + 24'(vdmax_q[s]);
             end
@@ -833,14 +873,14 @@ module ms_scheduler #(
               if (!wh_e[c_slot]) begin
                 evt_valid_q <= 1'b1;
                 evt_data_q  <= {20'd0, cw.init, 1'b1, 1'b0, 1'b0, c_s, cw.seq, clr, cw.we};
-                if (!cw.init && cw.epoch == epoch_q[c_s]) begin
-                  if (c_miss >= sh_k_q[c_s] && tracking_q[c_s]) begin
-                    // safety: re-initialise now; every window of the sensor is cancelled
-                    tracking_q[c_s] <= 1'b0;
-                    // (the slots of every element are cleared by S_SAFE, one element per clock)
-                    // due = min(due, now): per-sensor writes
-                    for (int s = 0; s < NUM_VS; s++) wake_q[s] <= 1'b1;
-                  end
+              end
+              if (c_empty && !cw.init && cw.epoch == epoch_q[c_s]) begin
+                if (c_miss >= sh_k_q[c_s] && tracking_q[c_s]) begin
+                  // safety: re-initialise now; every window of the sensor is cancelled
+                  tracking_q[c_s] <= 1'b0;
+                  // (the slots of every element are cleared by S_SAFE, one element per clock)
+                  // due = min(due, now): per-sensor writes
+                  for (int s = 0; s < NUM_VS; s++) wake_q[s] <= 1'b1;
                 end
               end
               if (cw.init && cw.epoch == epoch_q[c_s]) begin
@@ -1023,18 +1063,18 @@ module ms_scheduler #(
         if (!wh_e[fslot_q] && hw.epoch == epoch_q[h_s]) begin
           if (hw.init) begin
             rxs_we = 1'b1;
-            rxs_wd = '{trk: 1'b1, tof: h_tof, seq: hw.seq, v: 17'sd0, miss: 4'd0, init: 1'b1};
-          end else if (hrx.trk && h_gap != 8'd0 && !h_gap[7]) begin
+            rxs_wd = '{trk: 1'b1, tof: h_tof, seq: hw.seq, v: 17'sd0, miss: 4'd0, init: 1'b1, vel: 1'b0};
+          end else if (hrx.trk && h_gap != 8'd0 && !h_gap[7] && !h_rej) begin
             rxs_we = 1'b1;
             rxs_wd = '{trk: 1'b1, tof: h_tof, seq: hw.seq, v: (h_gap == 8'd1 && !hrx.init) ? h_v : 17'sd0,
-                       miss: 4'd0, init: 1'b0};
+                       miss: 4'd0, init: 1'b0, vel: h_gap == 8'd1 && !hrx.init};
           end
         end
       end
       S_CLOSE: begin
-        if (c_valid && !wh_e[c_slot] && !cw.init && cw.epoch == epoch_q[c_s]) begin
+        if (c_valid && c_empty && !cw.init && cw.epoch == epoch_q[c_s]) begin
           rxs_we = 1'b1;
-          rxs_wd = '{trk: crx.trk, tof: crx.tof, seq: crx.seq, v: crx.v, miss: c_miss, init: crx.init};
+          rxs_wd = '{trk: crx.trk, tof: crx.tof, seq: crx.seq, v: crx.v, miss: c_miss, init: crx.init, vel: crx.vel};
         end
       end
       S_IEL: begin
@@ -1096,7 +1136,7 @@ module ms_scheduler #(
   // ---- per-element arrays: one write per clock, at element ei (the FSM's states above say
   // when); valid bits and heads are cleared at once by reset, stop, S_STOP and S_START
   logic                      el_clr, wv_we, wh_we, wsid_we, bu_we, hd_we, hdv_we, hdv_wd;
-  logic [WSLOTS-1:0]         wv_wd, wh_wd, sid_mask;
+  logic [WSLOTS-1:0]         wv_wd, wh_wd, wr_wd, sid_mask;
   logic [WSLOTS-1:0][VW-1:0] wsid_wd;
   logic [31:0]               bu_wd, hd_close_wd;
   logic [KW-1:0]             hd_slot_wd;
@@ -1109,6 +1149,7 @@ module ms_scheduler #(
     wv_wd       = wv_e;
     wh_we       = 1'b0;
     wh_wd       = wh_e;
+    wr_wd       = wr_e;  // written with wh (same enable)
     wsid_we     = 1'b0;
     wsid_wd     = wsid_e;
     bu_we       = 1'b0;
@@ -1123,6 +1164,7 @@ module ms_scheduler #(
         if (!wh_e[fslot_q]) begin
           wh_we          = 1'b1;
           wh_wd[fslot_q] = 1'b1;
+          wr_wd[fslot_q] = hw.epoch == epoch_q[h_s] && h_rej;
         end
       end
       S_CLOSE: begin
@@ -1153,6 +1195,7 @@ module ms_scheduler #(
             wv_wd[free_slot]   = 1'b1;
             wh_we              = 1'b1;
             wh_wd[free_slot]   = 1'b0;
+            wr_wd[free_slot]   = 1'b0;
             wsid_we            = 1'b1;
             wsid_wd[free_slot] = s_q;
             if (!hd_vld_e || $signed(iw_close - hd_close_e) < 0) begin
@@ -1180,6 +1223,7 @@ module ms_scheduler #(
   end
   always_ff @(posedge clk_i) begin
     if (run_ok && wh_we)   wh_m[ei]      <= wh_wd;
+    if (run_ok && wh_we)   wr_m[ei]      <= wr_wd;
     if (run_ok && wsid_we) wsid_m[ei]    <= wsid_wd;
     if (run_ok && bu_we)   bu_m[ei]      <= bu_wd;
     if (run_ok && hd_we)   hd_slot_m[ei] <= hd_slot_wd;
@@ -1204,7 +1248,7 @@ module ms_scheduler #(
 
   // fields of the shared record views that a given state does not need
   logic unused_ok;
-  assign unused_ok = ^{ew.seq, ew.epoch, ew.init, hw.ws, hw.we, hrx.tof[23:1], hrx.seq, hrx.v,
-                       hrx.miss, cw.ws, sw.seq, sw.epoch, sw.init, irx.miss, irx.init,
+  assign unused_ok = ^{ew.epoch, ew.init, grx.trk, grx.miss, grx.init, grx.vel, irx.vel, hw.ws, hw.we,
+                       hrx.tof[23:1], hrx.seq, hrx.v, hrx.miss, cw.ws, sw.seq, sw.epoch, sw.init, irx.miss, irx.init,
                        o_mul3[49], o_mul3[24:0], v_pa[8]};
 endmodule

@@ -18,6 +18,7 @@ module ms_scheduler_tb #(
   input  logic                 apply_i,
   input  logic [31:0]          tick_start_i,  // tick counter value during reset (wrap tests)
   input  logic [7:0]           glitch_min_i,
+  input  logic [15:0]          miss_gate_i,
   input  logic [15:0]          burst_half_period_i,
   input  logic [NUM_CH-1:0]    echo_i,
   input  logic [8*NUM_CH-1:0]  tx_mask_i,
@@ -130,6 +131,7 @@ module ms_scheduler_tb #(
     .vs_phase_i         (vs_phase),
     .burst_half_period_i(burst_half_period_i),
     .glitch_min_i       (glitch_min_i),
+    .miss_gate_i        (miss_gate_i),
     .delay_raddr_o      (dly_raddr),
     .delay_rdata_i      (dly_rdata),
     .rise_i             (rise),

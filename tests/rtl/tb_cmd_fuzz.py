@@ -5,7 +5,7 @@ The USB endpoint is replaced by an SV-side feeder and capture (cmd_fuzz_tb.sv): 
 whole transfer over in one write, the SV feeds it byte by byte as the bulk OUT endpoint would
 (short packet / ZLP ends it) and appends every packet of the bulk IN byte stream to a file.
 
-``cmd_fuzz``: CMD_FUZZ_N (default 4000) command transfers, ~35 % valid packets of every opcode
+``cmd_fuzz``: CMD_FUZZ_N (default 10000) command transfers, ~35 % valid packets of every opcode
 of multisonar.protocol and ~65 % mutations (bit flips, truncation, extension, wrong magic /
 version / length / CRC, unknown opcodes, wrong payload size for the opcode, random bytes,
 oversize > 1088 bytes), fed in batches. Reference: a model of docs/protocol.md sections 3/4
@@ -465,7 +465,7 @@ async def hw_table(dut) -> dict[int, int]:
     for i in range(R.MEMORIES["DELAY"].entries):
         out[R.MEMORIES["DELAY"].address + 4 * i] = int(mem[i].value)
     out[R.REGISTERS["BURST"].addr()] = int(csr.burst_half_period_o.value) | int(csr.burst_cycles_o.value) << 16
-    out[R.REGISTERS["RX_FILTER"].addr()] = int(csr.glitch_min_o.value)
+    out[R.REGISTERS["RX_FILTER"].addr()] = int(csr.glitch_min_o.value) | int(csr.miss_gate_o.value) << 16
     await Timer(1, unit="ns")
     assert set(out) == set(table_addrs())
     return out
@@ -482,7 +482,7 @@ async def boot(b: Bench) -> None:
 
 @cocotb.test(timeout_time=3_000_000, timeout_unit="ms")
 async def cmd_fuzz(dut):
-    n_total = int(os.environ.get("CMD_FUZZ_N", "4000"))
+    n_total = int(os.environ.get("CMD_FUZZ_N", "10000"))
     seed = int(os.environ.get("CMD_FUZZ_SEED", "9"))
     rng = random.Random(seed)
     wall0 = time.monotonic()

@@ -10,6 +10,8 @@ edge ending cycle n). At the end it reads the event log and compares, in order:
   - pulses (t0) and triggers (t0 + d_i, element) with the model's,
   - every 64-bit event word with the model's (ToFEvent.pack()).
 The RTL runs a little longer than the model so that every model event has been emitted.
+RTL and model use the same gated miss rule (miss_gate_i / FastFiringModel miss_gate, default
+the RX_FILTER.miss_gate reset value; 0 = off in both).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import numpy as np
 from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge, Timer
 from cocotb.utils import get_sim_time
 
-from multisonar.fastfiring import FastFiringModel, SceneEchoSource, SyntheticEchoSource, _rows
+from multisonar.fastfiring import DEFAULT_MISS_GATE, FastFiringModel, SceneEchoSource, SyntheticEchoSource, _rows
 from multisonar.constants import speed_of_sound
 from multisonar.layout import load_layout
 from multisonar.protocol import CfgError
@@ -45,15 +47,22 @@ TABLE = {  # field -> (tb port, width)
 
 
 class CountingModel(FastFiringModel):
-    """The golden model, counting reservation conflicts (deferrals)."""
+    """The golden model, counting reservation conflicts (deferrals) and windows whose first
+    echo failed the miss gate."""
 
     conflicts = 0
+    gated = 0
 
     def _conflict(self, t, blanks, wins):
         r = super()._conflict(t, blanks, wins)
         if r is not None:
             self.conflicts += 1
         return r
+
+    def _on_close(self, w):
+        if w.rejected and not w.cancelled:
+            self.gated += 1
+        super()._on_close(w)
 
 
 def table_values(sensors: list[dict]) -> dict[str, int]:
@@ -68,11 +77,12 @@ def table_values(sensors: list[dict]) -> dict[str, int]:
 
 
 class Bench:
-    def __init__(self, dut, sched: Schedule, glitch_min: int = 24):
+    def __init__(self, dut, sched: Schedule, glitch_min: int = 24, miss_gate: int = DEFAULT_MISS_GATE):
         self.dut, self.sched = dut, sched
         self.cfg = sched.validate()
         self.regs = sched.to_registers()
         self.g = glitch_min
+        self.gate = miss_gate  # RX_FILTER.miss_gate (0 off); the model's miss_gate is the same
         self.pulses: list[tuple[int, int, int, bool]] = []  # (t0 unwrapped, sensor, seq, init)
         self.echo = EchoDriver(dut.echo_i, 24, lambda tick: self.ref_ps + (tick - self.t_origin) * CLK_PERIOD_PS)
         self.source = None
@@ -97,6 +107,7 @@ class Bench:
         dut.apply_i.value = 0
         dut.tick_start_i.value = tick_start
         dut.glitch_min_i.value = self.g
+        dut.miss_gate_i.value = self.gate
         dut.burst_half_period_i.value = self.regs["globals"]["burst_half_period"]
         dut.echo_i.value = 0
         dut.evt_raddr_i.value = 0
@@ -223,13 +234,14 @@ def compare(what: str, b: Bench, res, rtl_events: list[int], rtl_trig: list[tupl
 
 
 async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
-                     tick_start: int = 0, min_pulses: int = 5, model_first=None, allow_defer: bool = True) -> dict:
+                     tick_start: int = 0, min_pulses: int = 5, model_first=None, allow_defer: bool = True,
+                     miss_gate: int = DEFAULT_MISS_GATE) -> dict:
     """Closed loop: RTL with one source instance, golden model with another; compare.
     sensors: one VirtualSensor or a list (table entries 0..). model_first: (model, result)
-    already run by the caller (replayed sources)."""
+    already run by the caller (replayed sources). miss_gate: RTL input and model option."""
     sensors = [sensors] if isinstance(sensors, VirtualSensor) else list(sensors)
     sched = Schedule(LAYOUT, sensors)
-    b = Bench(dut, sched)
+    b = Bench(dut, sched, miss_gate=miss_gate)
     wall0 = time.perf_counter()
     e0 = await b.start(make_source(), tick_start)
     b.add_noise(e0, dur_ticks)
@@ -239,7 +251,8 @@ async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
     assert int(dut.overrun_o.value) == 0, f"{what}: scheduler overrun (engine later than the lead P)"
     wall = time.perf_counter() - wall0
     if model_first is None:
-        model = CountingModel(Schedule(LAYOUT, sensors), make_source(), start_tick=e0, decision_lead=LEAD)
+        model = CountingModel(Schedule(LAYOUT, sensors), make_source(), start_tick=e0, decision_lead=LEAD,
+                              miss_gate=miss_gate)
         res = model.run(dur_ticks)
     else:
         model, res = model_first(e0, dur_ticks)
@@ -251,7 +264,7 @@ async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
     stats = {"pulses": len(m_fires), "init": sum(p.init for p in m_fires),
              "events": len(res.events), "empty": sum(e.window_empty for e in res.events),
              "orders": sorted({p.order for p in res.pulses}), "deferred": sum(p.t0 > p.due for p in m_fires),
-             "conflicts": getattr(model, "conflicts", 0),
+             "conflicts": getattr(model, "conflicts", 0), "gated": getattr(model, "gated", 0),
              "per_sensor": [sum(p.sensor == s for p in m_fires) for s in range(len(sensors))],
              "cps": (dur_ticks + 3000) / wall}
     dut._log.info("%s: %s; %d ticks in %.1f s wall = %.0f cycles/s", what,
@@ -412,6 +425,142 @@ async def window_boundaries_order2(dut):
     del tofs
     dut._log.info("window boundaries: %d pulses, %d in-window, %d empty, cases %s",
                   len(res.pulses), n_in, n_empty, {c: cases.count(c) for c in set(cases)})
+
+
+# --------------------------------------------------------------------------------------
+# Gated miss rule (RX_FILTER.miss_gate; docs/fast_firing.md section 4.4)
+# --------------------------------------------------------------------------------------
+
+class GateEdgeSource:
+    """Directed echoes relative to the prediction the gate compares with (order 1, vmax = 0:
+    the prediction is the last accepted sample, clamped, and the gate is exactly G; the source
+    keeps its own copy of the tracking state): per tracking pulse and receiver one of +-gate
+    (inside: accepted, the track moves), +-(gate + 1) (outside: reported, counts as a miss, the
+    track stays), exactly at the prediction, or no echo. The gate applies only once the track's
+    velocity is measured (the last sample followed one of the previous pulse), so the outside
+    cases hit both states. Init pings: a static reflector per receiver (reset the copy)."""
+
+    CASES = ("in+", "out-", "in-", "out+", "mid", "none")
+
+    def __init__(self, model_ref, init_tof: dict[int, int], gate: int, width: int = 600):
+        self.model_ref, self.init_tof, self.gate, self.width = model_ref, init_tof, gate, width
+        self.pred: dict[int, int] = {}
+        self.last: dict[int, tuple[int, bool]] = {}  # rx -> (pulse index of the last sample, it was the init ping's)
+        self.vel: dict[int, bool] = {}
+        self.gated: list[tuple[int, int]] = []  # (t0, rx) of the echoes the gate must reject
+        self.k = 0
+        self.rows: dict[int, list[tuple[int, int, int]]] = {}
+        self.cases: list[str] = []
+
+    def fire(self, t0, elements, delays):
+        m = self.model_ref[0]
+        wins = [w for ws in m.windows for w in ws if w.t0 == t0 and w.sensor == 0]
+        out = []
+        g = self.gate
+        for w in sorted(wins, key=lambda w: w.rx):
+            if w.init:
+                self.pred[w.rx] = self.init_tof[w.rx]
+                self.last[w.rx], self.vel[w.rx] = (self.k, True), False
+                out.append((w.rx, t0 + self.init_tof[w.rx], self.width))
+                continue
+            case = self.CASES[(self.k + w.rx) % len(self.CASES)]
+            self.cases.append(case)
+            off = {"in+": g, "in-": -g, "out+": g + 1, "out-": -g - 1, "mid": 0, "none": None}[case]
+            if off is None:
+                continue
+            at = t0 + self.pred[w.rx] + off
+            assert w.start <= at < w.end, "directed echo outside its window"
+            out.append((w.rx, at, self.width))
+            if self.vel[w.rx] and abs(off) > g:
+                self.gated.append((t0, w.rx))
+            else:  # a sample: the track moves, v (0) is measured if the last sample was of the previous pulse
+                j, init = self.last[w.rx]
+                self.pred[w.rx] += off
+                self.vel[w.rx] = j == self.k - 1 and not init
+                self.last[w.rx] = (self.k, False)
+        self.k += 1
+        self.rows[t0] = out
+        return out
+
+
+@cocotb.test()
+async def miss_gate_boundaries(dut):
+    """Directed: once the track's velocity is measured, a tracking window's first echo exactly
+    +-gate from the prediction updates the track, +-(gate + 1) is reported but counts as a miss
+    and leaves the track; before, both update it (order 1, vmax 0, K = 15). RTL against the
+    model, the model's gated windows against the source's own bookkeeping, and the model
+    without the gate schedules differently."""
+    gate = 2400
+    sensor = VirtualSensor("s", tx=[10], rx=[9, 10, 11], order=1, miss_limit=15, vmax=0)
+    tof = {9: 150_000, 10: 154_000, 11: 148_000}
+    state = {}
+
+    class Replay:
+        def fire(self, t0, elements, delays):
+            rows = state["src"].rows.get(t0)
+            assert rows is not None, f"RTL fired at t0 {t0}, the model did not"
+            return rows
+
+    sched = Schedule(LAYOUT, [sensor])
+    b = Bench(dut, sched, miss_gate=gate)
+    e0 = await b.start(Replay(), 0)
+    dur = 80 * MS
+    ref = [None]
+    state["src"] = src = GateEdgeSource(ref, tof, gate)
+    model = ref[0] = CountingModel(sched, src, start_tick=e0, decision_lead=LEAD, miss_gate=gate)
+    res = model.run(dur)
+    await b.run_until(e0 + dur + 3000)
+    words, trig = await b.read_logs()
+    assert int(dut.overrun_o.value) == 0
+    compare("miss gate boundaries", b, res, words, trig, e0 + dur)
+    cases = src.cases
+    assert {"in+", "in-", "out+", "out-"} <= set(cases)
+    n_out = cases.count("out+") + cases.count("out-")
+    n_gated = len(src.gated)
+    assert n_gated - 3 <= model.gated <= n_gated and model.gated > 4, (model.gated, n_gated)  # the last may be open
+    assert n_out > n_gated, "the outside cases must also meet tracks whose velocity is not measured"
+    assert sum(p.init for p in res.pulses) == 1, "K = 15: the misses must not re-initialise"
+    # the same echoes without the gate: the outside echoes move the track, the pulses differ
+    ungated = CountingModel(sched, WithNoise(SyntheticEchoSource({}), [r for rs in src.rows.values() for r in rs]),
+                            start_tick=e0, decision_lead=LEAD, miss_gate=0)
+    r0 = ungated.run(dur)
+    assert ungated.gated == 0
+    assert [p.t0 for p in r0.pulses] != [p.t0 for p in res.pulses], "the gate must change the schedule"
+    dut._log.info("miss gate boundaries: %d pulses, cases %s, %d gated windows",
+                  len(res.pulses), {c: cases.count(c) for c in set(cases)}, model.gated)
+
+
+@cocotb.test()
+async def miss_gate_alias_step(dut):
+    """A tracked reflector jumps by 5000 ticks of ToF (inside the window, like an alias echo of
+    another pulse): with the 2400-tick gate the jumped echoes count as misses and K = 2 of them
+    re-initialise the sensor; with the gate off (0) or wider than the jump (6000) the jump is
+    taken as a sample and the sensor keeps tracking. RTL against the model in each case."""
+    c = speed_of_sound(20.0)
+    r0 = 1.2
+    r1 = r0 + 5000 / 48e6 * c / 2
+    sensor = VirtualSensor("s", tx=[10], rx=[9, 10, 11], order=2, miss_limit=2)
+    sched = Schedule(LAYOUT, [sensor])
+    dur, step = 110 * MS, 55 * MS
+    for gate, want_inits in ((2400, 2), (0, 1), (6000, 1)):
+        b = Bench(dut, sched, miss_gate=gate)
+        src_rtl = SyntheticEchoSource(r0, step_ranges_m=r1, step_tick=1 << 62)
+        e0 = await b.start(src_rtl, 0)
+        src_rtl.step_tick = e0 + step
+        await b.run_until(e0 + dur + 3000)
+        words, trig = await b.read_logs()
+        assert int(dut.overrun_o.value) == 0
+        model = CountingModel(sched, SyntheticEchoSource(r0, step_ranges_m=r1, step_tick=e0 + step),
+                              start_tick=e0, decision_lead=LEAD, miss_gate=gate)
+        res = model.run(dur)
+        compare(f"alias step, gate {gate}", b, res, words, trig, e0 + dur)
+        inits = sum(p.init for p in res.pulses)
+        after = [p for p in res.pulses if p.t0 >= e0 + step]
+        assert len(after) >= 4, len(after)
+        assert inits == want_inits, f"gate {gate}: {inits} init pings, expected {want_inits}"
+        assert (model.gated >= 2) == (gate == 2400), (gate, model.gated)
+        dut._log.info("alias step, gate %d: %d pulses, %d init pings, %d gated windows, %d cancelled",
+                      gate, len(res.pulses), inits, model.gated, len(res.cancelled))
 
 
 # --------------------------------------------------------------------------------------

@@ -38,8 +38,10 @@ def tick_now() -> int:
 
 
 class CoreBench:
-    def __init__(self, dut, sensor: VirtualSensor, source_factory):
+    def __init__(self, dut, sensor: VirtualSensor, source_factory, miss_gate: int | None = None):
         self.dut, self.sensor = dut, sensor
+        self.miss_gate = miss_gate  # RX_FILTER.miss_gate to write (None: keep the reset value)
+        self.gate = -1  # RX_FILTER.miss_gate as read back before the enable (the model's miss_gate)
         self.sched = Schedule(LAYOUT, [sensor])
         self.cfg = self.sched.validate()[0]
         self.source = source_factory()
@@ -59,6 +61,10 @@ class CoreBench:
         await reset(dut.clk_i, dut.rst_i)
         for addr, value in schedule_writes(self.sched):
             await self.bus.write(addr, value)
+        gate = R.REGISTERS["RX_FILTER"].fields["MISS_GATE"]
+        if self.miss_gate is not None:
+            await self.bus.write(R.RX_FILTER_ADDR, gate.put(await self.bus.read(R.RX_FILTER_ADDR), self.miss_gate))
+        self.gate = gate.get(await self.bus.read(R.RX_FILTER_ADDR))
         self.tasks += [cocotb.start_soon(self._fire_loop()), cocotb.start_soon(self._pins())]
         await self.bus.write(R.CTRL_ADDR, R.REGISTERS["CTRL"].fields["ENABLE"].mask)
 
@@ -119,8 +125,9 @@ def burst_starts(rises: list[int], gap: int) -> list[int]:
     return out
 
 
-async def core_scoreboard(dut, what: str, sensor: VirtualSensor, factory, dur_ticks: int) -> dict:
-    b = CoreBench(dut, sensor, factory)
+async def core_scoreboard(dut, what: str, sensor: VirtualSensor, factory, dur_ticks: int,
+                          miss_gate: int | None = None) -> dict:
+    b = CoreBench(dut, sensor, factory, miss_gate)
     await b.start()
     b.tasks.append(cocotb.start_soon(b.drain_every(5 * MS)))
     await Timer(dur_ticks * CLK_PERIOD_PS, unit="ps")
@@ -129,7 +136,7 @@ async def core_scoreboard(dut, what: str, sensor: VirtualSensor, factory, dur_ti
     assert b.fires, f"{what}: the core never fired"
     # The model starts where the RTL took the table: its first pulse is due max(phase, P) later.
     e0 = b.fires[0] - max(b.cfg.phase, LEAD)
-    model = FastFiringModel(b.sched, factory(), start_tick=e0, decision_lead=LEAD)
+    model = FastFiringModel(b.sched, factory(), start_tick=e0, decision_lead=LEAD, miss_gate=b.gate)
     res = model.run(b.fires[-1] - e0 + 1)
     m_fires = [p.t0 for p in res.pulses]
     assert b.fires == m_fires[:len(b.fires)] and len(m_fires) >= len(b.fires), f"{what}: pulse ticks differ"
@@ -158,7 +165,8 @@ async def core_scoreboard(dut, what: str, sensor: VirtualSensor, factory, dur_ti
     assert pulses == len(b.fires) and events == len(words) and overflows == 0
     assert st["RUNNING"].get(status) == 1 and st["SCHED_OVERRUN"].get(status) == 0
     dut._log.info("%s: %d pulses, %d events, all equal to the golden model", what, len(b.fires), len(words))
-    return {"pulses": len(b.fires), "events": len(words)}
+    return {"pulses": len(b.fires), "events": len(words), "gate": b.gate,
+            "inits": sum(p.init for p in res.pulses if p.t0 <= b.fires[-1])}
 
 
 @cocotb.test(timeout_time=2, timeout_unit="sec")
@@ -168,6 +176,34 @@ async def phased_group_static_ranges(dut):
     await core_scoreboard(dut, "phased order 2",
                           VirtualSensor("front", tx=[23, 0, 1], rx=[22, 23, 0, 1, 2], order=2, source=(0.05, 0.0)),
                           lambda: SyntheticEchoSource(ranges, ringdown_ticks=60000), 80 * MS)
+
+
+def _gate_step_case():
+    """A tracked reflector (order 2, K = 2) whose ToF jumps by 5000 ticks at 60 ms (inside the
+    window: like an alias echo of another pulse)."""
+    from multisonar.constants import speed_of_sound
+    r0 = 1.2
+    r1 = r0 + 5000 / 48e6 * speed_of_sound(20.0) / 2
+    sensor = VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=2, miss_limit=2)
+    return sensor, lambda: SyntheticEchoSource(r0, step_ranges_m=r1, step_tick=60 * MS)
+
+
+@cocotb.test(timeout_time=2, timeout_unit="sec")
+async def miss_gate_register_reset_value(dut):
+    """RX_FILTER.miss_gate at its reset value (2400 ticks): the jumped echoes count as misses
+    and K = 2 of them send an init ping; equal to the model with the gate read back."""
+    from multisonar.fastfiring import DEFAULT_MISS_GATE
+    sensor, factory = _gate_step_case()
+    st = await core_scoreboard(dut, "miss gate reset value", sensor, factory, 110 * MS)
+    assert st["gate"] == DEFAULT_MISS_GATE and st["inits"] == 2, st
+
+
+@cocotb.test(timeout_time=2, timeout_unit="sec")
+async def miss_gate_register_off(dut):
+    """RX_FILTER.miss_gate written to 0 over the bus (off): the jump is tracked, no init ping."""
+    sensor, factory = _gate_step_case()
+    st = await core_scoreboard(dut, "miss gate off", sensor, factory, 110 * MS, miss_gate=0)
+    assert st["gate"] == 0 and st["inits"] == 1, st
 
 
 class EchoesOnly:
@@ -208,7 +244,7 @@ async def event_fifo_full_counted_and_flagged(dut):
     dropped = await b.bus.read(R.OVERFLOWS_ADDR)
     produced = await b.bus.read(R.EVENTS_ADDR)
     e0 = b.fires[0] - max(b.cfg.phase, LEAD)
-    model = FastFiringModel(b.sched, SyntheticEchoSource(ranges), start_tick=e0, decision_lead=LEAD)
+    model = FastFiringModel(b.sched, SyntheticEchoSource(ranges), start_tick=e0, decision_lead=LEAD, miss_gate=b.gate)
     res = model.run(b.fires[-1] - e0 + 1)
     assert [p.t0 for p in res.pulses][:len(b.fires)] == b.fires, "scheduling must not depend on the FIFO"
     m = [ev.pack() for ev in res.events]

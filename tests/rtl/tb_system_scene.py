@@ -46,7 +46,7 @@ from cocotb.utils import get_sim_time
 from multisonar import geometry as G
 from multisonar import protocol as P
 from multisonar.constants import TICK_HZ, speed_of_sound
-from multisonar.fastfiring import FastFiringModel, _rows
+from multisonar.fastfiring import DEFAULT_MISS_GATE, FastFiringModel, _rows
 from multisonar.layout import load_layout
 from multisonar.tools.fw_schedule import TEMPERATURE_C, schedule_for
 from echo_driver import EchoDriver
@@ -302,7 +302,11 @@ async def sonar_app_on_wall_and_point(dut):
         stop = b.stops[k] if k < len(b.stops) else end_tick
         noise = [r for r in b.source.rows if r[1] + r[2] > s0] if k else []
         fires_k = [f for f in b.fires if f[0] > s0 and (k + 1 >= len(b.starts) or f[0] <= b.starts[k + 1])]
-        model = FastFiringModel(sched, WithNoise(src, noise) if noise else src, start_tick=s0, decision_lead=LEAD)
+        # the gated miss rule the scheduler latched from RX_FILTER.miss_gate (the firmware keeps the reset value)
+        gate = int(b.sched.sh_gate_q.value)
+        assert gate == DEFAULT_MISS_GATE, f"scheduler miss gate {gate}, RX_FILTER.miss_gate reset {DEFAULT_MISS_GATE}"
+        model = FastFiringModel(sched, WithNoise(src, noise) if noise else src, start_tick=s0, decision_lead=LEAD,
+                                miss_gate=gate)
         res = model.run(stop - s0)
         m_t0 = [p.t0 for p in res.pulses]
         assert [f[0] for f in fires_k][:len(m_t0)] == m_t0[:len(fires_k)], f"segment {k}: pulse ticks differ"
