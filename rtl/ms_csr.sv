@@ -48,6 +48,7 @@ module ms_csr
   output logic [7:0]                    burst_cycles_o,
   output logic [7:0]                    glitch_min_o,
   output logic [15:0]                   miss_gate_o,       // RX_FILTER.miss_gate, ticks (0 off)
+  output logic [7:0]                    reinit_every_o,    // RX_FILTER.reinit_every, pulses (0 off)
   output logic [NUM_VS-1:0][NUM_CH-1:0] vs_tx_mask_o,
   output logic [NUM_VS-1:0][NUM_CH-1:0] vs_rx_mask_o,
   output logic [NUM_VS-1:0][1:0]        vs_mode_o,
@@ -173,6 +174,7 @@ module ms_csr
   assign burst_cycles_o      = hwif_out.BURST.cycles.value;
   assign glitch_min_o        = hwif_out.RX_FILTER.glitch_min.value;
   assign miss_gate_o         = hwif_out.RX_FILTER.miss_gate.value;
+  assign reinit_every_o      = hwif_out.RX_FILTER.reinit_every.value;
 
   // ---- virtual-sensor table (external regfile VS[8] of sonar_regs.rdl). Field layout and
   // reset values are the register map's; tests/rtl/tb_ms_csr.py checks every field's reset,

@@ -47,6 +47,7 @@ module ms_sonar_core #(
   logic [15:0]                   burst_half_period;
   logic [7:0]                    unused_burst_cycles, glitch_min;
   logic [15:0]                   miss_gate;
+  logic [7:0]                    reinit_every;
   logic [NUM_VS-1:0][NUM_CH-1:0] vs_tx_mask, vs_rx_mask;
   logic [NUM_VS-1:0][1:0]        vs_mode, vs_xtalk_nb;
   logic [NUM_VS-1:0][2:0]        vs_order;
@@ -72,7 +73,7 @@ module ms_sonar_core #(
     .bus_wr_ack_o, .bus_wr_err_o,
     .enable_o (enable), .apply_o (apply), .clear_counters_o (unused_clear_counters),
     .burst_half_period_o (burst_half_period), .burst_cycles_o (unused_burst_cycles),
-    .glitch_min_o (glitch_min), .miss_gate_o (miss_gate),
+    .glitch_min_o (glitch_min), .miss_gate_o (miss_gate), .reinit_every_o (reinit_every),
     .vs_tx_mask_o (vs_tx_mask), .vs_rx_mask_o (vs_rx_mask), .vs_mode_o (vs_mode),
     .vs_order_o (vs_order), .vs_miss_limit_o (vs_miss_limit), .vs_t_v_o (vs_t_v),
     .vs_t_n_o (vs_t_n), .vs_t_dead_o (vs_t_dead), .vs_max_tof_o (vs_max_tof),
@@ -111,6 +112,7 @@ module ms_sonar_core #(
     .vs_t_xtalk_i (vs_t_xtalk), .vs_xtalk_nb_i (vs_xtalk_nb), .vs_vmax_i (vs_vmax),
     .vs_burst_cycles_i (vs_burst_cycles), .vs_phase_i (vs_phase),
     .burst_half_period_i (burst_half_period), .glitch_min_i (glitch_min), .miss_gate_i (miss_gate),
+    .reinit_every_i (reinit_every),
     .delay_raddr_o (delay_raddr), .delay_rdata_i (delay_rdata), .rise_i (rise),
     .trig_valid_o (trig_valid), .trig_el_o (trig_el), .trig_delay_o (trig_delay),
     .trig_burst_o (trig_burst),

@@ -10,7 +10,15 @@ another pulse's echo (interlacing aliases) or no echo at all (spurious / crossta
 The gated miss rule is the RTL's default (RX_FILTER.miss_gate reset value, 50 us);
 --miss-gate-us 0 measures the rule without it.
 
+--sweep-reinit none,4,8,bound runs the same seeds once per value of the golden model's forced
+re-initialisation every M tracking pulses (not in the RTL; "none" = off, "bound" = N + K + 1 of
+each trial, which bounds the latency by construction) and prints one row per M: outcomes,
+worst latency, and the cost: true tracking samples per second of sonar time (first echoes in
+tracking windows, all receivers of the sensor, that are the echo of their own pulse), over the
+whole trial and over the plain wall tracking before the onset, relative to "none".
+
     .venv/bin/python scripts/bench_safety.py --trials 200 [--workers 2] [--spurious 50] [--miss-gate-us 0] [--plot F.png] [--csv F.csv]
+    .venv/bin/python scripts/bench_safety.py --trials 60 --workers 1 --sweep-reinit none,4,6,8,12,16,24 [--plot F.png] [--csv F.csv]
 """
 from __future__ import annotations
 
@@ -21,12 +29,101 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from functools import partial
 from pathlib import Path
+from typing import Any, Iterator
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "host"))
 
 from multisonar.constants import TICK_HZ  # noqa: E402
 from multisonar.fastfiring import DEFAULT_MISS_GATE  # noqa: E402
-from multisonar.safety import as_rows, run_trial, summarise  # noqa: E402
+from multisonar.safety import TrialResult, as_rows, run_trial, summarise  # noqa: E402
+
+
+def _run(seeds: range, workers: int, label: str, **kw: Any) -> Iterator[TrialResult]:
+    """Trials of ``seeds`` in order; one process when ``workers`` is 1; progress on stderr."""
+    t = time.time()
+    fn = partial(run_trial, **kw)
+    with ProcessPoolExecutor(max_workers=workers) if workers > 1 else _Serial() as ex:
+        for i, r in enumerate(ex.map(fn, seeds), 1):
+            print(f"\r{label}{i}/{len(seeds)} trials, {time.time() - t:.0f} s", end="", file=sys.stderr, flush=True)
+            yield r
+    print(file=sys.stderr)
+
+
+class _Serial:
+    def __enter__(self) -> "_Serial":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def map(self, fn: Any, it: Any) -> Iterator[Any]:
+        return map(fn, it)
+
+
+def _reinit_value(tok: str) -> int | str | None:
+    tok = tok.strip().lower()
+    return None if tok in ("none", "off", "0") else "bound" if tok == "bound" else int(tok)
+
+
+def sweep_reinit(a: argparse.Namespace, seeds: range, gate: int) -> int:
+    values = [_reinit_value(x) for x in a.sweep_reinit.split(",")]
+    t0 = time.time()
+    runs: list[tuple[Any, list[TrialResult]]] = []
+    for m in values:
+        runs.append((m, list(_run(seeds, a.workers, f"M={m or 'none'}: ", spurious_rate_hz=a.spurious, miss_gate=gate,
+                                  reinit_every=m))))
+    base = summarise(runs[0][1]) if values[0] is None else None
+    print(f"{len(seeds)} trials (seeds {seeds.start}-{seeds.stop - 1}) per M, spurious rate "
+          f"{runs[0][1][0].spurious_rate_hz:g} Hz per channel, miss gate {gate} ticks, {time.time() - t0:.0f} s wall\n")
+    print("| re-init every M | person hid the wall | within N+K+1 | late | missed | latency pulses median / max | "
+          "latency ms median / max | init pings / trial | true samples/s | rel. | pre-onset samples/s | rel. |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    rows, notes = [], []
+    for m, rs in runs:
+        s = summarise(rs)
+        rel = (f"{s['samples_per_s'] / base['samples_per_s']:.1%}" if base else "-",
+               f"{s['pre_onset_samples_per_s'] / base['pre_onset_samples_per_s']:.1%}" if base else "-")
+        print(f"| {m or 'none'} | {s['counted']} | {s['detected']} ({s['detected'] / max(s['counted'], 1):.1%}) | {s['late']} | "
+              f"{s['missed']} | {s['latency_pulses_median']:.1f} / {s['latency_pulses_max']} | "
+              f"{s['latency_ms_median']:.1f} / {s['latency_ms_max']:.1f} | {s['init_pings'] / s['trials']:.1f} | "
+              f"{s['samples_per_s']:.0f} | {rel[0]} | {s['pre_onset_samples_per_s']:.0f} | {rel[1]} |")
+        rows += [r | {"sweep_reinit": m or "none"} for r in as_rows(rs)]
+        bad = [r.seed for r in rs if r.outcome in ("late", "missed")]
+        if bad:
+            notes.append(f"- M={m or 'none'}: seeds {bad} outside the bound "
+                         f"(latency pulses {[r.latency_pulses for r in rs if r.seed in bad]})")
+    if notes:
+        print("\nTrials outside the bound:\n" + "\n".join(notes))
+    if a.csv:
+        with a.csv.open("w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+    if a.plot:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        num = [(m, rs) for m, rs in runs if isinstance(m, int)]
+        fig, ax = plt.subplots(figsize=(7, 4))
+        ax2 = ax.twinx()
+        xs = [m for m, _ in num]
+        ss = [summarise(rs) for _, rs in num]
+        ax.plot(xs, [100 * s["detected"] / max(s["counted"], 1) for s in ss], "o-", label="within N+K+1 (%)")
+        if base:
+            ax2.plot(xs, [100 * s["pre_onset_samples_per_s"] / base["pre_onset_samples_per_s"] for s in ss], "s--",
+                     color="C1", label="pre-onset samples/s (% of none)")
+            b = summarise(runs[0][1])
+            ax.axhline(100 * b["detected"] / max(b["counted"], 1), color="C0", lw=0.8, ls=":", label="none")
+        ax.set_xlabel("forced re-init every M tracking pulses")
+        ax.set_ylabel("crossings within N+K+1 (%)")
+        ax2.set_ylabel("tracking samples/s (% of none)")
+        h1, l1 = ax.get_legend_handles_labels()
+        h2, l2 = ax2.get_legend_handles_labels()
+        ax.legend(h1 + h2, l1 + l2, loc="center right", fontsize=8)
+        fig.tight_layout()
+        fig.savefig(a.plot, dpi=120)
+        print(f"\nplot: {a.plot}")
+    return 0
 
 
 def main() -> int:
@@ -40,6 +137,8 @@ def main() -> int:
                          "from the prediction counts as a miss; 0 = off (default: the register's reset value, %(default)g us)")
     ap.add_argument("--reinit-every", type=int, default=None,
                     help="model option (not in the RTL): force an init ping after this many tracking pulses")
+    ap.add_argument("--sweep-reinit", metavar="M1,M2,...",
+                    help="run the seeds once per forced re-init period M (none, integers, bound = N+K+1) and print one row per M")
     ap.add_argument("--plot", type=Path)
     ap.add_argument("--csv", type=Path)
     a = ap.parse_args()
@@ -47,14 +146,10 @@ def main() -> int:
     gate = round(a.miss_gate_us * TICK_HZ / 1e6)
     if not 0 <= gate < 1 << 16:
         ap.error(f"--miss-gate-us {a.miss_gate_us:g} does not fit RX_FILTER.miss_gate (0..65535 ticks)")
+    if a.sweep_reinit:
+        return sweep_reinit(a, seeds, gate)
     t = time.time()
-    results = []
-    with ProcessPoolExecutor(max_workers=a.workers) as ex:
-        for i, r in enumerate(ex.map(partial(run_trial, spurious_rate_hz=a.spurious, miss_gate=gate,
-                                                       reinit_every=a.reinit_every), seeds), 1):
-            results.append(r)
-            print(f"\r{i}/{a.trials} trials, {time.time() - t:.0f} s", end="", file=sys.stderr, flush=True)
-    print(file=sys.stderr)
+    results = list(_run(seeds, a.workers, "", spurious_rate_hz=a.spurious, miss_gate=gate, reinit_every=a.reinit_every))
     opts = ", ".join(x for x in (f"miss gate {a.miss_gate_us:g} us ({gate} ticks)" if gate else "miss gate off",
                                  a.reinit_every and f"model option re-init every {a.reinit_every} pulses (not in the RTL)")
                      if x)

@@ -279,6 +279,31 @@ def test_property_multiple_sensors_never_conflict(cfgs, vel):
     assert all(p.t0 >= p.due for p in res.pulses)
     # triggers are the issued pulses' tx elements at t0 + delay
     assert len(res.triggers) == sum(len(m.cfg[p.sensor].tx) for p in res.pulses)
+    check_no_tx_overlap(res.triggers, m.cfg)
+
+
+def check_no_tx_overlap(triggers, cfg):
+    """Rule 5: an element is triggered again only after the dead zone of its last trigger
+    (T_dead >= the burst, so two bursts never overlap on one element)."""
+    last: dict[int, tuple[int, int]] = {}
+    for tr in sorted(triggers, key=lambda tr: tr.tick):
+        if tr.element in last:
+            tick, sensor = last[tr.element]
+            assert tr.tick >= tick + cfg[sensor].t_dead, f"element {tr.element} triggered at {tr.tick}, " \
+                f"within the dead zone of its trigger at {tick} (sensor {sensor})"
+        last[tr.element] = (tr.tick, tr.sensor)
+
+
+def test_sensors_sharing_a_tx_element_never_overlap_bursts():
+    # both fire element 5 at the same range and period: without rule 5 they fire within one burst
+    src = SyntheticEchoSource(1.2, ringdown_ticks=50000)
+    a = VirtualSensor("a", tx=[4, 5], rx=[4, 5], order=2)
+    b = VirtualSensor("b", tx=[5, 6], rx=[7], order=2)
+    m = model(a, b, source=src)
+    res = m.run(300 * MS)
+    check_no_tx_overlap(res.triggers, m.cfg)
+    check_no_conflicts(res.pulses, res.cancelled)
+    assert len(res.samples(sensor=0)) > 20 and len(res.samples(sensor=1)) > 20
 
 
 def test_shared_receiver_defers_deterministically():
@@ -298,8 +323,8 @@ def test_shared_receiver_defers_deterministically():
 class _PerTickRetry(FastFiringModel):
     """What the RTL does: a blocked pulse is retried on the very next tick."""
 
-    def _conflict(self, t, blanks, wins):
-        r = super()._conflict(t, blanks, wins)
+    def _conflict(self, t, blanks, wins, n_tx=0):
+        r = super()._conflict(t, blanks, wins, n_tx)
         return None if r is None else t + 1
 
 

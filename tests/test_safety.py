@@ -89,3 +89,17 @@ def test_model_default_gate_is_the_register_reset_value():
     from multisonar.generated import sonar_regs as R
     f = R.REGISTERS["RX_FILTER"].fields["MISS_GATE"]
     assert f.reset == DEFAULT_MISS_GATE and f.width == 16
+
+
+def test_forced_reinit_at_the_bound_reports_the_known_late_crossings_within_it():
+    """Model option reinit_every (not in the RTL): an init ping at the latest after M tracking
+    pulses bounds the latency by M pulses by construction (the init ping's open window hears
+    the person first), so M = N + K + 1 ("bound") guarantees the bound; the seeds late with the
+    gate alone pass. The cost: fewer tracking samples while the wall is tracked."""
+    for seed in (6, 16, 25, 57):
+        r = run_trial(seed, reinit_every="bound")
+        assert r.reinit_every == r.bound_pulses
+        assert r.outcome == "detected" and 0 <= r.latency_pulses <= r.reinit_every, r
+    base, forced = run_trial(16), run_trial(16, reinit_every="bound")
+    assert base.outcome == "late"
+    assert forced.pre_onset_samples / forced.pre_onset_s < 0.8 * base.pre_onset_samples / base.pre_onset_s

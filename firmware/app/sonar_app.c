@@ -610,6 +610,7 @@ static int load_sensors(void)
 enum { ST_OK = 0, ST_BAD_CRC = 1, ST_BAD_MAGIC = 2, ST_BAD_VERSION = 3, ST_BAD_LENGTH = 4,
        ST_UNKNOWN_OPCODE = 5, ST_BAD_ADDRESS = 6, ST_CFG_REJECTED = 7, ST_BUSY = 8, ST_BAD_PARAM = 9,
        ST_INTERNAL = 11 };
+enum { CFG_ERROR_DELAY = 8 }; /* multisonar.protocol.CfgError.DELAY */
 enum { OP_DEVICE_INFO = 1, OP_WRITE_REGS, OP_READ_REGS, OP_START, OP_STOP, OP_READ_COUNTERS,
        OP_CLEAR_COUNTERS, OP_SET_PARAM, OP_GET_PARAM, OP_ECHO };
 enum { PAR_TEMPERATURE_CC = 1, PAR_GEOMETRY, PAR_TOF_RECORDS, PAR_MAX_ECHOES, PAR_GLITCH_MIN };
@@ -637,6 +638,34 @@ static int writable(uint32_t a)
     if (a >= SONAR_OFF(VS) && a < SONAR_OFF(VS) + 8u * VS_STRIDE)
         return (a - SONAR_OFF(VS)) % VS_STRIDE <= offsetof(sonar_regs__VS__stride40_t, PHASE);
     return a >= SONAR_OFF(DELAY) && a < SONAR_OFF(DELAY) + (uint32_t)sizeof(sonar_regs__DELAY_t);
+}
+
+/* DELAY words last written by the host with bits the scheduler's delay RAM does not keep (it
+   stores DELAY_BITS of each 32-bit word; rtl/ms_sonar_core.sv DELAY_W, multisonar.schedule.DELAY_W):
+   one bit per (table entry, element); START refuses an enabled entry whose tx element has one
+   (CfgError DELAY), as the RTL alone would fire a wrong, truncated delay */
+#define DELAY_BITS 16u
+static uint32_t delay_over[8];
+
+static void note_delay_write(uint32_t a, uint32_t v)
+{
+    if (a < SONAR_OFF(DELAY) || a >= SONAR_OFF(DELAY) + (uint32_t)sizeof(sonar_regs__DELAY_t))
+        return;
+    uint32_t i = (a - SONAR_OFF(DELAY)) / 4u, bit = 1u << (i % 32u);
+    if (v >> DELAY_BITS)
+        delay_over[i / 32u] |= bit;
+    else
+        delay_over[i / 32u] &= ~bit;
+}
+
+/* lowest enabled entry with an over-wide tx delay, or -1 */
+static int delay_refused(void)
+{
+    for (int vs = 0; vs < 8; vs++)
+        if ((MS_SONAR(VS[vs].MODE) & SONAR_REGS__VS__MODE__MODE_bm)
+            && (delay_over[vs] & MS_SONAR(VS[vs].TX_MASK) & SONAR_REGS__VS__TX_MASK__MASK_bm))
+            return vs;
+    return -1;
 }
 
 static int readable(uint32_t a) { return !(a & 3u) && (a <= SONAR_OFF(EVT_HI) || writable(a)); }
@@ -670,6 +699,13 @@ static uint32_t cmd_start(uint32_t *len)
     for (int i = 0; i < MAX_GROUPS; i++)
         groups[i].used = 0;
     drain_events();
+    int bad = delay_refused();
+    if (bad >= 0) { /* checked before the scheduler validates: the RTL cannot see the lost bits */
+        ms_report(0xE0000000u | (CFG_ERROR_DELAY << 4) | (uint32_t)bad);
+        rbuf[3] = CFG_ERROR_DELAY | ((uint32_t)bad << 8);
+        *len = 2u;
+        return ST_CFG_REJECTED;
+    }
     load_sensors();
     uint32_t gm = MS_SONAR(RX_FILTER) & SONAR_REGS__RX_FILTER__GLITCH_MIN_bm;
     edge_lat = 1u + (gm > 1u ? gm : 1u);
@@ -801,6 +837,7 @@ static void handle_command(void)
                         break;
                     }
                     SONAR_AT(a) = pl[2 * i + 1];
+                    note_delay_write(a, pl[2 * i + 1]);
                 }
                 if (st == ST_OK) {
                     rbuf[3] = len / 8u;

@@ -330,19 +330,24 @@ class FastFiringModel:
         #: followed one of the previous pulse; before that the prediction assumes v = 0 and a
         #: moving reflector would fail the gate).
         #: 0 or None = off (the rule before the register existed). Default: the register's reset
-        #: value. ``reinit_every`` (pulses), an experimental option NOT in the RTL (default None;
-        #: see multisonar.safety): force an initialisation ping after that many tracking pulses,
-        #: bounding the time any obstacle can stay unseen.
+        #: value. ``reinit_every`` M (pulses; RTL: RX_FILTER.reinit_every, 0 = off = None, latched
+        #: at apply; see multisonar.safety): a tracking sensor that has sent M tracking pulses since
+        #: its last init ping cancels its windows and sends an init ping next, bounding the time an
+        #: obstacle can hide behind an alias that passes the gate.
         if miss_gate is not None and not 0 <= miss_gate < (1 << 16):
             raise ValueError(f"miss_gate {miss_gate} must be 0..65535 ticks (RX_FILTER.miss_gate, 0 = off) or None")
-        if reinit_every is not None and reinit_every < 1:
-            raise ValueError(f"reinit_every {reinit_every} must be >= 1 pulse or None")
+        if reinit_every is not None and not 1 <= reinit_every <= 255:
+            raise ValueError(f"reinit_every {reinit_every} must be 1..255 pulses (RX_FILTER.reinit_every) or None")
         self.miss_gate = int(miss_gate) if miss_gate else None
         self.reinit_every = reinit_every
         self.now = int(start_tick)
         n_el = schedule.layout.n
         self.windows: list[list[_Window]] = [[] for _ in range(n_el)]
         self.blank_until = [self.now] * n_el
+        #: end of the dead zone of each element's latest trigger: a tx element is not triggered
+        #: again before it (docs/fast_firing.md section 5, rule 5; T_dead >= burst by validation,
+        #: so two bursts never overlap on one element)
+        self.tx_until = [self.now] * n_el
         self.lines = [_Line() for _ in range(n_el)]
         self.sensors = [_SensorState(cfg=r, due=self.now + r.phase) for r in self.cfg]
         touch = [set(map(int, r.tx)) | set(map(int, r.xtalk_elements)) | set(map(int, r.rx)) for r in self.cfg]
@@ -499,7 +504,7 @@ class FastFiringModel:
         c = s.cfg
         k = s.seq
         if self.reinit_every is not None and s.tracking and s.track_pulses >= self.reinit_every:
-            s.tracking = False  # forced re-initialisation (experimental option)
+            s.tracking = False  # forced re-initialisation (RX_FILTER.reinit_every)
             self._cancel(c.id)
         init = not s.tracking
         if init and t < s.quiet:
@@ -523,7 +528,7 @@ class FastFiringModel:
             period = pulse_period(n_eff, lo, hi, c.t_v, c.t_n, c.blank)
             wins = [(e, v - c.t_v, v + c.t_n) for e, v in sorted(te.items())]
         blanks = c.blank_intervals()
-        retry = self._conflict(t, blanks, wins)
+        retry = self._conflict(t, blanks, wins, n_tx=len(c.tx))
         if retry is not None:
             self._push(retry - self.lead, _SCHED, c.id, None)
             return
@@ -538,6 +543,8 @@ class FastFiringModel:
             s.track_pulses += 1
         for e, a, b in blanks:
             self.blank_until[e] = max(self.blank_until[e], t + b)
+        for e, a, b in blanks[:len(c.tx)]:
+            self.tx_until[e] = max(self.tx_until[e], t + b)
         for e, a, b in wins:
             w = _Window(t + a, t + b, t + b - 1 + self.latency, c.id, k, e, t, init, s.epoch)
             self.windows[e].append(w)
@@ -568,10 +575,16 @@ class FastFiringModel:
             if o.due - self.lead <= self.now:
                 self._push(self.now if o.cfg.id > after else self.now + 1, _SCHED, o.cfg.id, None)
 
-    def _conflict(self, t: int, blanks: list[tuple[int, int, int]], wins: list[tuple[int, int, int]]) -> int | None:
+    def _conflict(self, t: int, blanks: list[tuple[int, int, int]], wins: list[tuple[int, int, int]],
+                  n_tx: int = 0) -> int | None:
         """None if the pulse may go at t, else the first tick at which the conflicts seen now
-        are resolved (the RTL simply retries every tick; both give the same issue tick)."""
+        are resolved (the RTL simply retries every tick; both give the same issue tick).
+        ``blanks[:n_tx]`` are the dead zones of the tx elements: their triggers ``t + a`` must
+        not come before the element's ``tx_until``."""
         retry = -1
+        for e, a, b in blanks[:n_tx]:
+            if t + a < self.tx_until[e]:
+                retry = max(retry, self.tx_until[e] - a)
         for e, a, b in blanks:
             for w in self.windows[e]:
                 if t + a < w.end and w.start < t + b:

@@ -22,6 +22,12 @@ scoreboards of ``tests/rtl/test_ms_scheduler.py``) with the acoustic model in th
   bound the design promises: the pulses already in flight at the onset (order N, each with a
   window that the person now blocks), K empty windows, one initialisation ping:
   ``latency_pulses <= N + K + 1``; a trial passes when the person is detected within it.
+* **tracking sample rate**: tracking samples (first echoes in tracking windows, all receivers)
+  that are the true echo of their own pulse, per second of sonar time; ``pre_onset_*`` counts
+  only pulses before the onset (plain wall tracking), the cost measure of ``reinit_every``
+  (the golden model's forced re-initialisation every M tracking pulses, not in the RTL; by
+  construction it bounds the latency by M pulses, so M <= N + K + 1 guarantees the bound;
+  ``reinit_every="bound"`` uses M = N + K + 1 of the trial).
 
 A trial where the person never reaches the onset condition (e.g. too small an echo on that
 lane) is reported as ``no_onset`` and not counted either way; the run is long enough for the
@@ -34,7 +40,7 @@ import copy
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Literal
 
 import numpy as np
 import yaml
@@ -45,7 +51,8 @@ from .layout import load_layout
 from .schedule import Schedule, ScheduleError, VirtualSensor
 from .scene import parse_scene
 
-__all__ = ["TrialResult", "run_trial", "random_trial_params", "summarise"]
+__all__ = ["TrialResult", "run_trial", "random_trial_params", "summarise", "as_rows", "FalseFixResult",
+           "run_false_fix_trial", "summarise_false_fixes", "FALSE_FIX_TOL_M"]
 
 _SCENE_FILE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "person_crossing.yaml"
 TX, RX = 6, (5, 6, 7)  # element 6 faces +y (the wall side) on ring24
@@ -75,6 +82,10 @@ class TrialResult:
     alias_samples: int  # first echoes that are another pulse's echo (interlacing)
     false_samples: int  # first echoes that match no true echo path (spurious, crosstalk)
     outcome: str  # "detected", "late", "missed", "no_onset"
+    duration_s: float = 0.0  # sonar time simulated
+    reinit_every: int = 0  # model option used (0: none)
+    pre_onset_s: float = 0.0  # sonar time from the first pulse to the onset pulse (whole run without onset)
+    pre_onset_samples: int = 0  # true tracking samples of pulses before the onset pulse
 
     @property
     def ok(self) -> bool:
@@ -98,7 +109,8 @@ def random_trial_params(seed: int) -> dict[str, Any]:
                 miss_limit=int(rng.integers(1, 4)))
 
 
-def _scene(p: dict[str, Any], t_cross: float, duration: float, spurious_rate_hz: float | None):
+def _scene(p: dict[str, Any], t_cross: float, duration: float, spurious_rate_hz: float | None,
+           crosstalk_level: float | None = None, person: bool = True):
     doc = yaml.safe_load(_SCENE_FILE.read_text())
     doc = copy.deepcopy(doc)
     vr, vp = p["robot_speed"], p["person_speed"]
@@ -115,6 +127,10 @@ def _scene(p: dict[str, Any], t_cross: float, duration: float, spurious_rate_hz:
     doc["seed"] = int(p["seed"])
     if spurious_rate_hz is not None:
         doc.setdefault("noise", {})["spurious_rate_hz"] = float(spurious_rate_hz)
+    if crosstalk_level is not None:
+        doc.setdefault("model", {})["crosstalk_level"] = float(crosstalk_level)
+    if not person:
+        doc["people"] = []
     return parse_scene(doc, source=f"<person trial {p['seed']}>")
 
 
@@ -132,30 +148,9 @@ def _schedule(layout, order: int, miss_limit: int, wall_y: float) -> Schedule:
     raise ValueError(f"no order schedules a wall at {wall_y:.2f} m: {last}")
 
 
-def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: float = 0.8,
-              duration: float = 1.6, margin_db: float = 6.0, tol_ticks: int = 600,
-              params: dict[str, Any] | None = None, miss_gate: int | None = DEFAULT_MISS_GATE,
-              reinit_every: int | None = None) -> TrialResult:
-    """One randomised person-crossing trial (see the module docstring). ``miss_gate``: the
-    gated miss rule, ticks (RX_FILTER.miss_gate; default its reset value, 0 or None = off);
-    ``reinit_every``: the golden model's experimental forced re-initialisation (not in the RTL)."""
-    p = dict(params) if params is not None else random_trial_params(seed)
-    layout = load_layout()
-    scene = _scene(p, t_cross, duration, spurious_rate_hz)
-    sched = _schedule(layout, p["order"], p["miss_limit"], p["wall_y"])
-    order = sched.sensors[0].order
-    src = SceneEchoSource(scene, rng=np.random.default_rng(p["seed"]))
-    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD, miss_gate=miss_gate,
-                            reinit_every=reinit_every)
-    res = model.run(int(duration * TICK_HZ))
-    pulses = [q for q in res.pulses if q.sensor == 0]
-    ac = src.model
-    person = scene.reflector_index("person")
-    wall = scene.reflector_index("wall")
-    thr = scene.noise.threshold * 10 ** (margin_db / 20)
-
-    # ground truth per pulse: exact first-order arrivals (absolute ticks) and amplitudes per
-    # (reflector, receiver), before jitter and fading
+def _truth(ac: Any, pulses: list[Any]) -> list[dict[tuple[int, int], tuple[float, float]]]:
+    """Ground truth per pulse: exact first-order arrivals (absolute ticks) and amplitudes per
+    (reflector, receiver), before jitter and fading."""
     from .acoustics import Firing, PulseKind
     truth: list[dict[tuple[int, int], tuple[float, float]]] = []
     for q in pulses:
@@ -166,6 +161,34 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
             if row["kind"] == PulseKind.ECHO and at < d.get(key, (math.inf, 0.0))[0]:
                 d[key] = (at, float(row["amplitude"]))
         truth.append(d)
+    return truth
+
+
+def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: float = 0.8,
+              duration: float = 1.6, margin_db: float = 6.0, tol_ticks: int = 600,
+              params: dict[str, Any] | None = None, miss_gate: int | None = DEFAULT_MISS_GATE,
+              reinit_every: int | Literal["bound"] | None = None) -> TrialResult:
+    """One randomised person-crossing trial (see the module docstring). ``miss_gate``: the
+    gated miss rule, ticks (RX_FILTER.miss_gate; default its reset value, 0 or None = off);
+    ``reinit_every``: the golden model's experimental forced re-initialisation after that many
+    tracking pulses (not in the RTL; ``"bound"``: N + K + 1 of this trial)."""
+    p = dict(params) if params is not None else random_trial_params(seed)
+    layout = load_layout()
+    scene = _scene(p, t_cross, duration, spurious_rate_hz)
+    sched = _schedule(layout, p["order"], p["miss_limit"], p["wall_y"])
+    order = sched.sensors[0].order
+    reinit = order + p["miss_limit"] + 1 if reinit_every == "bound" else reinit_every
+    src = SceneEchoSource(scene, rng=np.random.default_rng(p["seed"]))
+    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD, miss_gate=miss_gate,
+                            reinit_every=reinit)
+    res = model.run(int(duration * TICK_HZ))
+    pulses = [q for q in res.pulses if q.sensor == 0]
+    ac = src.model
+    person = scene.reflector_index("person")
+    wall = scene.reflector_index("wall")
+    thr = scene.noise.threshold * 10 ** (margin_db / 20)
+
+    truth = _truth(ac, pulses)
 
     def blocks(i: int) -> tuple[bool, bool]:
         """(person in front of the wall on some receiver, person hides the wall on some receiver)"""
@@ -188,7 +211,7 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
     by_seq: dict[int, int] = {}
     pi = 0
     detect = detect_front = -1
-    samples = false_samples = alias_samples = 0
+    samples = false_samples = alias_samples = pre_onset_samples = 0
     for e in sorted((e for e in res.events if e.sensor == 0), key=lambda e: e.tick):
         while pi < len(pulses) and pulses[pi].t0 <= e.tick:
             by_seq[pulses[pi].seq % 256] = pi
@@ -208,6 +231,8 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
                     alias_samples += 1  # an echo of another pulse in flight (interlacing)
                 else:
                     false_samples += 1  # spurious pulse or crosstalk
+            elif onset < 0 or k < onset:
+                pre_onset_samples += 1
         if near(k, person):
             if detect < 0 and 0 <= onset <= k:
                 detect = k
@@ -228,7 +253,10 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
                        pulses=len(pulses), init_pings=sum(q.init for q in pulses), in_front_pulse=in_front,
                        front_latency_pulses=(detect_front - in_front) if detect_front >= 0 else -1, onset_pulse=onset,
                        detect_pulse=detect, latency_pulses=lat, latency_ms=lat_ms, bound_pulses=bound,
-                       samples=samples, alias_samples=alias_samples, false_samples=false_samples, outcome=outcome)
+                       samples=samples, alias_samples=alias_samples, false_samples=false_samples, outcome=outcome,
+                       duration_s=duration, reinit_every=int(reinit or 0),
+                       pre_onset_s=((pulses[onset].t0 if onset >= 0 else int(duration * TICK_HZ)) - pulses[0].t0) / TICK_HZ
+                       if pulses else 0.0, pre_onset_samples=pre_onset_samples)
 
 
 def summarise(results: Iterable[TrialResult]) -> dict[str, Any]:
@@ -237,6 +265,8 @@ def summarise(results: Iterable[TrialResult]) -> dict[str, Any]:
     lat = np.array([r.latency_pulses for r in counted if r.latency_pulses >= 0])
     lat_ms = np.array([r.latency_ms for r in counted if r.latency_pulses >= 0])
     samples = sum(r.samples for r in rs)
+    true_samples = samples - sum(r.alias_samples + r.false_samples for r in rs)
+    sonar_s, pre_s = sum(r.duration_s for r in rs), sum(r.pre_onset_s for r in rs)
     return dict(trials=len(rs), counted=len(counted), detected=sum(r.outcome == "detected" for r in rs),
                 late=sum(r.outcome == "late" for r in rs), missed=sum(r.outcome == "missed" for r in rs),
                 no_onset=sum(r.outcome == "no_onset" for r in rs),
@@ -246,8 +276,160 @@ def summarise(results: Iterable[TrialResult]) -> dict[str, Any]:
                 latency_ms_median=float(np.median(lat_ms)) if lat_ms.size else float("nan"),
                 samples=samples, alias_samples=sum(r.alias_samples for r in rs),
                 false_samples=sum(r.false_samples for r in rs),
-                false_sample_rate=(sum(r.false_samples for r in rs) / samples) if samples else 0.0)
+                false_sample_rate=(sum(r.false_samples for r in rs) / samples) if samples else 0.0,
+                init_pings=sum(r.init_pings for r in rs),
+                samples_per_s=true_samples / sonar_s if sonar_s else float("nan"),
+                pre_onset_samples_per_s=sum(r.pre_onset_samples for r in rs) / pre_s if pre_s else float("nan"))
 
 
 def as_rows(results: Iterable[TrialResult]) -> list[dict[str, Any]]:
     return [asdict(r) | {"ok": r.ok} for r in results]
+
+
+# ----------------------------------------------------------------------------------------
+# false fixes under spurious pulses and crosstalk (issue #9, scripts/bench_false_fix.py)
+# ----------------------------------------------------------------------------------------
+
+#: A fix farther than this from every true reflector surface is false (m).
+FALSE_FIX_TOL_M = 0.05
+
+
+@dataclass(frozen=True)
+class FalseFixResult:
+    seed: int
+    order: int
+    spurious_rate_hz: float
+    crosstalk_level: float
+    person: bool
+    duration_s: float
+    pulses: int
+    samples: int  # first echoes in any window of the sensor (init and tracking), all receivers
+    alias_samples: int  # ... that are another pulse's echo (interlacing)
+    false_samples: int  # ... that match no true echo path (spurious pulse, crosstalk)
+    fixes: int  # pulses with a first echo on every receiver giving an edge or wall fix
+    false_fixes: int  # fixes farther than tol_m from every true reflector surface
+    false_fixes_spurious: int  # ... with a false sample among their echoes
+    false_fixes_alias: int  # ... with an alias sample (and no false one)
+    max_fix_error_m: float  # largest distance of a fix from the truth
+    uncertain_points: int  # records classed uncertain that still carry a position (not fixes)
+    false_uncertain_points: int  # ... farther than tol_m from every true surface
+
+
+def _fix_points(rx: list[int], paths: np.ndarray, source: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per pulse (rows of ``paths``), as the firmware's geometry record (``sonar_app.c``
+    send_frame): the reported point (robot frame: the wall foot for a valid wall, else the
+    point fit's position), whether the record has one, and whether it is a **fix** (class edge
+    with a valid point fit, or wall with a valid wall fit). The firmware has no cylinder class
+    (Python's 'cylinder' is its 'uncertain'); an uncertain record still carries the point
+    fit's position, with quality 0."""
+    from . import geometry as G
+    C = load_layout().positions[rx]
+    with np.errstate(all="ignore"):
+        kind = G.classify_batch(C, paths, source).kind
+        pb = G.solve_point_batch(C, paths, source, tol=np.inf, max_gdop=np.inf)
+        wb = G.solve_wall_batch(C, paths, source, tol=np.inf, max_gdop=np.inf)
+    wall = (kind == 1) & wb.valid
+    pts = np.where(wall[:, None], wb.foot, pb.position)
+    has = (wall | pb.valid) & np.all(np.isfinite(pts), axis=1)
+    return pts, has, has & (wall | (kind == 0))
+
+
+def _surface_distance(scene: Any, t: float, p: np.ndarray) -> float:
+    """World point ``p`` to the nearest true reflector surface at scene time ``t``."""
+    d = [math.inf]
+    if len(scene.walls):
+        a, b = scene.walls[:, 0], scene.walls[:, 1]
+        ab = b - a
+        u = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
+        d.append(float(np.min(np.linalg.norm(a + u[:, None] * ab - p, axis=1))))
+    if len(scene.points):
+        d.append(float(np.min(np.linalg.norm(scene.points - p, axis=1))))
+    if len(scene.cylinders):
+        d.append(float(np.min(np.abs(np.linalg.norm(scene.cylinders - p, axis=1) - scene.cylinder_radius))))
+    if scene.people:
+        c = scene.people_positions(t)
+        r = np.array([q.radius for q in scene.people])
+        d.append(float(np.min(np.abs(np.linalg.norm(c - p, axis=1) - r))))
+    return min(d)
+
+
+def run_false_fix_trial(seed: int, *, spurious_rate_hz: float | None = None, crosstalk_level: float | None = None,
+                        person: bool = True, t_cross: float = 0.8, duration: float = 1.6, tol_ticks: int = 600,
+                        tol_m: float = FALSE_FIX_TOL_M, miss_gate: int | None = DEFAULT_MISS_GATE) -> FalseFixResult:
+    """The scene and sensor of safety trial ``seed`` (a tracked wall, optionally the person
+    crossing) with the noise raised; every pulse with a first in-window echo on all of the
+    sensor's receivers goes through the host geometry (as the firmware does per pulse). A fix
+    is **false** when its reported point (edge position or wall foot), placed in the world with the robot pose at the reflection instant
+    (t0 + mean ToF / 2), is farther than ``tol_m`` from every true reflector surface then."""
+    p = random_trial_params(seed)
+    layout = load_layout()
+    scene = _scene(p, t_cross, duration, spurious_rate_hz, crosstalk_level, person)
+    sched = _schedule(layout, p["order"], p["miss_limit"], p["wall_y"])
+    src = SceneEchoSource(scene, rng=np.random.default_rng(p["seed"]))
+    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD, miss_gate=miss_gate)
+    res = model.run(int(duration * TICK_HZ))
+    pulses = [q for q in res.pulses if q.sensor == 0]
+    truth = _truth(src.model, pulses)
+    by_seq: dict[int, int] = {}
+    pi = 0
+    first: list[dict[int, tuple[int, str]]] = [{} for _ in pulses]  # rx -> (tof, "true" | "alias" | "false")
+    for e in sorted((e for e in res.events if e.sensor == 0), key=lambda e: e.tick):
+        while pi < len(pulses) and pulses[pi].t0 <= e.tick:
+            by_seq[pulses[pi].seq % 256] = pi
+            pi += 1
+        k = by_seq.get(e.seq)
+        if k is None or not (e.first_echo and e.in_window):
+            continue
+        edge = pulses[k].t0 + e.tof
+
+        def near(i: int) -> bool:
+            return any(abs(edge - a) <= tol_ticks for (_, rx), (a, _) in truth[i].items() if rx == e.rx)
+        what = "true" if near(k) else "alias" if any(
+            near(i) for i in range(max(0, k - 4), min(len(pulses), k + 2)) if i != k) else "false"
+        first[k][e.rx] = (e.tof, what)
+    full = [k for k, f in enumerate(first) if len(f) == len(RX)]
+    c = scene.speed_of_sound
+    false_fixes = false_sp = false_al = fixes = unc = false_unc = 0
+    worst = 0.0
+    if full:
+        tofs = np.array([[first[k][r][0] for r in RX] for k in full], float)
+        pts, has, fix = _fix_points(list(RX), c * tofs / TICK_HZ, layout.positions[TX])
+        for k, tof, q, h_pos, is_fix in zip(full, tofs, pts, has, fix):
+            if not h_pos:
+                continue
+            t = (pulses[k].t0 + float(np.mean(tof)) / 2) / TICK_HZ
+            x, y, h = (float(v) for v in scene.pose(t))
+            w = np.array([[math.cos(h), -math.sin(h)], [math.sin(h), math.cos(h)]]) @ q + (x, y)
+            err = _surface_distance(scene, t, w)
+            if not is_fix:
+                unc += 1
+                false_unc += err > tol_m
+                continue
+            fixes += 1
+            worst = max(worst, err)
+            if err > tol_m:
+                false_fixes += 1
+                kinds = {first[k][r][1] for r in RX}
+                false_sp += "false" in kinds
+                false_al += "alias" in kinds and "false" not in kinds
+    every = [w for f in first for w in f.values()]
+    return FalseFixResult(seed=seed, order=sched.sensors[0].order, spurious_rate_hz=float(scene.noise.spurious_rate_hz),
+                          crosstalk_level=float(scene.model.crosstalk_level), person=person, duration_s=duration,
+                          pulses=len(pulses), samples=len(every), alias_samples=sum(w[1] == "alias" for w in every),
+                          false_samples=sum(w[1] == "false" for w in every), fixes=fixes, false_fixes=false_fixes,
+                          false_fixes_spurious=false_sp, false_fixes_alias=false_al, max_fix_error_m=worst,
+                          uncertain_points=unc, false_uncertain_points=false_unc)
+
+
+def summarise_false_fixes(results: Iterable[FalseFixResult]) -> dict[str, Any]:
+    rs = list(results)
+    n = {k: sum(getattr(r, k) for r in rs) for k in ("samples", "alias_samples", "false_samples", "fixes", "false_fixes",
+                                                    "false_fixes_spurious", "false_fixes_alias", "pulses",
+                                                    "uncertain_points", "false_uncertain_points")}
+    sonar_s = sum(r.duration_s for r in rs)
+    return n | dict(trials=len(rs), sonar_s=sonar_s,
+                    false_sample_rate=n["false_samples"] / n["samples"] if n["samples"] else 0.0,
+                    false_fix_rate=n["false_fixes"] / n["fixes"] if n["fixes"] else 0.0,
+                    false_fixes_per_s=n["false_fixes"] / sonar_s if sonar_s else float("nan"),
+                    fixes_per_s=n["fixes"] / sonar_s if sonar_s else float("nan"),
+                    max_fix_error_m=max((r.max_fix_error_m for r in rs), default=0.0))

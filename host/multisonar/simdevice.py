@@ -130,6 +130,14 @@ def decode_vs_table(regs: RegisterFile, layout: Any) -> list[Any]:
     n_el = layout.n
     code_mode = {v: k for k, v in MODE_CODE.items()}
     mem = R.MEMORIES["DELAY"]
+    # first (as the firmware, before the scheduler validates: the RTL never sees the lost bits):
+    # an enabled entry whose tx element's DELAY word was written wider than DELAY_W bits
+    for vs in range(n_vs):
+        tx_mask = regs.field("VS_TX_MASK", "MASK", vs)
+        over = [e for e in range(32) if tx_mask >> e & 1 and mem.address + (vs * 32 + e) * mem.stride in regs.over_width]
+        if regs.field("VS_MODE", "MODE", vs) != 0 and over:
+            raise _CfgErr(P.CfgError.DELAY, vs, f"phasing delay of tx element {over[0]} written >= 2^{DELAY_W} "
+                          f"ticks (the DELAY memory keeps {DELAY_W} bits)")
     out = []
     for vs in range(n_vs):
         mode_code = regs.field("VS_MODE", "MODE", vs)
@@ -161,15 +169,14 @@ def decode_vs_table(regs: RegisterFile, layout: Any) -> list[Any]:
         phase = regs.field("VS_PHASE", "TICKS", vs)
         if burst < 1:
             raise _CfgErr(P.CfgError.BURST, vs, "burst of 0 cycles")
-        burst_ticks = int(round(burst * TICK_HZ / layout.transducer.frequency_hz))
+        # the drive burst as the phaser makes it: cycles of 2 x BURST.half_period ticks (the RTL's
+        # validation uses the register, not the layout's transducer frequency)
+        burst_ticks = burst * 2 * regs.field("BURST", "HALF_PERIOD")
         if t_v < 1 or t_n < 1 or t_dead < burst_ticks or t_xt < 1:
             raise _CfgErr(P.CfgError.WINDOW, vs, f"T_V={t_v} T_N={t_n} T_dead={t_dead} T_xtalk={t_xt} ticks")
         d_addr = [mem.address + (vs * 32 + int(e)) * mem.stride for e in tx]
         delays = np.array([regs.values[a] for a in d_addr], dtype=np.int64)
-        over = [int(e) for e, a in zip(tx, d_addr) if a in regs.over_width]
-        if over or delays.max() >= 2**DELAY_W:
-            raise _CfgErr(P.CfgError.DELAY, vs, f"phasing delay of tx element {over[0] if over else ''} written "
-                          f">= 2^{DELAY_W} ticks (the DELAY memory keeps {DELAY_W} bits)")
+        assert delays.max() < 2**DELAY_W  # stored as the RTL: the low DELAY_W bits (over-wide: refused above)
         xt_el, xt_d = _xtalk(tx, delays, nb, n_el)
         blank = max(t_dead, t_xt) + int(delays.max())
         if max_tof - t_n < blank + t_v:
@@ -506,6 +513,7 @@ class SimDevice(UsbFunction):
                                          glitch_min=self.params[P.Param.GLITCH_MIN],
                                          max_echoes_per_window=self.params[P.Param.MAX_ECHOES],
                                          miss_gate=self.regs.field("RX_FILTER", "MISS_GATE"),  # latched at start
+                                         reinit_every=self.regs.field("RX_FILTER", "REINIT_EVERY") or None,
                                          start_tick=self.now, decision_lead=DEVICE_DECISION_LEAD)
         self._wall0, self._tick0 = time.monotonic(), self.now
         self.running = True
@@ -517,7 +525,7 @@ class SimDevice(UsbFunction):
         from .fastfiring import FastFiringModel, SceneEchoSource
 
         key = (self.scene_name, self.replay_s, self.params[P.Param.GEOMETRY], self.params[P.Param.TOF_RECORDS],
-               self.regs.field("RX_FILTER", "MISS_GATE"),
+               self.regs.field("RX_FILTER", "MISS_GATE"), self.regs.field("RX_FILTER", "REINIT_EVERY"),
                self.params[P.Param.GLITCH_MIN], self.params[P.Param.MAX_ECHOES],
                tuple((r.id, int(r.tx.sum()), tuple(r.rx), r.order, r.max_tof, r.phase, r.mode) for r in resolved))
         if key in SimDevice._replay_cache:
@@ -527,6 +535,7 @@ class SimDevice(UsbFunction):
         self.model = FastFiringModel(sched, SceneEchoSource(self.scene), glitch_min=self.params[P.Param.GLITCH_MIN],
                                      max_echoes_per_window=self.params[P.Param.MAX_ECHOES],
                                      miss_gate=self.regs.field("RX_FILTER", "MISS_GATE"),
+                                     reinit_every=self.regs.field("RX_FILTER", "REINIT_EVERY") or None,
                                      decision_lead=DEVICE_DECISION_LEAD)
         self._open, self._closing, self._ready, self.now = {}, [], [], 0
         total = int(self.replay_s * TICK_HZ)

@@ -7,7 +7,8 @@
 // pings and interlaced tracking pulses; every element holds up to WSLOTS reserved windows
 // (any sensor) and a blank_until register; a candidate pulse issues only if its dead zones,
 // crosstalk blanking and windows clear the reservations of the elements it touches and no
-// sensor sharing an element is pending with an earlier (due, id) (section 5); otherwise it is
+// sensor sharing an element is pending with an earlier (due, id) and its tx elements' triggers
+// come after their previous dead zones (tx_until, section 5); otherwise it is
 // deferred to the first tick the conflicts seen are over. K empty windows in a row cancel all
 // windows of the sensor and send an init ping (the safety rule).
 //
@@ -76,6 +77,7 @@ module ms_scheduler #(
   input  logic [15:0]                    burst_half_period_i,
   input  logic [7:0]                     glitch_min_i,
   input  logic [15:0]                    miss_gate_i,     // RX_FILTER.miss_gate, ticks (0 off), latched at apply
+  input  logic [7:0]                     reinit_every_i,  // RX_FILTER.reinit_every, pulses (0 off), latched at apply
   output logic [7:0]                     delay_raddr_o,
   input  logic [DELAY_W-1:0]             delay_rdata_i,
   input  logic [NUM_CH-1:0]              rise_i,
@@ -157,6 +159,7 @@ module ms_scheduler #(
   logic [NUM_VS-1:0][NUM_VS-1:0] sh_share_q;
   logic [NUM_VS-1:0][1:0]        sh_nb_q;
   logic [15:0]                   sh_gate_q;  // gated miss rule (0 off)
+  logic [7:0]                    sh_reinit_q;  // forced re-initialisation after this many tracking pulses (0 off)
   logic [6:0]                    sp_q;  // S_COPY: crosstalk masks (0..7), then sensor pairs (8..71)
   // per (sensor, element) blank interval offsets from t0: [a, b) (tx: delay, delay + T_dead;
   // crosstalk neighbour: first, last tx delay within nb + T_xtalk)
@@ -171,6 +174,7 @@ module ms_scheduler #(
   logic [NUM_VS-1:0]       quiet_vld_q, tracking_q, in_init_q, epoch_q, wake_q, hold_q, any_trk_q;
   logic [NUM_VS-1:0][7:0]  seq_q;
   logic [NUM_VS-1:0][5:0]  init_open_q;
+  logic [NUM_VS-1:0][7:0]  trk_pulses_q;  // tracking pulses since the last init ping (saturating)
 
   typedef struct packed {
     logic               trk;
@@ -207,6 +211,8 @@ module ms_scheduler #(
   logic [WSLOTS-1:0][VW-1:0]             wsid_m [32];  // sensor of the window
   logic [31:0]                           bu_m [32];    // blank_until (when bu_ok_q[e])
   logic [NUM_CH-1:0]                     bu_ok_q;      // else blank_until = bu_start_q
+  logic [31:0]                           tu_m [32];    // tx_until: end of the dead zone of the last trigger (when tu_ok_q[e])
+  logic [NUM_CH-1:0]                     tu_ok_q;      // else tx_until = bu_start_q
   logic [31:0]                           bu_start_q;
   logic [NUM_CH-1:0]                     hd_vld_q;     // head: next window to close
   logic [KW-1:0]                         hd_slot_m [32];
@@ -240,6 +246,7 @@ module ms_scheduler #(
   logic [KW-1:0]     fslot_q;
   logic [RW-1:0]     sf_e_q;   // S_SAFE: element being swept
   logic [VW-1:0]     sf_s_q;   // S_SAFE: sensor whose windows are cancelled
+  logic              sf_ret_q; // S_SAFE: a forced re-init from S_SCHED (back to S_SCHED), else a close (S_HEAD)
   logic [RW-1:0]     el_q;
   logic [VW-1:0]     s_q, o_q;
   logic              blk_on_q, win_on_q;
@@ -360,7 +367,7 @@ module ms_scheduler #(
   end
   logic [WSLOTS-1:0]         wv_e, wh_e, wr_e;
   logic [WSLOTS-1:0][VW-1:0] wsid_e;
-  logic [31:0]               bu_e, hd_close_e;
+  logic [31:0]               bu_e, tu_e, hd_close_e;
   logic [KW-1:0]             hd_slot_e;
   logic                      hd_vld_e;
   assign wv_e       = wv_q[ei];
@@ -368,6 +375,7 @@ module ms_scheduler #(
   assign wr_e       = wr_m[ei];
   assign wsid_e     = wsid_m[ei];
   assign bu_e       = bu_ok_q[ei] ? bu_m[ei] : bu_start_q;
+  assign tu_e       = tu_ok_q[ei] ? tu_m[ei] : bu_start_q;
   assign hd_vld_e   = hd_vld_q[ei];
   assign hd_slot_e  = hd_slot_m[ei];
   assign hd_close_e = hd_close_q[ei];
@@ -471,6 +479,8 @@ module ms_scheduler #(
   logic s_early, s_quiet;  // not due yet / still quiet: wait (nxt = due - P / quiet - P)
   assign s_early = s_eval && $signed(t_cand - due_q[s_q]) < 0;
   assign s_quiet = s_eval && !s_early && !tracking_q[s_q] && quiet_vld_q[s_q] && $signed(t_cand - quiet_q[s_q]) < 0;
+  logic s_reinit;  // forced re-initialisation (RX_FILTER.reinit_every): cancel, then evaluate as an init ping
+  assign s_reinit = s_eval && !s_early && tracking_q[s_q] && sh_reinit_q != 8'd0 && trk_pulses_q[s_q] >= sh_reinit_q;
   // EDF: is sensor o_q pending with an earlier (due, id)?
   logic o_elig, o_first;
   assign o_elig  = sh_act_q[o_q] && !in_init_q[o_q] && ($signed(cur_tick_q + LEAD32 - due_q[o_q]) >= 0)
@@ -614,13 +624,19 @@ module ms_scheduler #(
   assign sp_ub = sh_tx_q[sp_m[2:0]] | sh_rx_q[sp_m[2:0]] | sh_xt_q[sp_m[2:0]];
 
   // conflict scan: the latest retry t0 among the conflicts seen (model _conflict)
-  logic        r1_on, r2_on, r3_on;
-  logic [31:0] r1, r2, r3, rn1, rn2, rn3;
+  logic        r0_on, r1w_on, r1_on, r2_on, r3_on;
+  logic [31:0] r0, r1w, r1, r2, r3, rn1, rn2, rn3;
   logic        rv1, rv2, rv3;
   always_comb begin
-    // S_CONF: window start before the element's blank_until
-    r1_on = (st_q == S_CONF) && (rem_q != '0) && c_win && $signed(t_cand_q + 32'(c_wso) - bu_e) < 0;
-    r1    = bu_e - 32'(c_wso);
+    // S_CONF: a tx element's trigger before its tx_until (rule 5: no burst over a burst), a
+    // window start before the element's blank_until (an element is one or the other for a
+    // sensor whose rx and tx differ, both when it is in both: the later retry wins)
+    r0_on  = (st_q == S_CONF) && (rem_q != '0) && sh_tx_q[s_q][rel] && $signed(t_cand_q + 32'(cb.a) - tu_e) < 0;
+    r0     = tu_e - 32'(cb.a);
+    r1w_on = (st_q == S_CONF) && (rem_q != '0) && c_win && $signed(t_cand_q + 32'(c_wso) - bu_e) < 0;
+    r1w    = bu_e - 32'(c_wso);
+    r1_on  = r0_on || r1w_on;
+    r1     = (r0_on && (!r1w_on || later(r0, r1w))) ? r0 : r1w;
     // S_CSLOT: blank interval / window overlapping a reserved window; slots full
     r2_on = (st_q == S_CSLOT) && (srem_q != '0) && blk_on_q
             && $signed(t_q + 32'(cba_q) - sw_end) < 0 && $signed(sw_start - (t_q + 32'(cbb_q))) < 0;
@@ -729,6 +745,7 @@ module ms_scheduler #(
               sh_phase_q[s] <= vs_phase_i[s];
               sh_burst_q[s] <= vs_burst_cycles_i[s];
               sh_gate_q     <= miss_gate_i;
+              sh_reinit_q   <= reinit_every_i;
               sh_dbl_q[s]   <= 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
                                + 24'(vdmax_q[s]);
             end
@@ -793,6 +810,7 @@ module ms_scheduler #(
               any_trk_q[s]   <= 1'b0;
               seq_q[s]       <= '0;
               init_open_q[s] <= '0;
+              trk_pulses_q[s] <= '0;
             end
             st_q       <= S_INIT;  // element state: see the per-element writes
           end
@@ -868,6 +886,7 @@ module ms_scheduler #(
             st_q          <= c_safety ? S_SAFE : S_HEAD;
             sf_e_q        <= '0;
             sf_s_q        <= c_s;
+            sf_ret_q      <= 1'b0;
             if (c_valid) begin
               wake_q[c_s]       <= 1'b1;
               if (!wh_e[c_slot]) begin
@@ -895,7 +914,7 @@ module ms_scheduler #(
           end
           S_SAFE: begin  // safety cancel: element sf_e_q's windows of sensor sf_s_q (per-element writes)
             sf_e_q <= sf_e_q + 1'b1;
-            if (sf_e_q == RW'(NUM_CH - 1)) st_q <= S_HEAD;
+            if (sf_e_q == RW'(NUM_CH - 1)) st_q <= sf_ret_q ? S_SCHED : S_HEAD;
           end
           S_HEAD: begin  // next window of element el_q to close: the minimum close tick
             if (srem_q == '0) begin
@@ -907,11 +926,17 @@ module ms_scheduler #(
           end
           // ------------------------------------------------ SCHED phase: sensors ascending
           S_SCHED: begin
-            if (s_eval) begin
+            if (s_eval && !s_reinit) begin
               wake_q[s_q] <= 1'b0;
               hold_q[s_q] <= 1'b0;
             end
-            if (s_early || s_quiet) begin  // nxt: per-sensor writes
+            if (s_reinit) begin  // (model reinit_every) the same sensor again after the cancel, as untracked
+              tracking_q[s_q] <= 1'b0;
+              sf_e_q          <= '0;
+              sf_s_q          <= s_q;
+              sf_ret_q        <= 1'b1;
+              st_q            <= S_SAFE;
+            end else if (s_early || s_quiet) begin  // nxt: per-sensor writes
               st_q       <= S_NEXT;
             end else if (s_eval) begin
               o_q  <= '0;
@@ -1011,6 +1036,7 @@ module ms_scheduler #(
             seq_q[s_q]       <= seq_q[s_q] + 8'd1;  // due, nxt: per-sensor writes
             quiet_q[s_q]     <= t_q + 32'(sh_rmax_q[s_q]) - 32'(sh_dbl_q[s_q]);
             quiet_vld_q[s_q] <= 1'b1;
+            trk_pulses_q[s_q] <= !tracking_q[s_q] ? 8'd0 : trk_pulses_q[s_q] + 8'(trk_pulses_q[s_q] != 8'hFF);
             if (!tracking_q[s_q]) begin  // init ping: new epoch, every receiver untracked
               epoch_q[s_q]     <= !epoch_q[s_q];
               in_init_q[s_q]   <= 1'b1;
@@ -1135,7 +1161,7 @@ module ms_scheduler #(
 
   // ---- per-element arrays: one write per clock, at element ei (the FSM's states above say
   // when); valid bits and heads are cleared at once by reset, stop, S_STOP and S_START
-  logic                      el_clr, wv_we, wh_we, wsid_we, bu_we, hd_we, hdv_we, hdv_wd;
+  logic                      el_clr, wv_we, wh_we, wsid_we, bu_we, tu_we, hd_we, hdv_we, hdv_wd;
   logic [WSLOTS-1:0]         wv_wd, wh_wd, wr_wd, sid_mask;
   logic [WSLOTS-1:0][VW-1:0] wsid_wd;
   logic [31:0]               bu_wd, hd_close_wd;
@@ -1154,6 +1180,7 @@ module ms_scheduler #(
     wsid_wd     = wsid_e;
     bu_we       = 1'b0;
     bu_wd       = t_q + 32'(cb.b);
+    tu_we       = 1'b0;
     hd_we       = 1'b0;
     hd_close_wd = (st_q == S_IEL) ? iw_close : sw_close;
     hd_slot_wd  = (st_q == S_IEL) ? free_slot : sk;
@@ -1190,6 +1217,7 @@ module ms_scheduler #(
       S_IEL: begin
         if (rem_q != '0) begin
           bu_we = c_blk && later(bu_wd, bu_e);
+          tu_we = sh_tx_q[s_q][rel] && later(bu_wd, tu_e);  // a tx element's blank is its dead zone
           if (c_win) begin
             wv_we              = 1'b1;
             wv_wd[free_slot]   = 1'b1;
@@ -1218,6 +1246,8 @@ module ms_scheduler #(
       if (run_ok && hd_we && ei == RW'(e))        hd_close_q[e] <= hd_close_wd;
       if (rst_i || (run_ok && st_q == S_START))   bu_ok_q[e] <= 1'b0;
       else if (run_ok && bu_we && ei == RW'(e))   bu_ok_q[e] <= 1'b1;
+      if (rst_i || (run_ok && st_q == S_START))   tu_ok_q[e] <= 1'b0;
+      else if (run_ok && tu_we && ei == RW'(e))   tu_ok_q[e] <= 1'b1;
     end
     if (run_ok && st_q == S_START) bu_start_q <= tick_i;
   end
@@ -1226,6 +1256,7 @@ module ms_scheduler #(
     if (run_ok && wh_we)   wr_m[ei]      <= wr_wd;
     if (run_ok && wsid_we) wsid_m[ei]    <= wsid_wd;
     if (run_ok && bu_we)   bu_m[ei]      <= bu_wd;
+    if (run_ok && tu_we)   tu_m[ei]      <= bu_wd;
     if (run_ok && hd_we)   hd_slot_m[ei] <= hd_slot_wd;
   end
 

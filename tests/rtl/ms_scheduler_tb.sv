@@ -19,6 +19,7 @@ module ms_scheduler_tb #(
   input  logic [31:0]          tick_start_i,  // tick counter value during reset (wrap tests)
   input  logic [7:0]           glitch_min_i,
   input  logic [15:0]          miss_gate_i,
+  input  logic [7:0]           reinit_every_i,
   input  logic [15:0]          burst_half_period_i,
   input  logic [NUM_CH-1:0]    echo_i,
   input  logic [8*NUM_CH-1:0]  tx_mask_i,
@@ -132,6 +133,7 @@ module ms_scheduler_tb #(
     .burst_half_period_i(burst_half_period_i),
     .glitch_min_i       (glitch_min_i),
     .miss_gate_i        (miss_gate_i),
+    .reinit_every_i     (reinit_every_i),
     .delay_raddr_o      (dly_raddr),
     .delay_rdata_i      (dly_rdata),
     .rise_i             (rise),

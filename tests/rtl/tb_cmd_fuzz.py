@@ -223,6 +223,8 @@ class Model:
                 return P.Status.BAD_ADDRESS, struct.pack("<HHI", i, 0, a)
             m = self.regs.writable_mask[a]
             self.regs.values[a] = (self.regs.values[a] & ~m) | (v & m)
+            if a in self.regs.mem_entries:  # the firmware remembers an over-wide DELAY word: START refuses it
+                (self.regs.over_width.add if v & ~m else self.regs.over_width.discard)(a)
             self.log.setdefault(a, []).append(("write", self.n, v))
             self.history[a] |= {v, self.regs.values[a]}
         return P.Status.OK, struct.pack("<H", len(pl) // 8)

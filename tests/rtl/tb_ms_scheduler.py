@@ -53,8 +53,8 @@ class CountingModel(FastFiringModel):
     conflicts = 0
     gated = 0
 
-    def _conflict(self, t, blanks, wins):
-        r = super()._conflict(t, blanks, wins)
+    def _conflict(self, t, blanks, wins, n_tx=0):
+        r = super()._conflict(t, blanks, wins, n_tx)
         if r is not None:
             self.conflicts += 1
         return r
@@ -77,8 +77,10 @@ def table_values(sensors: list[dict]) -> dict[str, int]:
 
 
 class Bench:
-    def __init__(self, dut, sched: Schedule, glitch_min: int = 24, miss_gate: int = DEFAULT_MISS_GATE):
+    def __init__(self, dut, sched: Schedule, glitch_min: int = 24, miss_gate: int = DEFAULT_MISS_GATE,
+                 reinit_every: int = 0):
         self.dut, self.sched = dut, sched
+        self.reinit = reinit_every  # RX_FILTER.reinit_every (0 off); the model's reinit_every (None off)
         self.cfg = sched.validate()
         self.regs = sched.to_registers()
         self.g = glitch_min
@@ -108,6 +110,7 @@ class Bench:
         dut.tick_start_i.value = tick_start
         dut.glitch_min_i.value = self.g
         dut.miss_gate_i.value = self.gate
+        dut.reinit_every_i.value = self.reinit
         dut.burst_half_period_i.value = self.regs["globals"]["burst_half_period"]
         dut.echo_i.value = 0
         dut.evt_raddr_i.value = 0
@@ -235,13 +238,13 @@ def compare(what: str, b: Bench, res, rtl_events: list[int], rtl_trig: list[tupl
 
 async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
                      tick_start: int = 0, min_pulses: int = 5, model_first=None, allow_defer: bool = True,
-                     miss_gate: int = DEFAULT_MISS_GATE) -> dict:
+                     miss_gate: int = DEFAULT_MISS_GATE, reinit_every: int = 0) -> dict:
     """Closed loop: RTL with one source instance, golden model with another; compare.
     sensors: one VirtualSensor or a list (table entries 0..). model_first: (model, result)
     already run by the caller (replayed sources). miss_gate: RTL input and model option."""
     sensors = [sensors] if isinstance(sensors, VirtualSensor) else list(sensors)
     sched = Schedule(LAYOUT, sensors)
-    b = Bench(dut, sched, miss_gate=miss_gate)
+    b = Bench(dut, sched, miss_gate=miss_gate, reinit_every=reinit_every)
     wall0 = time.perf_counter()
     e0 = await b.start(make_source(), tick_start)
     b.add_noise(e0, dur_ticks)
@@ -252,7 +255,7 @@ async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
     wall = time.perf_counter() - wall0
     if model_first is None:
         model = CountingModel(Schedule(LAYOUT, sensors), make_source(), start_tick=e0, decision_lead=LEAD,
-                              miss_gate=miss_gate)
+                              miss_gate=miss_gate, reinit_every=reinit_every or None)
         res = model.run(dur_ticks)
     else:
         model, res = model_first(e0, dur_ticks)
@@ -266,9 +269,10 @@ async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
              "orders": sorted({p.order for p in res.pulses}), "deferred": sum(p.t0 > p.due for p in m_fires),
              "conflicts": getattr(model, "conflicts", 0), "gated": getattr(model, "gated", 0),
              "per_sensor": [sum(p.sensor == s for p in m_fires) for s in range(len(sensors))],
-             "cps": (dur_ticks + 3000) / wall}
+             "cps": (dur_ticks + 3000) / wall, "triggers": [t for t in res.triggers if t.tick < end], "model": model}
     dut._log.info("%s: %s; %d ticks in %.1f s wall = %.0f cycles/s", what,
-                  {k: v for k, v in stats.items() if k != "cps"}, dur_ticks + 3000, wall, stats["cps"])
+                  {k: v for k, v in stats.items() if k not in ("cps", "triggers", "model")},
+                  dur_ticks + 3000, wall, stats["cps"])
     return stats
 
 
@@ -542,7 +546,8 @@ async def miss_gate_alias_step(dut):
     sensor = VirtualSensor("s", tx=[10], rx=[9, 10, 11], order=2, miss_limit=2)
     sched = Schedule(LAYOUT, [sensor])
     dur, step = 110 * MS, 55 * MS
-    for gate, want_inits in ((2400, 2), (0, 1), (6000, 1)):
+    # (a gate wider than the alias offset behaves as gate off: miss_gate_boundaries checks the edge)
+    for gate, want_inits in ((2400, 2), (0, 1)):
         b = Bench(dut, sched, miss_gate=gate)
         src_rtl = SyntheticEchoSource(r0, step_ranges_m=r1, step_tick=1 << 62)
         e0 = await b.start(src_rtl, 0)
@@ -585,6 +590,34 @@ async def four_sensors_shared_elements(dut):
     st = await scoreboard(dut, "4 sensors", SHARED, lambda: SyntheticEchoSource(ranges), 90 * MS, min_pulses=20)
     assert st["conflicts"] > 0 and st["deferred"] > 2, "the scenario must exercise deferral"
     assert all(n >= 3 for n in st["per_sensor"]), st["per_sensor"]
+
+
+@cocotb.test()
+async def shared_tx_element_no_burst_overlap(dut):
+    """Two sensors fire element 5 at the same range and order: the second is deferred until the
+    first's dead zone on element 5 is over (rule 5, tx_until), so bursts never overlap."""
+    sensors = [VirtualSensor("a", tx=[4, 5], rx=[4, 5], order=2), VirtualSensor("b", tx=[5, 6], rx=[7], order=2)]
+    st = await scoreboard(dut, "shared tx", sensors, lambda: SyntheticEchoSource(1.2, ringdown_ticks=50000),
+                          90 * MS, min_pulses=12)
+    cfg = st["model"].cfg
+    last: dict[int, tuple[int, int]] = {}
+    for tr in sorted(st["triggers"], key=lambda tr: tr.tick):  # = the RTL's triggers (compared above)
+        if tr.element in last:
+            assert tr.tick >= last[tr.element][0] + cfg[last[tr.element][1]].t_dead, \
+                f"element {tr.element} re-triggered at {tr.tick} within the dead zone of {last[tr.element]}"
+        last[tr.element] = (tr.tick, tr.sensor)
+    assert st["deferred"] > 2 and all(n >= 4 for n in st["per_sensor"]), st
+
+
+@cocotb.test()
+async def forced_reinit_every(dut):
+    """RX_FILTER.reinit_every = M: after M tracking pulses a sensor cancels its windows (pulses
+    still in flight) and sends an init ping; two sensors, order 3 and 2, approaching reflector."""
+    sensors = [VirtualSensor("front", order=3, **FRONT), VirtualSensor("left", tx=[6], rx=[5, 6, 7], order=2)]
+    st = await scoreboard(dut, "reinit every 5", sensors,
+                          lambda: SyntheticEchoSource(2.0, velocity_mps=1.0, ringdown_ticks=50000), 150 * MS,
+                          min_pulses=20, reinit_every=5)
+    assert st["init"] >= 5 and st["model"].cancelled, st  # periodic init pings, windows cancelled in flight
 
 
 @cocotb.test()
