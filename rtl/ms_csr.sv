@@ -48,12 +48,12 @@ module ms_csr
   output logic [7:0]                    burst_cycles_o,
   output logic [7:0]                    glitch_min_o,
   output logic [15:0]                   miss_gate_o,       // RX_FILTER.miss_gate, ticks (0 off)
-  output logic [7:0]                    reinit_every_o,    // RX_FILTER.reinit_every, pulses (0 off)
   output logic [NUM_VS-1:0][NUM_CH-1:0] vs_tx_mask_o,
   output logic [NUM_VS-1:0][NUM_CH-1:0] vs_rx_mask_o,
   output logic [NUM_VS-1:0][1:0]        vs_mode_o,
   output logic [NUM_VS-1:0][2:0]        vs_order_o,
   output logic [NUM_VS-1:0][3:0]        vs_miss_limit_o,
+  output logic [NUM_VS-1:0][7:0]        vs_reinit_every_o,
   output logic [NUM_VS-1:0][15:0]       vs_t_v_o,
   output logic [NUM_VS-1:0][15:0]       vs_t_n_o,
   output logic [NUM_VS-1:0][19:0]       vs_t_dead_o,
@@ -174,7 +174,6 @@ module ms_csr
   assign burst_cycles_o      = hwif_out.BURST.cycles.value;
   assign glitch_min_o        = hwif_out.RX_FILTER.glitch_min.value;
   assign miss_gate_o         = hwif_out.RX_FILTER.miss_gate.value;
-  assign reinit_every_o      = hwif_out.RX_FILTER.reinit_every.value;
 
   // ---- virtual-sensor table (external regfile VS[8] of sonar_regs.rdl). Field layout and
   // reset values are the register map's; tests/rtl/tb_ms_csr.py checks every field's reset,
@@ -182,7 +181,7 @@ module ms_csr
   function automatic logic [31:0] vs_fields(input int r);  // implemented bits of register r
     unique case (r)
       0, 1:    vs_fields = 32'((64'd1 << NUM_CH) - 64'd1);  // TX_MASK, RX_MASK: mask[NUM_CH-1:0]
-      2:       vs_fields = 32'h0000_0F73;                   // MODE: miss_limit[11:8] order[6:4] mode[1:0]
+      2:       vs_fields = 32'h000F_FF73;                   // MODE: reinit_every[19:12] miss_limit[11:8] order[6:4] mode[1:0]
       3:       vs_fields = 32'hFFFF_FFFF;                   // WINDOW: t_n[31:16] t_v[15:0]
       4:       vs_fields = 32'h000F_FFFF;                   // T_DEAD: ticks[19:0]
       5:       vs_fields = 32'h00FF_FFFF;                   // MAX_TOF: ticks[23:0]
@@ -251,6 +250,7 @@ module ms_csr
     assign vs_mode_o[v]         = vs_q[v][2][1:0];
     assign vs_order_o[v]        = vs_q[v][2][6:4];
     assign vs_miss_limit_o[v]   = vs_q[v][2][11:8];
+    assign vs_reinit_every_o[v] = vs_q[v][2][19:12];
     assign vs_t_v_o[v]          = vs_q[v][3][15:0];
     assign vs_t_n_o[v]          = vs_q[v][3][31:16];
     assign vs_t_dead_o[v]       = vs_q[v][4][19:0];

@@ -11,7 +11,7 @@ The gated miss rule is the RTL's default (RX_FILTER.miss_gate reset value, 50 us
 --miss-gate-us 0 measures the rule without it.
 
 --sweep-reinit none,4,8,bound runs the same seeds once per value of the golden model's forced
-re-initialisation every M tracking pulses (not in the RTL; "none" = off, "bound" = N + K + 1 of
+re-initialisation every M tracking pulses (VirtualSensor(reinit_every=M), the RTL's MODE.reinit_every; "none" = off, "bound" = N + K + 1 of
 each trial, which bounds the latency by construction) and prints one row per M: outcomes,
 worst latency, and the cost: true tracking samples per second of sonar time (first echoes in
 tracking windows, all receivers of the sensor, that are the echo of their own pulse), over the
@@ -136,7 +136,7 @@ def main() -> int:
                     help="gated miss rule (RX_FILTER.miss_gate): a tracking window's first echo farther than this "
                          "from the prediction counts as a miss; 0 = off (default: the register's reset value, %(default)g us)")
     ap.add_argument("--reinit-every", type=int, default=None,
-                    help="model option (not in the RTL): force an init ping after this many tracking pulses")
+                    help="the sensor's reinit_every (MODE.reinit_every): force an init ping after this many tracking pulses")
     ap.add_argument("--sweep-reinit", metavar="M1,M2,...",
                     help="run the seeds once per forced re-init period M (none, integers, bound = N+K+1) and print one row per M")
     ap.add_argument("--plot", type=Path)

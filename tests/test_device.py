@@ -439,29 +439,30 @@ def test_cli_device_commands(tmp_path, capsys):
     assert cli_main(["info", "--url", "usbip://127.0.0.1:1"]) == 1
 
 
-def test_tracking_safety_rules_reach_the_device():
-    """Device.set_tracking_safety writes RX_FILTER's miss_gate / reinit_every (glitch_min kept),
-    refuses values that do not fit, and the device applies them at START: with reinit_every = 3
-    a tracking sensor sends an init ping after every 3 tracking pulses."""
-    def init_share(reinit: int | None) -> tuple[float, dict]:
+
+def test_safety_rules_reach_the_device():
+    """VirtualSensor(reinit_every=M) goes to MODE.reinit_every and the device applies it: with
+    M = 3 the tracking sensors send an init ping after every 3 tracking pulses. Device.set_miss_gate
+    writes RX_FILTER.miss_gate (glitch_min kept) and refuses what does not fit."""
+    import dataclasses
+
+    def init_share(reinit: int) -> tuple[float, int]:
         with Device.open("sim://corridor") as dev:
-            dev.configure(SENSORS)
-            rules = dev.set_tracking_safety(reinit_every=reinit)
+            dev.configure([dataclasses.replace(s, reinit_every=reinit) for s in SENSORS])
+            gate = dev.set_miss_gate(3000)
             glitch = dev.get_param(P.Param.GLITCH_MIN)
+            assert dev.set_miss_gate(2400) == 2400 and gate == 3000 and glitch == 24
             dev.start()
             frames = list(dev.stream(max_frames=120))
             dev.stop()
         ev = P.frames_to_events(frames)
         pulses = {(int(e["vs"]), int(e["pulse_seq"])): bool(e["flags"] & P.TOF_INIT_PING) for e in ev}
-        return sum(pulses.values()) / len(pulses), dict(rules, glitch_min=glitch)
+        return sum(pulses.values()) / len(pulses), len(pulses)
 
-    base, rules0 = init_share(None)
-    forced, rules3 = init_share(3)
-    assert rules0 == {"miss_gate_ticks": 2400, "reinit_every": 0, "glitch_min": 24}, rules0
-    assert rules3 == {"miss_gate_ticks": 2400, "reinit_every": 3, "glitch_min": 24}, rules3
-    assert forced > 0.2 and forced > 3 * base, (base, forced)
+    (base, n0), (forced, n3) = init_share(0), init_share(3)
+    assert n0 > 40 and n3 > 40 and forced > 0.2 and forced > 3 * base, (base, forced)
     with Device.open("sim://corridor") as dev:
-        with pytest.raises(ValueError, match="reinit_every"):
-            dev.set_tracking_safety(reinit_every=256)
         with pytest.raises(ValueError, match="miss_gate"):
-            dev.set_tracking_safety(miss_gate_ticks=-1)
+            dev.set_miss_gate(1 << 16)
+        with pytest.raises(ScheduleError, match="reinit_every"):
+            dev.configure([dataclasses.replace(SENSORS[0], reinit_every=256)])

@@ -51,7 +51,7 @@ def test_randomised_person_crossings_all_reported_within_the_bound():
     "known residual hazard (issue #9): even with the 50 us gated miss rule some crossings are "
     "reported late: seed 16 (order 1, K 3) 7 pulses for a bound of 5, its alias echoes landing "
     "within 50 us of the prediction (scripts/bench_safety.py --trials 60: 56/60 within the bound, "
-    "max 13 pulses / 89 ms). A forced re-init every M pulses (model option reinit_every) or a "
+    "max 13 pulses / 89 ms). The sensor's forced re-init every M <= N + K + 1 pulses (reinit_every) or a "
     "narrower gate would be needed."))
 def test_known_late_crossing_with_the_gate_is_reported_within_the_bound():
     r = run_trial(16)
@@ -92,7 +92,7 @@ def test_model_default_gate_is_the_register_reset_value():
 
 
 def test_forced_reinit_at_the_bound_reports_the_known_late_crossings_within_it():
-    """Model option reinit_every (not in the RTL): an init ping at the latest after M tracking
+    """The sensor's reinit_every (MODE.reinit_every in the RTL): an init ping at the latest after M tracking
     pulses bounds the latency by M pulses by construction (the init ping's open window hears
     the person first), so M = N + K + 1 ("bound") guarantees the bound; the seeds late with the
     gate alone pass. The cost: fewer tracking samples while the wall is tracked."""

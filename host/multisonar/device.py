@@ -353,28 +353,20 @@ class Device:
     def get_param(self, param: P.Param | int) -> int:
         return P.parse_set_param(self.command(P.Opcode.GET_PARAM, struct.pack("<H", int(param))))[1]
 
-    def set_tracking_safety(self, *, miss_gate_ticks: int | None = None, reinit_every: int | None = None) -> dict[str, int]:
-        """Set the tracking safety rules in RX_FILTER (docs/fast_firing.md section 4.4), taking
-        effect at the next :meth:`start`; ``None`` leaves a rule as it is. ``miss_gate_ticks``: a
-        tracking window's first echo farther than this from the prediction counts as a miss
-        (0 off, reset 2400 = 50 us). ``reinit_every``: a tracking sensor sends an init ping after
-        this many tracking pulses (0 off, the reset value; 1..255), which bounds how long an
-        obstacle can hide behind another pulse's echo at the cost of tracking samples
-        (``scripts/bench_safety.py --sweep-reinit``). Returns the rules now set."""
+    def set_miss_gate(self, ticks: int) -> int:
+        """Set the gated miss rule (RX_FILTER.miss_gate, docs/fast_firing.md section 4.4), taking
+        effect at the next :meth:`start`: once a track's velocity is measured, a tracking window's
+        first echo farther than ``ticks`` from the prediction counts as a miss (0 off, reset 2400 =
+        50 us). The other safety rule is per sensor: ``VirtualSensor(reinit_every=M)``. Returns the
+        value read back."""
         from .generated import sonar_regs as R
 
         reg = R.REGISTERS["RX_FILTER"]
-        if miss_gate_ticks is not None and not 0 <= miss_gate_ticks <= 0xFFFF:
-            raise ValueError(f"miss_gate_ticks {miss_gate_ticks} does not fit RX_FILTER.miss_gate (0..65535 ticks, 0 = off)")
-        if reinit_every is not None and not 0 <= reinit_every <= 0xFF:
-            raise ValueError(f"reinit_every {reinit_every} does not fit RX_FILTER.reinit_every (0..255 pulses, 0 = off)")
-        v = self.read_regs([reg.addr()])[0]
-        if miss_gate_ticks is not None:
-            v = reg.fields["MISS_GATE"].put(v, miss_gate_ticks)
-        if reinit_every is not None:
-            v = reg.fields["REINIT_EVERY"].put(v, reinit_every)
+        if not 0 <= ticks <= 0xFFFF:
+            raise ValueError(f"miss gate {ticks} ticks does not fit RX_FILTER.miss_gate (0..65535 ticks, 0 = off)")
+        v = reg.fields["MISS_GATE"].put(self.read_regs([reg.addr()])[0], ticks)
         self.write_regs([(reg.addr(), v)])
-        return {"miss_gate_ticks": reg.fields["MISS_GATE"].get(v), "reinit_every": reg.fields["REINIT_EVERY"].get(v)}
+        return reg.fields["MISS_GATE"].get(self.read_regs([reg.addr()])[0])
 
     def configure(self, sensors: Sequence[VirtualSensor] | Schedule, *, layout: Any = None,
                   temperature_c: float = 20.0, verify: bool = True) -> Schedule:

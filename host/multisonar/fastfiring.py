@@ -330,14 +330,15 @@ class FastFiringModel:
         #: followed one of the previous pulse; before that the prediction assumes v = 0 and a
         #: moving reflector would fail the gate).
         #: 0 or None = off (the rule before the register existed). Default: the register's reset
-        #: value. ``reinit_every`` M (pulses; RTL: RX_FILTER.reinit_every, 0 = off = None, latched
-        #: at apply; see multisonar.safety): a tracking sensor that has sent M tracking pulses since
+        #: value. Forced re-initialisation: each sensor's ``reinit_every`` M (VirtualSensor field,
+        #: RTL MODE.reinit_every, 0 = off): a tracking sensor that has sent M tracking pulses since
         #: its last init ping cancels its windows and sends an init ping next, bounding the time an
-        #: obstacle can hide behind an alias that passes the gate.
+        #: obstacle can hide behind an alias that passes the gate. The ``reinit_every`` argument,
+        #: when given, overrides it for every sensor (experiments: multisonar.safety).
         if miss_gate is not None and not 0 <= miss_gate < (1 << 16):
             raise ValueError(f"miss_gate {miss_gate} must be 0..65535 ticks (RX_FILTER.miss_gate, 0 = off) or None")
         if reinit_every is not None and not 1 <= reinit_every <= 255:
-            raise ValueError(f"reinit_every {reinit_every} must be 1..255 pulses (RX_FILTER.reinit_every) or None")
+            raise ValueError(f"reinit_every {reinit_every} must be 1..255 pulses (MODE.reinit_every) or None")
         self.miss_gate = int(miss_gate) if miss_gate else None
         self.reinit_every = reinit_every
         self.now = int(start_tick)
@@ -503,8 +504,9 @@ class FastFiringModel:
             return
         c = s.cfg
         k = s.seq
-        if self.reinit_every is not None and s.tracking and s.track_pulses >= self.reinit_every:
-            s.tracking = False  # forced re-initialisation (RX_FILTER.reinit_every)
+        m = self.reinit_every if self.reinit_every is not None else c.reinit_every
+        if m and s.tracking and s.track_pulses >= m:
+            s.tracking = False  # forced re-initialisation (MODE.reinit_every)
             self._cancel(c.id)
         init = not s.tracking
         if init and t < s.quiet:

@@ -17,6 +17,7 @@ SENSOR_FIELDS: dict[str, tuple[str, str]] = {
     "mode": ("VS_MODE", "MODE"),
     "order": ("VS_MODE", "ORDER"),
     "miss_limit": ("VS_MODE", "MISS_LIMIT"),
+    "reinit_every": ("VS_MODE", "REINIT_EVERY"),
     "t_v": ("VS_WINDOW", "T_V"),
     "t_n": ("VS_WINDOW", "T_N"),
     "t_dead": ("VS_T_DEAD", "TICKS"),

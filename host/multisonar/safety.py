@@ -25,7 +25,8 @@ scoreboards of ``tests/rtl/test_ms_scheduler.py``) with the acoustic model in th
 * **tracking sample rate**: tracking samples (first echoes in tracking windows, all receivers)
   that are the true echo of their own pulse, per second of sonar time; ``pre_onset_*`` counts
   only pulses before the onset (plain wall tracking), the cost measure of ``reinit_every``
-  (the golden model's forced re-initialisation every M tracking pulses, not in the RTL; by
+  (the sensor's forced re-initialisation every M tracking pulses, ``VirtualSensor(reinit_every=M)``
+  = the RTL's MODE.reinit_every; by
   construction it bounds the latency by M pulses, so M <= N + K + 1 guarantees the bound;
   ``reinit_every="bound"`` uses M = N + K + 1 of the trial).
 
@@ -38,7 +39,7 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any, Iterable, Literal
 
@@ -170,17 +171,19 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
               reinit_every: int | Literal["bound"] | None = None) -> TrialResult:
     """One randomised person-crossing trial (see the module docstring). ``miss_gate``: the
     gated miss rule, ticks (RX_FILTER.miss_gate; default its reset value, 0 or None = off);
-    ``reinit_every``: the golden model's experimental forced re-initialisation after that many
-    tracking pulses (not in the RTL; ``"bound"``: N + K + 1 of this trial)."""
+    ``reinit_every``: the sensor's forced re-initialisation after that many tracking pulses
+    (``VirtualSensor.reinit_every``, MODE.reinit_every in the RTL; ``"bound"``: N + K + 1 of
+    this trial)."""
     p = dict(params) if params is not None else random_trial_params(seed)
     layout = load_layout()
     scene = _scene(p, t_cross, duration, spurious_rate_hz)
     sched = _schedule(layout, p["order"], p["miss_limit"], p["wall_y"])
     order = sched.sensors[0].order
     reinit = order + p["miss_limit"] + 1 if reinit_every == "bound" else reinit_every
+    if reinit:  # as a user configures it: on the sensor (the device's MODE.reinit_every)
+        sched = Schedule(layout, [replace(sched.sensors[0], reinit_every=int(reinit))])
     src = SceneEchoSource(scene, rng=np.random.default_rng(p["seed"]))
-    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD, miss_gate=miss_gate,
-                            reinit_every=reinit)
+    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD, miss_gate=miss_gate)
     res = model.run(int(duration * TICK_HZ))
     pulses = [q for q in res.pulses if q.sensor == 0]
     ac = src.model

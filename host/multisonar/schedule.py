@@ -36,6 +36,7 @@ ELEM_W: int = 5  #: element / receiver index
 ORDER_W: int = 3  #: MODE.order field
 MAX_ORDER: int = 4  #: highest order this build supports (CAPS.max_order)
 MISS_W: int = 4  #: MODE.miss_limit and the per-receiver miss counter (saturating)
+REINIT_W: int = 8  #: MODE.reinit_every (tracking-pulse counter saturates at 2**REINIT_W - 1)
 TV_W: int = 16  #: WINDOW.t_v, WINDOW.t_n
 DEAD_W: int = 20  #: T_DEAD, T_XTALK
 TOF_W: int = 24  #: MAX_TOF, T_E, time of flight in events, pulse period, phase
@@ -102,6 +103,11 @@ class VirtualSensor:
     vmax: TimeArg | None = None  #: |T_E change| clamp per pulse; default min(T_V, T_N)
     phase: TimeArg = 0  #: first pulse due this long after the model starts
     nominal_range_m: float | None = None  #: for the static plan check in validate()
+    #: forced re-initialisation M (MODE.reinit_every, 0 = off): after M tracking pulses since its
+    #: last init ping the sensor cancels its windows and sends an init ping, which bounds how long
+    #: an obstacle can hide behind another pulse's echo; M <= order + miss_limit + 1 guarantees
+    #: the safety bound (docs/fast_firing.md section 4.4) at the cost of tracking samples
+    reinit_every: int = 0
 
 
 @dataclass(frozen=True)
@@ -131,6 +137,7 @@ class ResolvedSensor:
     phase: int
     nominal_tof: int | None
     source: tuple[float, float]
+    reinit_every: int = 0  #: MODE.reinit_every (0 off)
 
     def blank_intervals(self) -> list[tuple[int, int, int]]:
         """(element, start, end) offsets from t0: dead zones of the tx elements (in tx order),
@@ -283,6 +290,8 @@ class Schedule:
             raise err(f"order {s.order} outside 0..{MAX_ORDER} (CAPS.max_order; field width {ORDER_W} bits)")
         if not 1 <= s.miss_limit < 2**MISS_W:
             raise err(f"miss limit K={s.miss_limit} outside 1..{2**MISS_W - 1} ({MISS_W}-bit counter)")
+        if not 0 <= s.reinit_every < 2**REINIT_W:
+            raise err(f"reinit_every M={s.reinit_every} outside 0..{2**REINIT_W - 1} pulses ({REINIT_W}-bit MODE field, 0 = off)")
         if not 0 <= s.xtalk_neighbours < 2**XT_NB_W:
             raise err(f"xtalk_neighbours {s.xtalk_neighbours} outside 0..{2**XT_NB_W - 1}")
         if not 1 <= s.burst_cycles < 256:
@@ -344,7 +353,7 @@ class Schedule:
             t_dead=t_dead, t_xtalk=t_xt, xtalk_neighbours=int(s.xtalk_neighbours), xtalk_elements=xt_el,
             xtalk_delays=xt_d, blank=blank, max_tof=max_tof, miss_limit=int(s.miss_limit), mode=mode,
             burst_cycles=int(s.burst_cycles), burst_ticks=burst_ticks, vmax=vmax, phase=phase,
-            nominal_tof=nominal, source=(float(s.source[0]), float(s.source[1])))
+            nominal_tof=nominal, source=(float(s.source[0]), float(s.source[1])), reinit_every=int(s.reinit_every))
 
     # -- static steady-state plan ---------------------------------------------------
     def plan(self, resolved: list[ResolvedSensor] | None = None, horizon: int | None = None
@@ -412,7 +421,7 @@ class Schedule:
                 "id": r.id, "tx_mask": _mask(r.tx), "rx_mask": _mask(r.rx), "mode": MODE_CODE[r.mode],
                 "order": r.order, "miss_limit": r.miss_limit, "t_v": r.t_v, "t_n": r.t_n, "t_dead": r.t_dead,
                 "t_xtalk": r.t_xtalk, "xtalk_nb": r.xtalk_neighbours, "max_tof": r.max_tof, "vmax": r.vmax,
-                "phase": r.phase, "burst_cycles": r.burst_cycles, "blank": r.blank,
+                "phase": r.phase, "burst_cycles": r.burst_cycles, "blank": r.blank, "reinit_every": r.reinit_every,
             }
             for name, v in f.items():
                 w = REGISTER_FIELDS[name][0]
@@ -438,6 +447,7 @@ REGISTER_FIELDS: dict[str, tuple[int, str]] = {
     "mode": (2, "MODE.mode: 0 off, 1 track, 2 init-only"),
     "order": (ORDER_W, "MODE.order: highest fast-firing order n (pulses interlaced)"),
     "miss_limit": (MISS_W, "MODE.miss_limit: K empty windows in a row -> init ping"),
+    "reinit_every": (REINIT_W, "MODE.reinit_every: forced init ping after M tracking pulses (0 off)"),
     "t_v": (TV_W, "WINDOW.t_v ticks"),
     "t_n": (TV_W, "WINDOW.t_n ticks"),
     "t_dead": (DEAD_W, "T_DEAD ticks: blanking of a transmitting element from its trigger"),

@@ -192,7 +192,7 @@ def decode_vs_table(regs: RegisterFile, layout: Any) -> list[Any]:
             t_v=t_v, t_n=t_n, t_dead=t_dead, t_xtalk=t_xt, xtalk_neighbours=nb, xtalk_elements=xt_el,
             xtalk_delays=xt_d, blank=blank, max_tof=max_tof, miss_limit=miss, mode=code_mode[mode_code],
             burst_cycles=burst, burst_ticks=burst_ticks, vmax=vmax, phase=phase, nominal_tof=None,
-            source=(0.0, 0.0)))
+            source=(0.0, 0.0), reinit_every=regs.field("VS_MODE", "REINIT_EVERY", vs)))
     if not out:
         raise _CfgErr(P.CfgError.EMPTY_TABLE, 0, "no virtual sensor enabled (all modes 0)")
     return out
@@ -513,7 +513,6 @@ class SimDevice(UsbFunction):
                                          glitch_min=self.params[P.Param.GLITCH_MIN],
                                          max_echoes_per_window=self.params[P.Param.MAX_ECHOES],
                                          miss_gate=self.regs.field("RX_FILTER", "MISS_GATE"),  # latched at start
-                                         reinit_every=self.regs.field("RX_FILTER", "REINIT_EVERY") or None,
                                          start_tick=self.now, decision_lead=DEVICE_DECISION_LEAD)
         self._wall0, self._tick0 = time.monotonic(), self.now
         self.running = True
@@ -525,9 +524,10 @@ class SimDevice(UsbFunction):
         from .fastfiring import FastFiringModel, SceneEchoSource
 
         key = (self.scene_name, self.replay_s, self.params[P.Param.GEOMETRY], self.params[P.Param.TOF_RECORDS],
-               self.regs.field("RX_FILTER", "MISS_GATE"), self.regs.field("RX_FILTER", "REINIT_EVERY"),
+               self.regs.field("RX_FILTER", "MISS_GATE"),
                self.params[P.Param.GLITCH_MIN], self.params[P.Param.MAX_ECHOES],
-               tuple((r.id, int(r.tx.sum()), tuple(r.rx), r.order, r.max_tof, r.phase, r.mode) for r in resolved))
+               tuple((r.id, int(r.tx.sum()), tuple(r.rx), r.order, r.max_tof, r.phase, r.mode, r.reinit_every)
+                     for r in resolved))
         if key in SimDevice._replay_cache:
             return SimDevice._replay_cache[key]
         sched = _schedule_from_resolved(self.layout, resolved, self.scene.temperature_c)
@@ -535,7 +535,6 @@ class SimDevice(UsbFunction):
         self.model = FastFiringModel(sched, SceneEchoSource(self.scene), glitch_min=self.params[P.Param.GLITCH_MIN],
                                      max_echoes_per_window=self.params[P.Param.MAX_ECHOES],
                                      miss_gate=self.regs.field("RX_FILTER", "MISS_GATE"),
-                                     reinit_every=self.regs.field("RX_FILTER", "REINIT_EVERY") or None,
                                      decision_lead=DEVICE_DECISION_LEAD)
         self._open, self._closing, self._ready, self.now = {}, [], [], 0
         total = int(self.replay_s * TICK_HZ)

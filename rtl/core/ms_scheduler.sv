@@ -65,6 +65,7 @@ module ms_scheduler #(
   input  logic [NUM_VS-1:0][1:0]         vs_mode_i,
   input  logic [NUM_VS-1:0][2:0]         vs_order_i,
   input  logic [NUM_VS-1:0][3:0]         vs_miss_limit_i,
+  input  logic [NUM_VS-1:0][7:0]         vs_reinit_every_i,  // MODE.reinit_every M, pulses (0 off)
   input  logic [NUM_VS-1:0][15:0]        vs_t_v_i,
   input  logic [NUM_VS-1:0][15:0]        vs_t_n_i,
   input  logic [NUM_VS-1:0][19:0]        vs_t_dead_i,
@@ -77,7 +78,6 @@ module ms_scheduler #(
   input  logic [15:0]                    burst_half_period_i,
   input  logic [7:0]                     glitch_min_i,
   input  logic [15:0]                    miss_gate_i,     // RX_FILTER.miss_gate, ticks (0 off), latched at apply
-  input  logic [7:0]                     reinit_every_i,  // RX_FILTER.reinit_every, pulses (0 off), latched at apply
   output logic [7:0]                     delay_raddr_o,
   input  logic [DELAY_W-1:0]             delay_rdata_i,
   input  logic [NUM_CH-1:0]              rise_i,
@@ -159,7 +159,7 @@ module ms_scheduler #(
   logic [NUM_VS-1:0][NUM_VS-1:0] sh_share_q;
   logic [NUM_VS-1:0][1:0]        sh_nb_q;
   logic [15:0]                   sh_gate_q;  // gated miss rule (0 off)
-  logic [7:0]                    sh_reinit_q;  // forced re-initialisation after this many tracking pulses (0 off)
+  logic [NUM_VS-1:0][7:0]        sh_reinit_q;  // forced re-initialisation after this many tracking pulses (0 off)
   logic [6:0]                    sp_q;  // S_COPY: crosstalk masks (0..7), then sensor pairs (8..71)
   // per (sensor, element) blank interval offsets from t0: [a, b) (tx: delay, delay + T_dead;
   // crosstalk neighbour: first, last tx delay within nb + T_xtalk)
@@ -480,7 +480,8 @@ module ms_scheduler #(
   assign s_early = s_eval && $signed(t_cand - due_q[s_q]) < 0;
   assign s_quiet = s_eval && !s_early && !tracking_q[s_q] && quiet_vld_q[s_q] && $signed(t_cand - quiet_q[s_q]) < 0;
   logic s_reinit;  // forced re-initialisation (RX_FILTER.reinit_every): cancel, then evaluate as an init ping
-  assign s_reinit = s_eval && !s_early && tracking_q[s_q] && sh_reinit_q != 8'd0 && trk_pulses_q[s_q] >= sh_reinit_q;
+  assign s_reinit = s_eval && !s_early && tracking_q[s_q] && sh_reinit_q[s_q] != 8'd0
+                    && trk_pulses_q[s_q] >= sh_reinit_q[s_q];
   // EDF: is sensor o_q pending with an earlier (due, id)?
   logic o_elig, o_first;
   assign o_elig  = sh_act_q[o_q] && !in_init_q[o_q] && ($signed(cur_tick_q + LEAD32 - due_q[o_q]) >= 0)
@@ -745,7 +746,7 @@ module ms_scheduler #(
               sh_phase_q[s] <= vs_phase_i[s];
               sh_burst_q[s] <= vs_burst_cycles_i[s];
               sh_gate_q     <= miss_gate_i;
-              sh_reinit_q   <= reinit_every_i;
+              sh_reinit_q[s] <= vs_reinit_every_i[s];
               sh_dbl_q[s]   <= 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
                                + 24'(vdmax_q[s]);
             end

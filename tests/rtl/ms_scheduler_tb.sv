@@ -19,7 +19,6 @@ module ms_scheduler_tb #(
   input  logic [31:0]          tick_start_i,  // tick counter value during reset (wrap tests)
   input  logic [7:0]           glitch_min_i,
   input  logic [15:0]          miss_gate_i,
-  input  logic [7:0]           reinit_every_i,
   input  logic [15:0]          burst_half_period_i,
   input  logic [NUM_CH-1:0]    echo_i,
   input  logic [8*NUM_CH-1:0]  tx_mask_i,
@@ -27,6 +26,7 @@ module ms_scheduler_tb #(
   input  logic [8*2-1:0]       mode_i,
   input  logic [8*3-1:0]       order_i,
   input  logic [8*4-1:0]       miss_limit_i,
+  input  logic [8*8-1:0]       reinit_every_i,
   input  logic [8*16-1:0]      t_v_i,
   input  logic [8*16-1:0]      t_n_i,
   input  logic [8*20-1:0]      t_dead_i,
@@ -96,9 +96,10 @@ module ms_scheduler_tb #(
   logic [NUM_VS-1:0][15:0]       vs_tv, vs_tn, vs_vmax;
   logic [NUM_VS-1:0][19:0]       vs_dead, vs_xt;
   logic [NUM_VS-1:0][23:0]       vs_rmax, vs_phase;
-  logic [NUM_VS-1:0][7:0]        vs_burst;
+  logic [NUM_VS-1:0][7:0]        vs_burst, vs_reinit;
   assign vs_tx = tx_mask_i;   assign vs_rx = rx_mask_i;      assign vs_mode = mode_i;
   assign vs_nb = xtalk_nb_i;  assign vs_order = order_i;     assign vs_k = miss_limit_i;
+  assign vs_reinit = reinit_every_i;
   assign vs_tv = t_v_i;       assign vs_tn = t_n_i;          assign vs_vmax = vmax_i;
   assign vs_dead = t_dead_i;  assign vs_xt = t_xtalk_i;      assign vs_rmax = max_tof_i;
   assign vs_phase = phase_i;  assign vs_burst = burst_cycles_i;
@@ -121,6 +122,7 @@ module ms_scheduler_tb #(
     .vs_mode_i          (vs_mode),
     .vs_order_i         (vs_order),
     .vs_miss_limit_i    (vs_k),
+    .vs_reinit_every_i  (vs_reinit),
     .vs_t_v_i           (vs_tv),
     .vs_t_n_i           (vs_tn),
     .vs_t_dead_i        (vs_dead),
@@ -133,7 +135,6 @@ module ms_scheduler_tb #(
     .burst_half_period_i(burst_half_period_i),
     .glitch_min_i       (glitch_min_i),
     .miss_gate_i        (miss_gate_i),
-    .reinit_every_i     (reinit_every_i),
     .delay_raddr_o      (dly_raddr),
     .delay_rdata_i      (dly_rdata),
     .rise_i             (rise),

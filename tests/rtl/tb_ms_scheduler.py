@@ -43,6 +43,7 @@ TABLE = {  # field -> (tb port, width)
     "miss_limit": ("miss_limit_i", 4), "t_v": ("t_v_i", 16), "t_n": ("t_n_i", 16), "t_dead": ("t_dead_i", 20),
     "max_tof": ("max_tof_i", 24), "t_xtalk": ("t_xtalk_i", 20), "xtalk_nb": ("xtalk_nb_i", 2),
     "vmax": ("vmax_i", 16), "burst_cycles": ("burst_cycles_i", 8), "phase": ("phase_i", 24),
+    "reinit_every": ("reinit_every_i", 8),
 }
 
 
@@ -77,10 +78,8 @@ def table_values(sensors: list[dict]) -> dict[str, int]:
 
 
 class Bench:
-    def __init__(self, dut, sched: Schedule, glitch_min: int = 24, miss_gate: int = DEFAULT_MISS_GATE,
-                 reinit_every: int = 0):
+    def __init__(self, dut, sched: Schedule, glitch_min: int = 24, miss_gate: int = DEFAULT_MISS_GATE):
         self.dut, self.sched = dut, sched
-        self.reinit = reinit_every  # RX_FILTER.reinit_every (0 off); the model's reinit_every (None off)
         self.cfg = sched.validate()
         self.regs = sched.to_registers()
         self.g = glitch_min
@@ -110,7 +109,6 @@ class Bench:
         dut.tick_start_i.value = tick_start
         dut.glitch_min_i.value = self.g
         dut.miss_gate_i.value = self.gate
-        dut.reinit_every_i.value = self.reinit
         dut.burst_half_period_i.value = self.regs["globals"]["burst_half_period"]
         dut.echo_i.value = 0
         dut.evt_raddr_i.value = 0
@@ -238,13 +236,13 @@ def compare(what: str, b: Bench, res, rtl_events: list[int], rtl_trig: list[tupl
 
 async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
                      tick_start: int = 0, min_pulses: int = 5, model_first=None, allow_defer: bool = True,
-                     miss_gate: int = DEFAULT_MISS_GATE, reinit_every: int = 0) -> dict:
+                     miss_gate: int = DEFAULT_MISS_GATE) -> dict:
     """Closed loop: RTL with one source instance, golden model with another; compare.
     sensors: one VirtualSensor or a list (table entries 0..). model_first: (model, result)
     already run by the caller (replayed sources). miss_gate: RTL input and model option."""
     sensors = [sensors] if isinstance(sensors, VirtualSensor) else list(sensors)
     sched = Schedule(LAYOUT, sensors)
-    b = Bench(dut, sched, miss_gate=miss_gate, reinit_every=reinit_every)
+    b = Bench(dut, sched, miss_gate=miss_gate)
     wall0 = time.perf_counter()
     e0 = await b.start(make_source(), tick_start)
     b.add_noise(e0, dur_ticks)
@@ -255,7 +253,7 @@ async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
     wall = time.perf_counter() - wall0
     if model_first is None:
         model = CountingModel(Schedule(LAYOUT, sensors), make_source(), start_tick=e0, decision_lead=LEAD,
-                              miss_gate=miss_gate, reinit_every=reinit_every or None)
+                              miss_gate=miss_gate)
         res = model.run(dur_ticks)
     else:
         model, res = model_first(e0, dur_ticks)
@@ -611,13 +609,18 @@ async def shared_tx_element_no_burst_overlap(dut):
 
 @cocotb.test()
 async def forced_reinit_every(dut):
-    """RX_FILTER.reinit_every = M: after M tracking pulses a sensor cancels its windows (pulses
-    still in flight) and sends an init ping; two sensors, order 3 and 2, approaching reflector."""
-    sensors = [VirtualSensor("front", order=3, **FRONT), VirtualSensor("left", tx=[6], rx=[5, 6, 7], order=2)]
+    """MODE.reinit_every = M per sensor: after M tracking pulses a sensor cancels its windows
+    (pulses still in flight) and sends an init ping; sensor 0 order 3 with M = 5, sensor 1
+    order 2 without (off), approaching reflector."""
+    sensors = [VirtualSensor("front", order=3, reinit_every=5, **FRONT),
+               VirtualSensor("left", tx=[6], rx=[5, 6, 7], order=2)]
     st = await scoreboard(dut, "reinit every 5", sensors,
                           lambda: SyntheticEchoSource(2.0, velocity_mps=1.0, ringdown_ticks=50000), 150 * MS,
-                          min_pulses=20, reinit_every=5)
-    assert st["init"] >= 5 and st["model"].cancelled, st  # periodic init pings, windows cancelled in flight
+                          min_pulses=20)
+    model = st["model"]
+    inits = [sum(p.init for p in model.pulses if p.sensor == s) for s in (0, 1)]
+    assert inits[0] >= 3 and inits[1] == 1, inits  # periodic init pings on sensor 0 only (M = 5, then quiet + open window)
+    assert {c[0] for c in model.cancelled} == {0}, model.cancelled  # its windows cancelled in flight
 
 
 @cocotb.test()
