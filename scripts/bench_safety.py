@@ -60,6 +60,13 @@ class _Serial:
         return map(fn, it)
 
 
+def _write_csv(path: Path, rows: list[dict]) -> None:
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
 def _reinit_value(tok: str) -> int | str | None:
     tok = tok.strip().lower()
     return None if tok in ("none", "off", "0") else "bound" if tok == "bound" else int(tok)
@@ -95,10 +102,7 @@ def sweep_reinit(a: argparse.Namespace, seeds: range, gate: int) -> int:
     if notes:
         print("\nTrials outside the bound:\n" + "\n".join(notes))
     if a.csv:
-        with a.csv.open("w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+        _write_csv(a.csv, rows)
     if a.plot:
         import matplotlib
         matplotlib.use("Agg")
@@ -173,11 +177,7 @@ def main() -> int:
                   f"person {r.person_speed:+.2f} m/s, robot {r.robot_speed:.2f} m/s: {r.latency_pulses} / {r.bound_pulses} pulses "
                   f"({r.latency_ms:.0f} ms), {r.alias_samples} alias samples")
     if a.csv:
-        rows = as_rows(results)
-        with a.csv.open("w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+        _write_csv(a.csv, as_rows(results))
     if a.plot:
         import matplotlib
         matplotlib.use("Agg")

@@ -345,6 +345,16 @@ module ms_scheduler #(
                    && (!armed_q || $signed(td_q - stop_at_q) >= 0);
   logic [31:0] lag;  // how far real time is ahead of the work the engine starts now
   assign lag = tick_i - (take_q ? qh_tick : td_q);
+  // engine headroom, for the benches (read through the hierarchy, no port): the largest lag at a
+  // dispatch since the start, ticks; overrun_o rises beyond LEAD / 2. How much slower a
+  // pipelined engine may be (docs/synthesis.md) is read off this.
+  logic [31:0] lag_max_q;
+  always_ff @(posedge clk_i) begin
+    if (rst_i || st_q == S_START)
+      lag_max_q <= '0;
+    else if (st_q == S_IDLE && settle_q == 2'd0 && !stop_ok && (take_q || sched_go) && $signed(lag - lag_max_q) > 0)
+      lag_max_q <= lag;
+  end
 
   // ---- per-element / per-slot views
   logic [RW-1:0] er, clr, rel;

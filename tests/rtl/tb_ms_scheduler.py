@@ -267,7 +267,8 @@ async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
              "orders": sorted({p.order for p in res.pulses}), "deferred": sum(p.t0 > p.due for p in m_fires),
              "conflicts": getattr(model, "conflicts", 0), "gated": getattr(model, "gated", 0),
              "per_sensor": [sum(p.sensor == s for p in m_fires) for s in range(len(sensors))],
-             "cps": (dur_ticks + 3000) / wall, "triggers": [t for t in res.triggers if t.tick < end], "model": model}
+             "cps": (dur_ticks + 3000) / wall, "triggers": [t for t in res.triggers if t.tick < end], "model": model,
+             "lag_max": int(dut.u_sched.lag_max_q.value)}  # engine headroom: largest lag behind real time, ticks
     dut._log.info("%s: %s; %d ticks in %.1f s wall = %.0f cycles/s", what,
                   {k: v for k, v in stats.items() if k not in ("cps", "triggers", "model")},
                   dur_ticks + 3000, wall, stats["cps"])
