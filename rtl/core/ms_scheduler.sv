@@ -345,15 +345,21 @@ module ms_scheduler #(
                    && (!armed_q || $signed(td_q - stop_at_q) >= 0);
   logic [31:0] lag;  // how far real time is ahead of the work the engine starts now
   assign lag = tick_i - (take_q ? qh_tick : td_q);
-  // engine headroom, for the benches (read through the hierarchy, no port): the largest lag at a
-  // dispatch since the start, ticks; overrun_o rises beyond LEAD / 2. How much slower a
-  // pipelined engine may be (docs/synthesis.md) is read off this.
-  logic [31:0] lag_max_q;
+  // engine headroom, for the benches (read through the hierarchy, no port): the largest
+  // tick_i - cur_tick_q in any clock of engine work since the start, i.e. how late the engine
+  // ever was with the work of a logical tick (a trigger is late beyond LEAD; overrun_o rises
+  // when a dispatch lags LEAD / 2). How much slower a pipelined engine may be
+  // (docs/synthesis.md) is read off this.
+  logic        eng_busy;
+  logic [31:0] lag_now, lag_max_q;
+  assign eng_busy = started_q && !(st_q inside {S_OFF, S_VREAD, S_VCHECK, S_STOP, S_COPY, S_START, S_INIT,
+                                                 S_SETTLE, S_IDLE});
+  assign lag_now  = tick_i - cur_tick_q;
   always_ff @(posedge clk_i) begin
     if (rst_i || st_q == S_START)
       lag_max_q <= '0;
-    else if (st_q == S_IDLE && settle_q == 2'd0 && !stop_ok && (take_q || sched_go) && $signed(lag - lag_max_q) > 0)
-      lag_max_q <= lag;
+    else if (eng_busy && $signed(lag_now - lag_max_q) > 0)
+      lag_max_q <= lag_now;
   end
 
   // ---- per-element / per-slot views
