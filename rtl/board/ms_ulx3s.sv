@@ -4,7 +4,7 @@
 // FIRE1 button = reset (synchronised, also held while the PLL is not locked); 8 LEDs show
 // ms_system's led_o; element i drives ms_drive[i] and listens on ms_echo[i], one GP/GN pair of
 // the J1/J2 headers per element. USB on US2 (direct FPGA USB): ms_system_usb's device core reads
-// and drives the bidirectional single-ended D+/D- (usb_fpga_bd_dp/dn) through ECP5 BB
+// and drives the bidirectional single-ended D+/D- (usb_fpga_bd_dp/dn) through ECP5 TRELLIS_IO
 // primitives (the slang frontend treats a 1'bz assignment as X, so no inferred tristates) and
 // switches the 1.5 kOhm D+ pull-up with usb_fpga_pu_dp; the D- pull switch and the
 // differential receiver pair (usb_fpga_dp/dn) are unused inputs.
@@ -31,10 +31,10 @@ module ms_ulx3s #(
   ms_pll_ecp5 u_pll (.clk25_i (clk_25mhz), .clk48_o (clk), .locked_o (locked));
   ms_reset_sync u_rst (.clk_i (clk), .arst_i (btn_fire1 | ~locked), .rst_o (rst));
 
-  // ---- USB pads: BB = bidirectional buffer (T high: tristate)
+  // ---- USB pads: TRELLIS_IO bidirectional buffers (T high: tristate)
   logic dp_in, dn_in, dp_out, dn_out, usb_oe, usb_pu_en;
-  BB u_bb_dp (.I (dp_out), .T (~usb_oe), .O (dp_in), .B (usb_fpga_bd_dp));
-  BB u_bb_dn (.I (dn_out), .T (~usb_oe), .O (dn_in), .B (usb_fpga_bd_dn));
+  TRELLIS_IO #(.DIR ("BIDIR")) u_io_dp (.I (dp_out), .T (~usb_oe), .O (dp_in), .B (usb_fpga_bd_dp));
+  TRELLIS_IO #(.DIR ("BIDIR")) u_io_dn (.I (dn_out), .T (~usb_oe), .O (dn_in), .B (usb_fpga_bd_dn));
   assign usb_fpga_pu_dp = usb_pu_en;
 
   logic        unused_usb, unused_strobe, unused_trap, unused_bus_err, unused_evt, unused_cfg;

@@ -52,7 +52,7 @@
 // Pipelining (for Fmax, docs/synthesis.md): every engine state spends need(state) clocks
 // reading (ph_q counts them) and decides in its last clock (go); reads and arithmetic go
 // through registered stages A-D (see ph_q below), so a decision never follows a RAM read, a
-// second RAM read or more than one carry chain in the same clock. A state costs 1-5 clocks per
+// second RAM read or more than one carry chain in the same clock. A state costs 1-6 clocks per
 // item; lag_max_q (the engine's worst lateness) stays far below the LEAD / 2 budget.
 module ms_scheduler #(
   parameter int NUM_CH  = 24,   // ms_layout_pkg::NUM_CH, passed by the top (<= 32)
@@ -216,6 +216,8 @@ module ms_scheduler #(
   logic [$clog2(NUM_VS * 32)-1:0]     rxs_ra;
   rxs_t                               rxs_rd;
   blk_t                               cb;      // BLK word of (s_q, rel)
+  win_t                               win_c_q; // stage C copies of the WIN / RXS words
+  rxs_t                               rxs_c_q;
   // Per-element state has one read and one write port, both at the element the state is
   // working on (ei below): slot valid bits and head close ticks in flops (cleared at once /
   // compared every clock), the rest in distributed RAM (32 entries, one word per element).
@@ -255,10 +257,11 @@ module ms_scheduler #(
   logic       go;
   always_comb begin
     unique case (st_q)
-      S_DISP, S_SAFE, S_SCHED, S_EDF, S_ISSUE, S_INIT: need = 3'd1;  // stage A / per-sensor words
-      S_VCHECK:                                        need = 3'd2;  // two registered steps of arithmetic
-      S_EDGE, S_CLOSE, S_HEAD, S_ORDER:                need = 3'd3;  // stage C: window ticks, prediction
-      S_HIT, S_CAND, S_CONF, S_CSLOT, S_IEL:           need = 3'd4;  // stage D: compares on stage C
+      S_SCHED, S_EDF, S_ISSUE, S_INIT: need = 3'd1;  // per-sensor words
+      S_DISP, S_SAFE, S_VCHECK:        need = 3'd2;  // stage A; two registered steps of arithmetic
+      S_ORDER:                         need = 3'd3;  // three registered steps of arithmetic
+      S_EDGE, S_CLOSE, S_HEAD, S_CAND: need = 3'd4;  // stage C: window ticks, prediction
+      S_HIT, S_CONF, S_CSLOT, S_IEL:   need = 3'd5;  // stage D: compares on stage C
       default:                        need = 3'd0;
     endcase
   end
@@ -420,22 +423,26 @@ module ms_scheduler #(
   logic [KW-1:0]             hd_slot_e;
   logic                      hd_vld_e, rel_tx_e, rel_xt_e, rel_act_e;
   logic [23:0]               rel_te_e;
-  // stage A: registered every clock (the address ei only changes in a go clock, so from a
-  // state's second clock on these hold element ei's state after every earlier write)
+  // stage A: the element index registered (ei_q, rel_q: valid from a state's second clock,
+  // they only change after a go clock), then its words registered every clock (valid from
+  // the state's third clock, after every earlier write). Writes use ei_q too.
+  logic [RW-1:0] ei_q, rel_q;
   always_ff @(posedge clk_i) begin
-    wv_e       <= wv_q[ei];
-    wh_e       <= wh_m[ei];
-    wr_e       <= wr_m[ei];
-    wsid_e     <= wsid_m[ei];
-    bu_e       <= bu_ok_q[ei] ? bu_m[ei] : bu_start_q;
-    tu_e       <= tu_ok_q[ei] ? tu_m[ei] : bu_start_q;
-    hd_vld_e   <= hd_vld_q[ei];
-    hd_slot_e  <= hd_slot_m[ei];
-    hd_close_e <= hd_close_q[ei];
-    rel_tx_e   <= sh_tx_q[s_q][rel];  // receiver / element rel of sensor s_q (CAND, CONF, IEL)
-    rel_xt_e   <= sh_xt_q[s_q][rel];
-    rel_act_e  <= cand_act_q[rel];
-    rel_te_e   <= cand_te_q[rel];
+    ei_q       <= ei;
+    rel_q      <= rel;
+    wv_e       <= wv_q[ei_q];
+    wh_e       <= wh_m[ei_q];
+    wr_e       <= wr_m[ei_q];
+    wsid_e     <= wsid_m[ei_q];
+    bu_e       <= bu_ok_q[ei_q] ? bu_m[ei_q] : bu_start_q;
+    tu_e       <= tu_ok_q[ei_q] ? tu_m[ei_q] : bu_start_q;
+    hd_vld_e   <= hd_vld_q[ei_q];
+    hd_slot_e  <= hd_slot_m[ei_q];
+    hd_close_e <= hd_close_q[ei_q];
+    rel_tx_e   <= sh_tx_q[s_q][rel_q];  // receiver / element rel of sensor s_q (CAND, CONF, IEL)
+    rel_xt_e   <= sh_xt_q[s_q][rel_q];
+    rel_act_e  <= cand_act_q[rel_q];
+    rel_te_e   <= cand_te_q[rel_q];
   end
 
   // EDGE: slot sk of receiver er
@@ -478,9 +485,9 @@ module ms_scheduler #(
   logic signed [24:0] h_dv;
   logic signed [16:0] h_v;
   logic [15:0] h_vmax;
-  assign hw     = win_rd;
+  assign hw     = win_c_q;
   assign h_s    = wsid_e[fslot_q];
-  assign hrx    = rxs_rd;
+  assign hrx    = rxs_c_q;
   assign h_tof  = h_tof_c_q;
   assign h_gap  = hw.seq - hrx.seq;
   assign h_dv   = h_dv_d_q;
@@ -506,9 +513,9 @@ module ms_scheduler #(
   logic          c_valid;
   logic [3:0]    c_miss;
   assign c_slot  = hd_slot_e;
-  assign cw      = win_rd;
+  assign cw      = win_c_q;
   assign c_s     = wsid_e[c_slot];
-  assign crx     = rxs_rd;
+  assign crx     = rxs_c_q;
   assign c_valid = wv_e[c_slot] && (w_close_c_q == cur_tick_q);
   assign c_miss  = (crx.miss == 4'hF) ? 4'hF : crx.miss + 4'd1;
   logic c_empty;   // a miss: no echo, or the first one failed the miss gate
@@ -561,11 +568,14 @@ module ms_scheduler #(
       default: rxs_ra = {s_q, rel};  // S_CAND, S_IEL
     endcase
   end
-  // stage B: registered every clock, addressed by the state and the stage-A words
+  // stage B: registered every clock, addressed by the state and the stage-A words; stage C
+  // keeps a copy for the decisions (a block RAM's output has no time left for logic after it)
   always_ff @(posedge clk_i) begin
-    win_rd <= win_q[win_ra];
-    rxs_rd <= rxs_q[rxs_ra];
-    cb     <= blk_q[int'(s_q) * 32 + int'(rel)];
+    win_rd  <= win_q[win_ra];
+    rxs_rd  <= rxs_q[rxs_ra];
+    cb      <= blk_q[int'(s_q) * 32 + int'(rel)];
+    win_c_q <= win_rd;
+    rxs_c_q <= rxs_rd;
   end
   assign i_gap  = seq_q[s_q] - irx.seq;
   assign i_pred = pred_c_q;
@@ -1123,7 +1133,7 @@ module ms_scheduler #(
               rem_q[rel] <= 1'b0;
               if (!tracking_q[s_q]) begin
                 cand_act_q[rel] <= 1'b1;
-              end else if (irx.trk) begin
+              end else if (rxs_c_q.trk) begin
                 cand_act_q[rel] <= 1'b1;
                 cand_te_q[rel]  <= te_d_q;
                 if (te_d_q < te_min_q) te_min_q <= te_d_q;
@@ -1231,7 +1241,7 @@ module ms_scheduler #(
   assign run_ok = !rst_i && !(!enable_i && started_q) && go;
   always_comb begin
     rxs_we = 1'b0;
-    rxs_wd = rxs_rd;
+    rxs_wd = rxs_c_q;
     unique case (st_q)
       S_HIT: begin
         if (!wh_e[fslot_q] && hw.epoch == epoch_q[h_s]) begin
@@ -1388,24 +1398,24 @@ module ms_scheduler #(
   always_ff @(posedge clk_i) begin
     for (int e = 0; e < NUM_CH; e++) begin
       if (el_clr)                               wv_q[e] <= '0;
-      else if (run_ok && wv_we && ei == RW'(e)) wv_q[e] <= wv_wd;
+      else if (run_ok && wv_we && ei_q == RW'(e)) wv_q[e] <= wv_wd;
       if (el_clr)                                 hd_vld_q[e] <= 1'b0;
-      else if (run_ok && hdv_we && ei == RW'(e))  hd_vld_q[e] <= hdv_wd;
-      if (run_ok && hd_we && ei == RW'(e))        hd_close_q[e] <= hd_close_wd;
+      else if (run_ok && hdv_we && ei_q == RW'(e))  hd_vld_q[e] <= hdv_wd;
+      if (run_ok && hd_we && ei_q == RW'(e))        hd_close_q[e] <= hd_close_wd;
       if (rst_i || (run_ok && st_q == S_START))   bu_ok_q[e] <= 1'b0;
-      else if (run_ok && bu_we && ei == RW'(e))   bu_ok_q[e] <= 1'b1;
+      else if (run_ok && bu_we && ei_q == RW'(e))   bu_ok_q[e] <= 1'b1;
       if (rst_i || (run_ok && st_q == S_START))   tu_ok_q[e] <= 1'b0;
-      else if (run_ok && tu_we && ei == RW'(e))   tu_ok_q[e] <= 1'b1;
+      else if (run_ok && tu_we && ei_q == RW'(e))   tu_ok_q[e] <= 1'b1;
     end
     if (run_ok && st_q == S_START) bu_start_q <= tick_i;
   end
   always_ff @(posedge clk_i) begin
-    if (run_ok && wh_we)   wh_m[ei]      <= wh_wd;
-    if (run_ok && wh_we)   wr_m[ei]      <= wr_wd;
-    if (run_ok && wsid_we) wsid_m[ei]    <= wsid_wd;
-    if (run_ok && bu_we)   bu_m[ei]      <= bu_wd;
-    if (run_ok && tu_we)   tu_m[ei]      <= bu_wd;
-    if (run_ok && hd_we)   hd_slot_m[ei] <= hd_slot_wd;
+    if (run_ok && wh_we)   wh_m[ei_q]      <= wh_wd;
+    if (run_ok && wh_we)   wr_m[ei_q]      <= wr_wd;
+    if (run_ok && wsid_we) wsid_m[ei_q]    <= wsid_wd;
+    if (run_ok && bu_we)   bu_m[ei_q]      <= bu_wd;
+    if (run_ok && tu_we)   tu_m[ei_q]      <= bu_wd;
+    if (run_ok && hd_we)   hd_slot_m[ei_q] <= hd_slot_wd;
   end
 
   // ---- outputs
@@ -1427,7 +1437,7 @@ module ms_scheduler #(
 
   // fields of the shared record views that a given state does not need
   logic unused_ok;
-  assign unused_ok = ^{grx.trk, grx.tof, grx.v, grx.miss, grx.init, grx.vel, irx.vel, irx.tof, irx.v, hw.ws, hw.we,
+  assign unused_ok = ^{grx.trk, grx.tof, grx.v, grx.miss, grx.init, grx.vel, irx.trk, irx.vel, irx.tof, irx.v, hw.ws, hw.we,
                        hw.t0, hrx.tof[23:1], hrx.seq, hrx.v, hrx.miss, cw.ws, cw.t0, irx.miss, irx.init,
                        o_mul3[49], o_mul3[24:0], v_pa[8]};
 endmodule
