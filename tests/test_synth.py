@@ -90,3 +90,21 @@ def test_blocks_table_lists_cells_per_block(tmp_path):
     assert (row_b["block"], row_b["LUT4"], row_b["DP16KD"], row_b["TRELLIS_FF"]) == ("ms_b", "5", "2", "0")
     with pytest.raises(rep.SynthReportError, match="does not exist"):
         rep.blocks_table([tmp_path / "missing.json"])
+
+
+def test_blocks_table_adds_routed_columns_when_a_block_was_placed(tmp_path):
+    """`make synth-blocks SYNTH_BLOCKS_PNR=1`: a block with BLOCK.pnr.json beside its stat gets
+    its packed LUT count and worst routed Fmax; a block without one shows dashes."""
+    rep = _report_module()
+    a, b = tmp_path / "ms_a.json", tmp_path / "ms_b.json"
+    for p in (a, b):
+        p.write_text(json.dumps({"design": {"num_cells_by_type": {"LUT4": 10}}}))
+    (tmp_path / "ms_a.pnr.json").write_text(json.dumps({
+        "utilization": {"TRELLIS_COMB": {"used": 1234, "available": 83640}},
+        "fmax": {"clk_i": {"achieved": 71.5, "constraint": 62.4}, "clk2": {"achieved": 55.25, "constraint": 62.4}}}))
+    rows = rep.blocks_table([a, b])
+    cols = [c.strip() for c in rows[0].strip("|").split("|")]
+    row_a = dict(zip(cols, (c.strip() for c in rows[2].strip("|").split("|"))))
+    row_b = dict(zip(cols, (c.strip() for c in rows[3].strip("|").split("|"))))
+    assert (row_a["TRELLIS_COMB"], row_a["Fmax MHz"]) == ("1234", "55.25")
+    assert (row_b["TRELLIS_COMB"], row_b["Fmax MHz"]) == ("-", "-")
