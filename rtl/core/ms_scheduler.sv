@@ -273,7 +273,9 @@ module ms_scheduler #(
   // outputs
   logic              evt_valid_q, trig_valid_q, pulse_q, pulse_init_q;
   logic [63:0]       evt_data_q;
-  logic [RW-1:0]     trig_el_q;
+  // element indices loaded from the lowest-set-bit encoders: not state machines, but Yosys'
+  // fsm pass took trig_el_q for one in the whole system and enumerated 2^29 transitions
+  (* fsm_encoding = "none" *) logic [RW-1:0] trig_el_q;
   logic [DELAY_W:0]  trig_delay_q;
   logic [7:0]        trig_burst_q, pulse_seq_q;
   logic [VW-1:0]     pulse_vs_q;
@@ -281,10 +283,10 @@ module ms_scheduler #(
   logic [NUM_CH-1:0] edges_q, closes_q, rem_q;
   logic [WSLOTS-1:0] srem_q;
   logic [KW-1:0]     fslot_q;
-  logic [RW-1:0]     sf_e_q;   // S_SAFE: element being swept
+  (* fsm_encoding = "none" *) logic [RW-1:0] sf_e_q;  // S_SAFE: element being swept
   logic [VW-1:0]     sf_s_q;   // S_SAFE: sensor whose windows are cancelled
   logic              sf_ret_q; // S_SAFE: a forced re-init from S_SCHED (back to S_SCHED), else a close (S_HEAD)
-  logic [RW-1:0]     el_q;
+  (* fsm_encoding = "none" *) logic [RW-1:0] el_q;
   logic [VW-1:0]     s_q, o_q;
   logic              blk_on_q, win_on_q;
   logic [23:0]       te_min_q, te_max_q, cws_q, period_q;
