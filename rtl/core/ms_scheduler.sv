@@ -478,33 +478,40 @@ module ms_scheduler #(
     if (st_q == S_EDGE && go) g_te_q <= g_te;
   end
 
-  // HIT: window fslot_q of receiver er, its sensor's tracking state
+  // HIT: window fslot_q of receiver er, its sensor's tracking state. The sensor h_s addresses
+  // RXS (stage B); the decision reads only registers derived from it (h_*_q, one clock each
+  // behind the window word, rxs word and h_dv_d_q), so no slot or sensor multiplexer feeds a
+  // compare or a RAM's write data in the go clock.
   win_t        hw;
-  logic [VW-1:0] h_s;
+  logic [VW-1:0] h_s, h_s_q;
   rxs_t        hrx;
   logic [23:0] h_tof;
-  logic [7:0]  h_gap;
+  logic [7:0]  h_gap_q;
   logic signed [24:0] h_dv;
-  logic signed [16:0] h_v;
-  logic [15:0] h_vmax;
+  logic signed [16:0] h_v_q;
+  logic [15:0] h_vmax_q;
+  logic        h_wh_q, h_ep_q;   // the slot saw its first edge already; the window is of the current epoch
   assign hw     = win_c_q;
   assign h_s    = wsid_e[fslot_q];
   assign hrx    = rxs_c_q;
   assign h_tof  = h_tof_c_q;
-  assign h_gap  = hw.seq - hrx.seq;
   assign h_dv   = h_dv_d_q;
-  assign h_vmax = sh_vmax_q[h_s];
   // gated miss rule, step 2 (HIT): once the track's velocity is measured (vel), a tracking
   // window's first echo farther than the gate from the prediction is reported but neither
   // updates the track nor stops the window counting as a miss (model FastFiringModel miss_gate)
   logic [24:0]        h_abs;
-  logic               h_rej;
+  logic               h_rej_q;
   assign h_abs = h_abs_d_q;
-  assign h_rej = (sh_gate_q != 16'd0) && !hw.init && hrx.trk && hrx.vel && (h_abs > {9'd0, sh_gate_q});
-  always_comb begin
-    if (h_dv > $signed({9'd0, h_vmax}))       h_v = $signed({1'b0, h_vmax});
-    else if (h_dv < -$signed({9'd0, h_vmax})) h_v = -$signed({1'b0, h_vmax});
-    else                                      h_v = 17'(h_dv);
+  always_ff @(posedge clk_i) begin
+    h_s_q    <= h_s;
+    h_wh_q   <= wh_e[fslot_q];
+    h_vmax_q <= sh_vmax_q[h_s_q];
+    h_ep_q   <= hw.epoch == epoch_q[h_s_q];
+    h_gap_q  <= hw.seq - hrx.seq;
+    h_rej_q  <= (sh_gate_q != 16'd0) && !hw.init && hrx.trk && hrx.vel && (h_abs > {9'd0, sh_gate_q});
+    if (h_dv > $signed({9'd0, h_vmax_q}))       h_v_q <= $signed({1'b0, h_vmax_q});
+    else if (h_dv < -$signed({9'd0, h_vmax_q})) h_v_q <= -$signed({1'b0, h_vmax_q});
+    else                                        h_v_q <= 17'(h_dv);
   end
 
   // CLOSE: head window of receiver clr
@@ -1027,12 +1034,12 @@ module ms_scheduler #(
           S_HIT: begin
             edges_q[er] <= 1'b0;
             st_q        <= S_DISP;
-            if (!wh_e[fslot_q]) begin  // max_echoes_per_window = 1 (wh: per-element writes)
+            if (!h_wh_q) begin  // max_echoes_per_window = 1 (wh: per-element writes)
               evt_valid_q <= 1'b1;
-              evt_data_q  <= {20'd0, hw.init, 1'b0, 1'b1, 1'b1, h_s, hw.seq, er, h_tof};
-              if (hw.epoch == epoch_q[h_s]) begin
-                wake_q[h_s] <= 1'b1;
-                if (hw.init) any_trk_q[h_s] <= 1'b1;  // RXS: written by the RXS port below
+              evt_data_q  <= {20'd0, hw.init, 1'b0, 1'b1, 1'b1, h_s_q, hw.seq, er, h_tof};
+              if (h_ep_q) begin
+                wake_q[h_s_q] <= 1'b1;
+                if (hw.init) any_trk_q[h_s_q] <= 1'b1;  // RXS: written by the RXS port below
               end
             end
           end
@@ -1246,14 +1253,14 @@ module ms_scheduler #(
     rxs_wd = rxs_c_q;
     unique case (st_q)
       S_HIT: begin
-        if (!wh_e[fslot_q] && hw.epoch == epoch_q[h_s]) begin
+        if (!h_wh_q && h_ep_q) begin
           if (hw.init) begin
             rxs_we = 1'b1;
             rxs_wd = '{trk: 1'b1, tof: h_tof, seq: hw.seq, v: 17'sd0, miss: 4'd0, init: 1'b1, vel: 1'b0};
-          end else if (hrx.trk && h_gap != 8'd0 && !h_gap[7] && !h_rej) begin
+          end else if (hrx.trk && h_gap_q != 8'd0 && !h_gap_q[7] && !h_rej_q) begin
             rxs_we = 1'b1;
-            rxs_wd = '{trk: 1'b1, tof: h_tof, seq: hw.seq, v: (h_gap == 8'd1 && !hrx.init) ? h_v : 17'sd0,
-                       miss: 4'd0, init: 1'b0, vel: h_gap == 8'd1 && !hrx.init};
+            rxs_wd = '{trk: 1'b1, tof: h_tof, seq: hw.seq, v: (h_gap_q == 8'd1 && !hrx.init) ? h_v_q : 17'sd0,
+                       miss: 4'd0, init: 1'b0, vel: h_gap_q == 8'd1 && !hrx.init};
           end
         end
       end
@@ -1348,10 +1355,10 @@ module ms_scheduler #(
     hdv_wd      = 1'b0;
     unique case (st_q)
       S_HIT: begin
-        if (!wh_e[fslot_q]) begin
+        if (!h_wh_q) begin
           wh_we          = 1'b1;
           wh_wd[fslot_q] = 1'b1;
-          wr_wd[fslot_q] = hw.epoch == epoch_q[h_s] && h_rej;
+          wr_wd[fslot_q] = h_ep_q && h_rej_q;
         end
       end
       S_CLOSE: begin
