@@ -257,12 +257,13 @@ module ms_scheduler #(
   logic       go;
   always_comb begin
     unique case (st_q)
-      S_SCHED, S_EDF, S_ISSUE, S_INIT: need = 3'd1;  // per-sensor words
-      S_DISP, S_SAFE, S_VCHECK:        need = 3'd2;  // stage A; two registered steps of arithmetic
-      S_ORDER:                         need = 3'd3;  // three registered steps of arithmetic
-      S_EDGE, S_CLOSE, S_HEAD, S_CAND: need = 3'd4;  // stage C: window ticks, prediction
-      S_HIT, S_CONF, S_CSLOT, S_IEL:   need = 3'd5;  // stage D: compares on stage C
-      default:                        need = 3'd0;
+      S_SCHED, S_EDF, S_ISSUE, S_INIT:        need = 3'd1;  // per-sensor words
+      S_DISP, S_SAFE:                         need = 3'd2;  // stage A; two registered steps of arithmetic
+      S_VCHECK:                               need = 3'd5;  // validation stages V1-V4, then v_err_q
+      S_ORDER:                                need = 3'd3;  // three registered steps of arithmetic
+      S_EDGE, S_HEAD, S_CAND:                 need = 3'd4;  // stage C: window ticks, prediction
+      S_HIT, S_CLOSE, S_CONF, S_CSLOT, S_IEL: need = 3'd5;  // stage D: compares on stage C
+      default:                                need = 3'd0;
     endcase
   end
   assign go = (ph_q == need);
@@ -466,7 +467,7 @@ module ms_scheduler #(
   assign g_s    = wsid_e[sk];
   assign grx    = rxs_rd;
   assign g_gap  = $signed(win_rd.seq - grx.seq);
-  assign g_pred = pred_c_q;
+  assign g_pred = pred_d_q;
   assign g_lo   = lo_c_q;
   assign g_hi   = hi_c_q;
   always_comb begin
@@ -517,7 +518,7 @@ module ms_scheduler #(
   // CLOSE: head window of receiver clr
   logic [KW-1:0] c_slot;
   win_t          cw;
-  logic [VW-1:0] c_s;
+  logic [VW-1:0] c_s, c_s_q;
   rxs_t          crx;
   logic          c_valid;
   logic [3:0]    c_miss;
@@ -525,13 +526,25 @@ module ms_scheduler #(
   assign cw      = win_c_q;
   assign c_s     = wsid_e[c_slot];
   assign crx     = rxs_c_q;
-  assign c_valid = wv_e[c_slot] && (w_close_c_q == cur_tick_q);
   assign c_miss  = (crx.miss == 4'hF) ? 4'hF : crx.miss + 4'd1;
-  logic c_empty;   // a miss: no echo, or the first one failed the miss gate
-  assign c_empty  = !wh_e[c_slot] || wr_e[c_slot];
+  // The decision reads registers one clock behind the words they come from (c_*_q; CLOSE
+  // waits one clock more than its stage-C reads for them), so neither the slot multiplexers
+  // nor the close-tick compare feed a write in the go clock.
+  logic c_wv_q, c_eq_q, c_empty_q, c_ep_q, c_kmiss_q, c_trk_q;
+  always_ff @(posedge clk_i) begin
+    c_s_q     <= c_s;
+    c_wv_q    <= wv_e[c_slot];
+    c_empty_q <= !wh_e[c_slot] || wr_e[c_slot];  // a miss: no echo, or the first one failed the miss gate
+    c_eq_q    <= w_close_c_q == cur_tick_q;
+    c_ep_q    <= cw.epoch == epoch_q[c_s_q];
+    c_kmiss_q <= c_miss >= sh_k_q[c_s_q];
+    c_trk_q   <= tracking_q[c_s_q];
+  end
+  assign c_valid = c_wv_q && c_eq_q;
+  logic c_empty;
+  assign c_empty  = c_empty_q;
   logic c_safety;  // K empty windows in a row: every window of sensor c_s is cancelled
-  assign c_safety = c_valid && c_empty && !cw.init && cw.epoch == epoch_q[c_s]
-                    && c_miss >= sh_k_q[c_s] && tracking_q[c_s];
+  assign c_safety = c_valid && c_empty && !cw.init && c_ep_q && c_kmiss_q && c_trk_q;
 
   // HEAD / conflict scan: slot sk of element el_q
   logic [31:0] sw_close;
@@ -587,7 +600,7 @@ module ms_scheduler #(
     rxs_c_q <= rxs_rd;
   end
   assign i_gap  = seq_q[s_q] - irx.seq;
-  assign i_pred = pred_c_q;
+  assign i_pred = pred_d_q;
   assign i_lo   = lo_c_q;
   assign i_hi   = hi_c_q;
   always_comb begin
@@ -644,21 +657,54 @@ module ms_scheduler #(
   logic [31:0] trig_dly;
   assign trig_dly = ta_c_q + ~tick_i;  // t0 + delay - tick_i - 1
 
-  // validation: sensor vc_q[2:0] in S_VCHECK, with its max phasing delay from S_VREAD
+  // validation: sensor vc_q[2:0] in S_VCHECK, with its max phasing delay from S_VREAD. The
+  // checks run through four register stages (V1: the sensor's fields, V2: max / popcount /
+  // sums, V3: the blank end, V4: the last compares), then v_err_q: S_VCHECK decides once
+  // per sensor after need(S_VCHECK) clocks, so no clock carries more than one carry chain.
   logic [VW-1:0]      vs;
-  logic [23:0]        v_dbl;
-  logic [19:0]        v_dx;
-  logic [NUM_CH-1:0]  v_tx;
   logic [25:0]        v_burst_ticks;
   logic [3:0]         v_err, v_err_q;
   logic [8:0]         v_pa;   // {sensor, element} whose delay is on delay_rdata_i in S_VREAD
   assign vs   = vc_q[VW-1:0];
-  assign v_tx = vs_tx_mask_i[vs];
-  assign v_dx = (vs_t_dead_i[vs] > vs_t_xtalk_i[vs]) ? vs_t_dead_i[vs] : vs_t_xtalk_i[vs];
-  assign v_dbl = 24'(v_dx) + 24'(vdmax_q[vs]);
-  always_ff @(posedge clk_i) v_burst_ticks <= 26'(vs_burst_cycles_i[vs]) * 26'({burst_half_period_i, 1'b0});
   assign v_pa = vc_q - 9'd1;
-  always_ff @(posedge clk_i) v_err_q <= v_err;  // S_VCHECK: burst ticks, then v_err, then the decision
+  logic [1:0]         v1_mode_q;
+  logic [NUM_CH-1:0]  v1_tx_q;
+  logic               v1_rx0_q, v1_order_q, v1_k0_q, v1_b0_q, v1_w0_q;
+  logic [19:0]        v1_dead_q, v1_xt_q;
+  logic [23:0]        v1_tmax_q;
+  logic [16:0]        v1_tvn_q;
+  logic [DELAY_W-1:0] v1_dmax_q;
+  logic [19:0]        v2_dx_q;
+  logic               v2_txbad_q, v2_dshort_q, v2_wshort_q;
+  logic [23:0]        v3_dbl_q;
+  logic               v4_tof_q, v4_lead_q;
+  always_ff @(posedge clk_i) begin
+    v_burst_ticks <= 26'(vs_burst_cycles_i[vs]) * 26'({burst_half_period_i, 1'b0});
+    // V1
+    v1_mode_q   <= vs_mode_i[vs];
+    v1_tx_q     <= vs_tx_mask_i[vs];
+    v1_rx0_q    <= vs_rx_mask_i[vs] == '0;
+    v1_order_q  <= vs_order_i[vs] > 3'd4;
+    v1_k0_q     <= vs_miss_limit_i[vs] == 4'd0;
+    v1_b0_q     <= vs_burst_cycles_i[vs] == 8'd0;
+    v1_w0_q     <= vs_t_v_i[vs] == '0 || vs_t_n_i[vs] == '0 || vs_t_xtalk_i[vs] == '0;
+    v1_dead_q   <= vs_t_dead_i[vs];
+    v1_xt_q     <= vs_t_xtalk_i[vs];
+    v1_tmax_q   <= vs_max_tof_i[vs];
+    v1_tvn_q    <= 17'(vs_t_v_i[vs]) + 17'(vs_t_n_i[vs]);
+    v1_dmax_q   <= vdmax_q[vs];
+    // V2
+    v2_dx_q     <= (v1_dead_q > v1_xt_q) ? v1_dead_q : v1_xt_q;
+    v2_txbad_q  <= v1_tx_q == '0 || (v1_tx_q != '1 && popcount(v1_tx_q & ~rotl(v1_tx_q, 1)) != 6'd1);
+    v2_dshort_q <= 26'(v1_dead_q) < v_burst_ticks;
+    v2_wshort_q <= v1_tvn_q <= 17'(LEAD);
+    // V3
+    v3_dbl_q    <= 24'(v2_dx_q) + 24'(v1_dmax_q);
+    // V4
+    v4_tof_q    <= 26'(v1_tmax_q) < 26'(v3_dbl_q) + 26'(v1_tvn_q);
+    v4_lead_q   <= v3_dbl_q <= 24'(LEAD);
+    v_err_q     <= v_err;
+  end
   logic v_any;  // some entry is enabled
   always_comb begin
     v_any = 1'b0;
@@ -666,20 +712,17 @@ module ms_scheduler #(
   end
   always_comb begin
     v_err = 4'd0;
-    if (vs_mode_i[vs] != 2'd0) begin
-      if (vs_mode_i[vs] == 2'd3)                                       v_err = E_BAD_MODE;
-      else if (v_tx == '0 || (v_tx != '1 && popcount(v_tx & ~rotl(v_tx, 1)) != 6'd1))
-                                                                       v_err = E_TX_MASK;
-      else if (vs_rx_mask_i[vs] == '0)                                 v_err = E_RX_MASK;
-      else if (vs_order_i[vs] > 3'd4)                                  v_err = E_ORDER;
-      else if (vs_miss_limit_i[vs] == 4'd0)                            v_err = E_MISS_LIMIT;
-      else if (vs_burst_cycles_i[vs] == 8'd0)                          v_err = E_BURST;
-      else if (vs_t_v_i[vs] == '0 || vs_t_n_i[vs] == '0 || vs_t_xtalk_i[vs] == '0
-               || 26'(vs_t_dead_i[vs]) < v_burst_ticks)                v_err = E_WINDOW;
-      else if (26'(vs_max_tof_i[vs]) < 26'(v_dbl) + 26'(vs_t_v_i[vs]) + 26'(vs_t_n_i[vs]))
-                                                                       v_err = E_MAX_TOF;
-      else if (v_dbl <= 24'(LEAD))                                     v_err = E_LEAD;
-      else if (17'(vs_t_v_i[vs]) + 17'(vs_t_n_i[vs]) <= 17'(LEAD))     v_err = E_WIN_SHORT;
+    if (v1_mode_q != 2'd0) begin
+      if (v1_mode_q == 2'd3)             v_err = E_BAD_MODE;
+      else if (v2_txbad_q)               v_err = E_TX_MASK;
+      else if (v1_rx0_q)                 v_err = E_RX_MASK;
+      else if (v1_order_q)               v_err = E_ORDER;
+      else if (v1_k0_q)                  v_err = E_MISS_LIMIT;
+      else if (v1_b0_q)                  v_err = E_BURST;
+      else if (v1_w0_q || v2_dshort_q)   v_err = E_WINDOW;
+      else if (v4_tof_q)                 v_err = E_MAX_TOF;
+      else if (v4_lead_q)                v_err = E_LEAD;
+      else if (v2_wshort_q)              v_err = E_WIN_SHORT;
     end
   end
 
@@ -741,7 +784,8 @@ module ms_scheduler #(
 
   // ---- stages C and D (see ph_q): registered every clock from stage B / C and the state
   logic [31:0]        w_start_c_q, w_end_c_q, w_close_c_q;  // WIN word: start, end, close tick
-  logic signed [26:0] pred_c_q;       // RXS word: tof + gap * v (EDGE: gap to the window's pulse, CAND: to seq_q)
+  logic signed [8:0]  gap_c_q;        // RXS word's pulse gap (EDGE: to the window's pulse, CAND: to seq_q)
+  logic signed [26:0] pred_d_q;       // RXS word: tof + gap * v (stage D: the gap and the multiply need a clock each)
   logic [23:0]        lo_c_q, hi_c_q; // prediction clamp of the sensor (EDGE: the window's, else s_q)
   logic [23:0]        h_tof_c_q;      // HIT: the edge's time of flight in the window
   logic [23:0]        c_wso_c_q, c_weo_c_q;  // CONF / IEL: window offsets of receiver rel
@@ -772,11 +816,11 @@ module ms_scheduler #(
     w_start_c_q <= win_rd.t0 + 32'(win_rd.ws);
     w_end_c_q   <= win_rd.t0 + 32'(win_rd.we);
     w_close_c_q <= win_rd.t0 + 32'(win_rd.we) - 32'd1 + 32'(lat);
-    pred_c_q    <= $signed({3'd0, rxs_rd.tof}) + p_gap * rxs_rd.v;
+    gap_c_q     <= p_gap;
     p_s_q       <= p_s;  // (stage B) the sensor's clamp bounds one clock later
     lo_c_q      <= sh_dbl_q[p_s_q] + 24'(sh_tv_q[p_s_q]);
     hi_c_q      <= sh_rmax_q[p_s_q] - 24'(sh_tn_q[p_s_q]);
-    c_due_lt_q  <= $signed(cur_tick_q - due_q[c_s]) < 0;  // CLOSE: a safety moves due earlier
+    c_due_lt_q  <= $signed(cur_tick_q - due_q[c_s_q]) < 0;  // CLOSE: a safety moves due earlier
     h_tof_c_q   <= 24'(n_edge - win_rd.t0);
     c_wso_c_q   <= p_wso;
     c_weo_c_q   <= p_weo;
@@ -785,6 +829,7 @@ module ms_scheduler #(
     tws_c_q     <= t_q + 32'(p_wso);
     twe_c_q     <= t_q + 32'(p_weo);
     // stage D
+    pred_d_q     <= $signed({3'd0, rxs_c_q.tof}) + gap_c_q * rxs_c_q.v;
     h_dv_d_q     <= $signed({1'b0, h_tof_c_q}) - $signed({1'b0, rxs_rd.tof});
     h_abs_d_q    <= ($signed({1'b0, h_tof_c_q}) < $signed({1'b0, g_te_q})) ? 25'(g_te_q) - 25'(h_tof_c_q)
                                                                          : 25'(h_tof_c_q) - 25'(g_te_q);
@@ -1050,29 +1095,29 @@ module ms_scheduler #(
             found_q       <= 1'b0;   // the head is cleared and rescanned in S_HEAD
             st_q          <= c_safety ? S_SAFE : S_HEAD;
             sf_e_q        <= '0;
-            sf_s_q        <= c_s;
+            sf_s_q        <= c_s_q;
             sf_ret_q      <= 1'b0;
             if (c_valid) begin
-              wake_q[c_s]       <= 1'b1;
+              wake_q[c_s_q]       <= 1'b1;
               if (!wh_e[c_slot]) begin
                 evt_valid_q <= 1'b1;
-                evt_data_q  <= {20'd0, cw.init, 1'b1, 1'b0, 1'b0, c_s, cw.seq, clr, cw.we};
+                evt_data_q  <= {20'd0, cw.init, 1'b1, 1'b0, 1'b0, c_s_q, cw.seq, clr, cw.we};
               end
-              if (c_empty && !cw.init && cw.epoch == epoch_q[c_s]) begin
-                if (c_miss >= sh_k_q[c_s] && tracking_q[c_s]) begin
+              if (c_empty && !cw.init && c_ep_q) begin
+                if (c_kmiss_q && c_trk_q) begin
                   // safety: re-initialise now; every window of the sensor is cancelled
-                  tracking_q[c_s] <= 1'b0;
+                  tracking_q[c_s_q] <= 1'b0;
                   // (the slots of every element are cleared by S_SAFE, one element per clock)
                   // due = min(due, now): per-sensor writes
                   for (int s = 0; s < NUM_VS; s++) wake_q[s] <= 1'b1;
                 end
               end
-              if (cw.init && cw.epoch == epoch_q[c_s]) begin
-                init_open_q[c_s] <= init_open_q[c_s] - 6'd1;
-                if (init_open_q[c_s] == 6'd1) begin
-                  in_init_q[c_s]  <= 1'b0;
+              if (cw.init && c_ep_q) begin
+                init_open_q[c_s_q] <= init_open_q[c_s_q] - 6'd1;
+                if (init_open_q[c_s_q] == 6'd1) begin
+                  in_init_q[c_s_q]  <= 1'b0;
                   // any_trk may include this tick's samples (EDGE before CLOSE)
-                  tracking_q[c_s] <= sh_track_q[c_s] && any_trk_q[c_s];
+                  tracking_q[c_s_q] <= sh_track_q[c_s_q] && any_trk_q[c_s_q];
                 end
               end
             end
@@ -1265,7 +1310,7 @@ module ms_scheduler #(
         end
       end
       S_CLOSE: begin
-        if (c_valid && c_empty && !cw.init && cw.epoch == epoch_q[c_s]) begin
+        if (c_valid && c_empty && !cw.init && c_ep_q) begin
           rxs_we = 1'b1;
           rxs_wd = '{trk: crx.trk, tof: crx.tof, seq: crx.seq, v: crx.v, miss: c_miss, init: crx.init, vel: crx.vel};
         end
@@ -1287,7 +1332,7 @@ module ms_scheduler #(
   logic [VW-1:0] si;
   logic          due_we, nxt_we;
   logic [31:0]   due_wd, nxt_wd;
-  assign si = (st_q == S_CLOSE) ? c_s : s_q;
+  assign si = (st_q == S_CLOSE) ? c_s_q : s_q;
   always_comb begin  // next-evaluation ticks are written as (tick - P), precomputed in stage D
     due_we = 1'b0;
     nxt_we = 1'b0;
@@ -1336,7 +1381,7 @@ module ms_scheduler #(
   logic [VW-1:0]             sid_kill;
   assign el_clr = rst_i || (!enable_i && started_q) || (st_q == S_STOP) || (st_q == S_START);
   always_comb begin
-    sid_kill = (st_q == S_SAFE) ? sf_s_q : c_s;
+    sid_kill = (st_q == S_SAFE) ? sf_s_q : c_s_q;
     for (int k = 0; k < WSLOTS; k++) sid_mask[k] = (wsid_e[k] == sid_kill);
     wv_we       = 1'b0;
     wv_wd       = wv_e;
