@@ -257,7 +257,8 @@ module ms_scheduler #(
   logic       go;
   always_comb begin
     unique case (st_q)
-      S_SCHED, S_EDF, S_ISSUE, S_INIT:        need = 3'd1;  // per-sensor words
+      S_ISSUE, S_INIT:                        need = 3'd1;  // per-sensor words
+      S_SCHED, S_EDF:                         need = 3'd2;  // per-sensor words, then their compares
       S_DISP, S_SAFE:                         need = 3'd2;  // stage A; two registered steps of arithmetic
       S_VCHECK:                               need = 3'd5;  // validation stages V1-V4, then v_err_q
       S_ORDER:                                need = 3'd3;  // three registered steps of arithmetic
@@ -550,23 +551,49 @@ module ms_scheduler #(
   logic [31:0] sw_close;
   assign sw_close = w_close_c_q;
 
-  // SCHED: sensor s_q at logical tick cur_tick_q, candidate t0 = cur + P
+  // SCHED: sensor s_q at logical tick cur_tick_q, candidate t0 = cur + P. The sensor's flags
+  // and compares are registered (sc_*_q, one and two clocks after s_q; need 2), so the go
+  // clock is only the AND-OR of them into the next state and the nxt write.
   logic [31:0] t_cand;
   logic        s_eval;
   assign t_cand = t_cand_q;
-  assign s_eval = sh_act_q[s_q] && !in_init_q[s_q]
-                  && (wake_q[s_q] || (!hold_q[s_q] && $signed(cur_tick_q - nxt_s_q) >= 0));
+  logic sc_act_q, sc_init_q, sc_wake_q, sc_hold_q, sc_trk_q, sc_qv_q, sc_reinit_q;
+  logic sc_nxt_q, sc_early_q, sc_quiet_q;
+  always_ff @(posedge clk_i) begin
+    sc_act_q    <= sh_act_q[s_q];
+    sc_init_q   <= in_init_q[s_q];
+    sc_wake_q   <= wake_q[s_q];
+    sc_hold_q   <= hold_q[s_q];
+    sc_trk_q    <= tracking_q[s_q];
+    sc_qv_q     <= quiet_vld_q[s_q];
+    sc_reinit_q <= sh_reinit_q[s_q] != 8'd0 && trk_pulses_q[s_q] >= sh_reinit_q[s_q];
+    sc_nxt_q    <= $signed(cur_tick_q - nxt_s_q) >= 0;  // nxt_s_q, due_s_q, quiet_s_q: one clock after s_q
+    sc_early_q  <= $signed(t_cand - due_s_q) < 0;
+    sc_quiet_q  <= $signed(t_cand - quiet_s_q) < 0;
+  end
+  assign s_eval = sc_act_q && !sc_init_q && (sc_wake_q || (!sc_hold_q && sc_nxt_q));
   logic s_early, s_quiet;  // not due yet / still quiet: wait (nxt = due - P / quiet - P)
-  assign s_early = s_eval && $signed(t_cand - due_s_q) < 0;
-  assign s_quiet = s_eval && !s_early && !tracking_q[s_q] && quiet_vld_q[s_q] && $signed(t_cand - quiet_s_q) < 0;
+  assign s_early = s_eval && sc_early_q;
+  assign s_quiet = s_eval && !s_early && !sc_trk_q && sc_qv_q && sc_quiet_q;
   logic s_reinit;  // forced re-initialisation (RX_FILTER.reinit_every): cancel, then evaluate as an init ping
-  assign s_reinit = s_eval && !s_early && tracking_q[s_q] && sh_reinit_q[s_q] != 8'd0
-                    && trk_pulses_q[s_q] >= sh_reinit_q[s_q];
-  // EDF: is sensor o_q pending with an earlier (due, id)?
+  assign s_reinit = s_eval && !s_early && sc_trk_q && sc_reinit_q;
+  // EDF: is sensor o_q pending with an earlier (due, id)? Registered like SCHED (eo_*_q; need 2).
   logic o_elig, o_first;
-  assign o_elig  = sh_act_q[o_q] && !in_init_q[o_q] && ($signed(t_cand - due_o_q) >= 0)
-                   && (tracking_q[o_q] || !quiet_vld_q[o_q] || $signed(t_cand - quiet_o_q) >= 0);
-  assign o_first = ($signed(due_o_q - due_s_q) < 0) || ((due_o_q == due_s_q) && (o_q < s_q));
+  logic eo_share_q, eo_act_q, eo_init_q, eo_trk_q, eo_qv_q, eo_idlt_q, eo_due_q, eo_quiet_q, eo_lt_q, eo_eq_q;
+  always_ff @(posedge clk_i) begin
+    eo_share_q <= o_q != s_q && sh_share_q[s_q][o_q];
+    eo_act_q   <= sh_act_q[o_q];
+    eo_init_q  <= in_init_q[o_q];
+    eo_trk_q   <= tracking_q[o_q];
+    eo_qv_q    <= quiet_vld_q[o_q];
+    eo_idlt_q  <= o_q < s_q;
+    eo_due_q   <= $signed(t_cand - due_o_q) >= 0;  // due_o_q, quiet_o_q: one clock after o_q
+    eo_quiet_q <= $signed(t_cand - quiet_o_q) >= 0;
+    eo_lt_q    <= $signed(due_o_q - due_s_q) < 0;
+    eo_eq_q    <= due_o_q == due_s_q;
+  end
+  assign o_elig  = eo_act_q && !eo_init_q && eo_due_q && (eo_trk_q || !eo_qv_q || eo_quiet_q);
+  assign o_first = eo_lt_q || (eo_eq_q && eo_idlt_q);
 
   // CAND: prediction for receiver rel of sensor s_q's pulse seq_q[s_q]
   rxs_t        irx;
@@ -1166,7 +1193,7 @@ module ms_scheduler #(
             end
           end
           S_EDF: begin  // earliest due first among sensors sharing an element
-            if (o_q != s_q && sh_share_q[s_q][o_q] && o_elig && o_first) begin
+            if (eo_share_q && o_elig && o_first) begin
               hold_q[s_q] <= 1'b1;
               st_q        <= S_NEXT;
             end else if (o_q == VW'(NUM_VS - 1)) begin
