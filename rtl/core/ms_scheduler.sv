@@ -261,7 +261,7 @@ module ms_scheduler #(
       S_SCHED, S_EDF:                         need = 3'd2;  // per-sensor words, then their compares
       S_DISP, S_SAFE:                         need = 3'd2;  // stage A; two registered steps of arithmetic
       S_VCHECK:                               need = 3'd5;  // validation stages V1-V4, then v_err_q
-      S_ORDER:                                need = 3'd3;  // three registered steps of arithmetic
+      S_ORDER:                                need = 3'd4;  // four registered steps of arithmetic
       S_EDGE, S_HEAD, S_CAND:                 need = 3'd4;  // stage C: window ticks, prediction
       S_HIT, S_CLOSE, S_CONF, S_CSLOT, S_IEL: need = 3'd5;  // stage D: compares on stage C
       default:                                need = 3'd0;
@@ -637,7 +637,7 @@ module ms_scheduler #(
   end
 
   // ORDER: T_s = floor((te_min - T_V - D) / n), feasible if T_s > 0 and (n+1) T_s >= te_max + T_N
-  logic [23:0] o_x, o_ts, o_x_q, o_ts_q;
+  logic [23:0] o_x, o_ts, o_x_q, o_ts_q, o_div3_q;
   logic [49:0] o_mul3;
   logic [26:0] o_lhs, o_lhs_q, o_rhs_q;
   logic        o_feas;
@@ -647,14 +647,16 @@ module ms_scheduler #(
     unique case (n_q)
       3'd1:    o_ts = o_x_q;
       3'd2:    o_ts = o_x_q >> 1;
-      3'd3:    o_ts = o_mul3[48:25];
+      3'd3:    o_ts = o_div3_q;
       default: o_ts = o_x_q >> 2;
     endcase
   end
-  // registered: o_x in the state's first clock, o_ts in its second, (n + 1) o_ts in its third
+  // registered: o_x in the state's first clock, x / 3 (the multiplier and its adders) in its
+  // second, o_ts in its third, (n + 1) o_ts in its fourth; o_x does not depend on n
   always_ff @(posedge clk_i) begin
-    o_x_q  <= o_x;
-    o_ts_q <= o_ts;
+    o_x_q    <= o_x;
+    o_div3_q <= o_mul3[48:25];
+    o_ts_q   <= o_ts;
   end
   always_comb begin  // (n + 1) T_s for n = 1..4 (the validated orders) without a multiplier
     unique case (n_q)
@@ -664,7 +666,7 @@ module ms_scheduler #(
       default: o_lhs = 27'(o_ts_q) + {1'd0, o_ts_q, 2'b0};
     endcase
   end
-  always_ff @(posedge clk_i) begin  // third clock: (n + 1) T_s and T_max + T_N, then the decision
+  always_ff @(posedge clk_i) begin  // fourth clock: (n + 1) T_s and T_max + T_N, then the decision
     o_lhs_q <= o_lhs;
     o_rhs_q <= 27'(te_max_q) + 27'(sh_tn_q[s_q]);
   end
