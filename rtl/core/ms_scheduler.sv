@@ -572,6 +572,14 @@ module ms_scheduler #(
     sc_quiet_q  <= $signed(t_cand - quiet_s_q) < 0;
   end
   assign s_eval = sc_act_q && !sc_init_q && (sc_wake_q || (!sc_hold_q && sc_nxt_q));
+  // sensor s_q's tracking flag and receiver count for the states after SCHED (s_q and its
+  // tracking flag do not change between SCHED and the end of IEL)
+  logic       s_trk_q;
+  logic [5:0] s_nrx_q;
+  always_ff @(posedge clk_i) begin
+    s_trk_q <= tracking_q[s_q];
+    s_nrx_q <= popcount(sh_rx_q[s_q]);
+  end
   logic s_early, s_quiet;  // not due yet / still quiet: wait (nxt = due - P / quiet - P)
   assign s_early = s_eval && sc_early_q;
   assign s_quiet = s_eval && !s_early && !sc_trk_q && sc_qv_q && sc_quiet_q;
@@ -834,6 +842,15 @@ module ms_scheduler #(
   assign p_gap = (st_q == S_EDGE) ? 9'(g_gap) : $signed({1'b0, i_gap});
   assign p_s   = (st_q == S_EDGE) ? g_s : s_q;
   assign p_te  = rel_te_e;
+  // the candidate's t0 (t_q, fixed from SCHED to IEL) plus the sensor's window offsets,
+  // registered long before CONF / IEL read them
+  logic [31:0] t_mtv_q, t_ptn_q, t_pdbl_q, t_prmax_q;
+  always_ff @(posedge clk_i) begin
+    t_mtv_q   <= t_q - 32'(sh_tv_q[s_q]);
+    t_ptn_q   <= t_q + 32'(sh_tn_q[s_q]);
+    t_pdbl_q  <= t_q + 32'(sh_dbl_q[s_q]);
+    t_prmax_q <= t_q + 32'(sh_rmax_q[s_q]);
+  end
   assign p_wso = !tracking_q[s_q] ? sh_dbl_q[s_q] : p_te - 24'(sh_tv_q[s_q]);
   assign p_weo = !tracking_q[s_q] ? sh_rmax_q[s_q] : p_te + 24'(sh_tn_q[s_q]);
   always_ff @(posedge clk_i) begin
@@ -855,8 +872,8 @@ module ms_scheduler #(
     c_weo_c_q   <= p_weo;
     ta_c_q      <= t_q + 32'(cb.a);
     tb_c_q      <= t_q + 32'(cb.b);
-    tws_c_q     <= t_q + 32'(p_wso);
-    twe_c_q     <= t_q + 32'(p_weo);
+    tws_c_q     <= s_trk_q ? t_mtv_q + 32'(p_te) : t_pdbl_q;  // t_q + p_wso in one carry chain
+    twe_c_q     <= s_trk_q ? t_ptn_q + 32'(p_te) : t_prmax_q; // t_q + p_weo (te >= T_V, te + T_N < 2^24: CAND's clamp)
     // stage D
     pred_d_q     <= $signed({3'd0, rxs_c_q.tof}) + gap_c_q * rxs_c_q.v;
     h_dv_d_q     <= $signed({1'b0, h_tof_c_q}) - $signed({1'b0, rxs_rd.tof});
@@ -1214,7 +1231,7 @@ module ms_scheduler #(
               st_q <= S_ORDER;
             end else begin
               rem_q[rel] <= 1'b0;
-              if (!tracking_q[s_q]) begin
+              if (!s_trk_q) begin
                 cand_act_q[rel] <= 1'b1;
               end else if (rxs_c_q.trk) begin
                 cand_act_q[rel] <= 1'b1;
@@ -1227,11 +1244,11 @@ module ms_scheduler #(
           S_ORDER: begin  // effective order: n = N, N-1, ..., 1, else 0 (one try per clock)
             rem_q       <= sh_tx_q[s_q] | sh_xt_q[s_q] | sh_rx_q[s_q];
             retry_vld_q <= 1'b0;
-            if (!tracking_q[s_q]) begin
+            if (!s_trk_q) begin
               period_q <= sh_rmax_q[s_q];
               st_q     <= S_CONF;
             end else if (n_q == 3'd0) begin
-              period_q <= te_max_q + 24'(sh_tn_q[s_q]);
+              period_q <= o_rhs_q[23:0];  // te_max + T_N
               st_q     <= S_CONF;
             end else if (o_feas) begin
               period_q <= o_ts_q;
@@ -1277,11 +1294,11 @@ module ms_scheduler #(
             seq_q[s_q]       <= seq_q[s_q] + 8'd1;  // due, nxt: per-sensor writes
             quiet_q[s_q]     <= quiet_isu_q;  // t0 + max ToF - D
             quiet_vld_q[s_q] <= 1'b1;
-            trk_pulses_q[s_q] <= !tracking_q[s_q] ? 8'd0 : trk_pulses_q[s_q] + 8'(trk_pulses_q[s_q] != 8'hFF);
-            if (!tracking_q[s_q]) begin  // init ping: new epoch, every receiver untracked
+            trk_pulses_q[s_q] <= !s_trk_q ? 8'd0 : trk_pulses_q[s_q] + 8'(trk_pulses_q[s_q] != 8'hFF);
+            if (!s_trk_q) begin  // init ping: new epoch, every receiver untracked
               epoch_q[s_q]     <= !epoch_q[s_q];
               in_init_q[s_q]   <= 1'b1;
-              init_open_q[s_q] <= popcount(sh_rx_q[s_q]);
+              init_open_q[s_q] <= s_nrx_q;
               any_trk_q[s_q]   <= 1'b0;
             end
             for (int s = 0; s < NUM_VS; s++) if (VW'(s) != s_q) wake_q[s] <= 1'b1;
@@ -1289,7 +1306,7 @@ module ms_scheduler #(
             pulse_vs_q   <= s_q;
             pulse_seq_q  <= seq_q[s_q];
             pulse_t0_q   <= t_q;
-            pulse_init_q <= !tracking_q[s_q];
+            pulse_init_q <= !s_trk_q;
             rem_q        <= sh_tx_q[s_q] | sh_xt_q[s_q] | sh_rx_q[s_q];
             st_q         <= S_IEL;
           end
@@ -1307,7 +1324,7 @@ module ms_scheduler #(
               end
               if (c_win)
                 win_q[int'(rel) * WSLOTS + int'(free_slot)] <= '{t0: t_q, ws: c_wso, we: c_weo, seq: kseq_q,
-                                                                  epoch: epoch_q[s_q], init: !tracking_q[s_q]};
+                                                                  epoch: epoch_q[s_q], init: !s_trk_q};
             end
           end
           default: st_q <= S_OFF;
@@ -1345,7 +1362,7 @@ module ms_scheduler #(
         end
       end
       S_IEL: begin
-        if (rem_q != '0 && c_win && !tracking_q[s_q]) begin
+        if (rem_q != '0 && c_win && !s_trk_q) begin
           rxs_we = 1'b1;
           rxs_wd = '0;
         end
