@@ -574,11 +574,13 @@ module ms_scheduler #(
   assign s_eval = sc_act_q && !sc_init_q && (sc_wake_q || (!sc_hold_q && sc_nxt_q));
   // sensor s_q's tracking flag and receiver count for the states after SCHED (s_q and its
   // tracking flag do not change between SCHED and the end of IEL)
-  logic       s_trk_q;
-  logic [5:0] s_nrx_q;
+  logic              s_trk_q;
+  logic [NUM_CH-1:0] s_rx_q;
+  logic [5:0]        s_nrx_q;   // two clocks after s_q: the mask, then its popcount
   always_ff @(posedge clk_i) begin
     s_trk_q <= tracking_q[s_q];
-    s_nrx_q <= popcount(sh_rx_q[s_q]);
+    s_rx_q  <= sh_rx_q[s_q];
+    s_nrx_q <= popcount(s_rx_q);
   end
   logic s_early, s_quiet;  // not due yet / still quiet: wait (nxt = due - P / quiet - P)
   assign s_early = s_eval && sc_early_q;
