@@ -21,6 +21,7 @@
 // (no events for them; triggers already armed still fire) and starts afresh.
 //
 // Timing contract (ticks of clk_i; tick_i[31:0] wraps, every comparison is modulo 2^32):
+//   - tick_i counts up by one every clock (the sonar core's free-running tick counter).
 //   - rise_i[r] high in the cycle with tick_i = T + 1: accepted edge of receiver r with
 //     timestamp n = T - L, L = 1 + max(glitch_min_i, 1); T is the model's detection tick.
 //   - Start: running_o rises in the cycle after the start tick S (model start_tick = S).
@@ -318,7 +319,9 @@ module ms_scheduler #(
   logic [QW-1:0]     q_head;
 
   assign running   = started_q;
-  assign tick_prev = tick_i - 32'd1;  // rise_i / closes of this cycle belong to tick_i - 1
+  // rise_i / closes of this cycle belong to tick_i - 1: tick_i one clock ago (tick_i counts every
+  // clock), a register rather than a decrement before the 24 close-tick compares
+  always_ff @(posedge clk_i) tick_prev <= tick_i;
   always_comb begin
     rx_any = '0;
     for (int s = 0; s < NUM_VS; s++) if (sh_act_q[s]) rx_any = rx_any | sh_rx_q[s];
@@ -372,19 +375,30 @@ module ms_scheduler #(
     armed_q  <= armed_q2;
   end
 
+  // IDLE's decisions are registered (one clock behind the queue head, td_q and tick_i), so its
+  // go clock starts no compare chain: S_SETTLE waits one clock more for them (settle_q = 3).
+  // A word pushed while they were computed has tick >= td_q + 2 (sched_go needs three ticks of
+  // margin), so a stale "queue empty" never lets a decision tick pass a queued edge or close.
+  logic take_c, sched_c, stop_c, late_c;
   logic take_q;  // IDLE: the queue head comes no later than the next time-driven decision
-  assign take_q = !q_empty && (!armed_q || ($signed(qh_tick - td_q) <= 0))
+  assign take_c = !q_empty && (!armed_q || ($signed(qh_tick - td_q) <= 0))
                   && (!stop_req_q || $signed(qh_tick - stop_at_q) < 0);
-  assign q_pop  = (st_q == S_IDLE) && (settle_q == 2'd0) && !stop_ok && take_q;
   logic sched_go;  // IDLE: a time-driven decision tick whose edges and closes are all queued
-  assign sched_go = armed_q && ($signed(tick_i - td_q) >= 3) && (q_empty || $signed(qh_tick - td_q) > 0)
-                    && (!stop_req_q || $signed(td_q - stop_at_q) < 0);
+  assign sched_c = armed_q && ($signed(tick_i - td_q) >= 3) && (q_empty || $signed(qh_tick - td_q) > 0)
+                   && (!stop_req_q || $signed(td_q - stop_at_q) < 0);
   logic stop_ok;  // every logical tick before stop_at is done
-  assign stop_ok = stop_req_q && ($signed(tick_i - stop_at_q) >= 3)
-                   && (q_empty || $signed(qh_tick - stop_at_q) >= 0)
-                   && (!armed_q || $signed(td_q - stop_at_q) >= 0);
-  logic lag_late;  // real time is more than P/2 ahead of the work the engine starts now
-  assign lag_late = take_q ? ($signed(tick_i - qh_tick) > LEAD / 2) : ($signed(tick_i - td_q) > LEAD / 2);
+  assign stop_c = stop_req_q && ($signed(tick_i - stop_at_q) >= 3)
+                  && (q_empty || $signed(qh_tick - stop_at_q) >= 0)
+                  && (!armed_q || $signed(td_q - stop_at_q) >= 0);
+  logic lag_late;  // real time is more than P/2 ahead of the work the engine starts now (tick_i + 1 when used)
+  assign late_c = take_c ? ($signed(tick_i - qh_tick) >= LEAD / 2) : ($signed(tick_i - td_q) >= LEAD / 2);
+  always_ff @(posedge clk_i) begin
+    take_q   <= take_c;
+    sched_go <= sched_c;
+    stop_ok  <= stop_c;
+    lag_late <= late_c;
+  end
+  assign q_pop  = (st_q == S_IDLE) && (settle_q == 2'd0) && !stop_ok && take_q;
   // engine headroom, for the benches (read through the hierarchy, no port): the largest
   // tick_i - cur_tick_q in any clock of engine work since the start, i.e. how late the engine
   // ever was with the work of a logical tick (a trigger is late beyond LEAD; overrun_o rises
@@ -532,8 +546,14 @@ module ms_scheduler #(
   // waits one clock more than its stage-C reads for them), so neither the slot multiplexers
   // nor the close-tick compare feed a write in the go clock.
   logic c_wv_q, c_eq_q, c_empty_q, c_ep_q, c_kmiss_q, c_trk_q;
+  logic [5:0] c_open_q;   // init_open_q[c_s_q]: windows of the init ping still open
+  logic       c_last_q;   // ... and this close is its last (c_open_q == 1)
+  logic       c_trk_nx_q; // the tracking flag the sensor gets when its init ping completes
   always_ff @(posedge clk_i) begin
     c_s_q     <= c_s;
+    c_open_q   <= init_open_q[c_s_q];
+    c_last_q   <= init_open_q[c_s_q] == 6'd1;
+    c_trk_nx_q <= sh_track_q[c_s_q] && any_trk_q[c_s_q];
     c_wv_q    <= wv_e[c_slot];
     c_empty_q <= !wh_e[c_slot] || wr_e[c_slot];  // a miss: no echo, or the first one failed the miss gate
     c_eq_q    <= w_close_c_q == cur_tick_q;
@@ -574,13 +594,28 @@ module ms_scheduler #(
   assign s_eval = sc_act_q && !sc_init_q && (sc_wake_q || (!sc_hold_q && sc_nxt_q));
   // sensor s_q's tracking flag and receiver count for the states after SCHED (s_q and its
   // tracking flag do not change between SCHED and the end of IEL)
+  // The rest of the sensor's words the go clocks of EDF .. IEL write or copy, registered the
+  // same way, so no write in a go clock follows a multiplexer of eight sensors (in context the
+  // eight words lie far apart); ISSUE's writes of seq / epoch / pulse count are seen again
+  // by IEL, which waits need(S_IEL) clocks after ISSUE.
   logic              s_trk_q;
-  logic [NUM_CH-1:0] s_rx_q;
+  logic [NUM_CH-1:0] s_rx_q, s_all_q;  // receivers; every element the pulse touches (tx | xt | rx)
   logic [5:0]        s_nrx_q;   // two clocks after s_q: the mask, then its popcount
+  logic [2:0]        s_order_q;
+  logic [23:0]       s_rmax_q;
+  logic [7:0]        s_burst_q, s_seq_q, s_tpc_q;
+  logic              s_ep_q;
   always_ff @(posedge clk_i) begin
-    s_trk_q <= tracking_q[s_q];
-    s_rx_q  <= sh_rx_q[s_q];
-    s_nrx_q <= popcount(s_rx_q);
+    s_trk_q   <= tracking_q[s_q];
+    s_rx_q    <= sh_rx_q[s_q];
+    s_nrx_q   <= popcount(s_rx_q);
+    s_all_q   <= sh_tx_q[s_q] | sh_xt_q[s_q] | sh_rx_q[s_q];
+    s_order_q <= sh_order_q[s_q];
+    s_rmax_q  <= sh_rmax_q[s_q];
+    s_burst_q <= sh_burst_q[s_q];
+    s_seq_q   <= seq_q[s_q];
+    s_tpc_q   <= trk_pulses_q[s_q];
+    s_ep_q    <= epoch_q[s_q];
   end
   logic s_early, s_quiet;  // not due yet / still quiet: wait (nxt = due - P / quiet - P)
   assign s_early = s_eval && sc_early_q;
@@ -1078,7 +1113,7 @@ module ms_scheduler #(
           end
           // ------------------------------------------------ engine
           S_SETTLE: begin  // td_q follows the state changed before, three clocks later
-            settle_q <= 2'd2;
+            settle_q <= 2'd3;
             st_q     <= S_IDLE;
             if (apply_pend_q && !stop_req_q) begin
               apply_pend_q <= 1'b0;
@@ -1161,11 +1196,11 @@ module ms_scheduler #(
                 end
               end
               if (cw.init && c_ep_q) begin
-                init_open_q[c_s_q] <= init_open_q[c_s_q] - 6'd1;
-                if (init_open_q[c_s_q] == 6'd1) begin
+                init_open_q[c_s_q] <= c_open_q - 6'd1;
+                if (c_last_q) begin
                   in_init_q[c_s_q]  <= 1'b0;
                   // any_trk may include this tick's samples (EDGE before CLOSE)
-                  tracking_q[c_s_q] <= sh_track_q[c_s_q] && any_trk_q[c_s_q];
+                  tracking_q[c_s_q] <= c_trk_nx_q;
                 end
               end
             end
@@ -1218,7 +1253,7 @@ module ms_scheduler #(
               hold_q[s_q] <= 1'b1;
               st_q        <= S_NEXT;
             end else if (o_q == VW'(NUM_VS - 1)) begin
-              rem_q      <= sh_rx_q[s_q];
+              rem_q      <= s_rx_q;
               cand_act_q <= '0;
               te_min_q   <= '1;
               te_max_q   <= '0;
@@ -1229,7 +1264,7 @@ module ms_scheduler #(
           end
           S_CAND: begin  // one receiver per clock: does it get a window, where
             if (rem_q == '0) begin
-              n_q  <= sh_order_q[s_q];
+              n_q  <= s_order_q;
               st_q <= S_ORDER;
             end else begin
               rem_q[rel] <= 1'b0;
@@ -1244,10 +1279,10 @@ module ms_scheduler #(
             end
           end
           S_ORDER: begin  // effective order: n = N, N-1, ..., 1, else 0 (one try per clock)
-            rem_q       <= sh_tx_q[s_q] | sh_xt_q[s_q] | sh_rx_q[s_q];
+            rem_q       <= s_all_q;
             retry_vld_q <= 1'b0;
             if (!s_trk_q) begin
-              period_q <= sh_rmax_q[s_q];
+              period_q <= s_rmax_q;
               st_q     <= S_CONF;
             end else if (n_q == 3'd0) begin
               period_q <= o_rhs_q[23:0];  // te_max + T_N
@@ -1292,13 +1327,13 @@ module ms_scheduler #(
             end
           end
           S_ISSUE: begin  // the pulse goes: sensor state now, then element by element
-            kseq_q           <= seq_q[s_q];
-            seq_q[s_q]       <= seq_q[s_q] + 8'd1;  // due, nxt: per-sensor writes
+            kseq_q           <= s_seq_q;
+            seq_q[s_q]       <= s_seq_q + 8'd1;  // due, nxt: per-sensor writes
             quiet_q[s_q]     <= quiet_isu_q;  // t0 + max ToF - D
             quiet_vld_q[s_q] <= 1'b1;
-            trk_pulses_q[s_q] <= !s_trk_q ? 8'd0 : trk_pulses_q[s_q] + 8'(trk_pulses_q[s_q] != 8'hFF);
+            trk_pulses_q[s_q] <= !s_trk_q ? 8'd0 : s_tpc_q + 8'(s_tpc_q != 8'hFF);
             if (!s_trk_q) begin  // init ping: new epoch, every receiver untracked
-              epoch_q[s_q]     <= !epoch_q[s_q];
+              epoch_q[s_q]     <= !s_ep_q;
               in_init_q[s_q]   <= 1'b1;
               init_open_q[s_q] <= s_nrx_q;
               any_trk_q[s_q]   <= 1'b0;
@@ -1306,10 +1341,10 @@ module ms_scheduler #(
             for (int s = 0; s < NUM_VS; s++) if (VW'(s) != s_q) wake_q[s] <= 1'b1;
             pulse_q      <= 1'b1;
             pulse_vs_q   <= s_q;
-            pulse_seq_q  <= seq_q[s_q];
+            pulse_seq_q  <= s_seq_q;
             pulse_t0_q   <= t_q;
             pulse_init_q <= !s_trk_q;
-            rem_q        <= sh_tx_q[s_q] | sh_xt_q[s_q] | sh_rx_q[s_q];
+            rem_q        <= s_all_q;
             st_q         <= S_IEL;
           end
           S_IEL: begin  // element rel: blank_until, trigger, window slot
@@ -1321,12 +1356,12 @@ module ms_scheduler #(
                 trig_valid_q <= 1'b1;
                 trig_el_q    <= rel;
                 trig_delay_q <= (DELAY_W + 1)'(trig_dly);
-                trig_burst_q <= sh_burst_q[s_q];
+                trig_burst_q <= s_burst_q;
                 if (trig_dly[31:DELAY_W+1] != '0) ovr_q <= 1'b1;  // negative or too far: engine late
               end
               if (c_win)
                 win_q[int'(rel) * WSLOTS + int'(free_slot)] <= '{t0: t_q, ws: c_wso, we: c_weo, seq: kseq_q,
-                                                                  epoch: epoch_q[s_q], init: !s_trk_q};
+                                                                  epoch: s_ep_q, init: !s_trk_q};
             end
           end
           default: st_q <= S_OFF;
