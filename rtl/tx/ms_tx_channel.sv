@@ -25,7 +25,11 @@
 //     fire, whose earliest write is the edge ending t+1. So the trigger edge t only sets
 //     drive_q and clears the half counter; the running burst's copies (a_half_q, cyc_q)
 //     are loaded from p_*_q one edge later (trig_q), without a mux on the fire inputs.
-//     In cycle t+1 the end-of-half test and run come from p_h1_q / p_cyc_q instead.
+//     In cycle t+1 the end-of-half test and run come from p_half_q / p_cyc_q instead.
+//   - The fire inputs go straight into flops (no logic before the latch): the phaser's
+//     channels sit by their pins, across the chip from the register block, so any gate on
+//     half_period_i would be shared by all channels (Yosys merges it) and add a second
+//     chip-long net to the path. H = 0 -> 1 is applied to the latched copy.
 //   - The half counter counts up from 1 and is cleared (flop sync reset, no data mux) on
 //     the trigger and at the end of each half, found by comparing with a_half_q.
 //   - cyc_q counts the periods left including the current one: running = cyc_q != 0.
@@ -46,9 +50,10 @@ module ms_tx_channel #(
 );
   // pending trigger (from fire to trigger tick) and the burst parameters of the last fire
   logic [DELAY_W-1:0] dcnt_q;     // ticks left until the trigger (1 = due now, 0 = none)
-  logic [HALF_W-1:0]  p_half_q;   // half period, 0 already taken as 1
+  logic [HALF_W-1:0]  p_half_q;   // half period as given (0 behaves as 1)
   logic [CYC_W-1:0]   p_cyc_q;
-  logic               p_h1_q;     // p_half_q == 1: first half ends after one tick
+  logic               p_h1;       // p_half_q is 0 or 1: the first half ends after one tick
+  logic [HALF_W-1:0]  p_half;     // p_half_q with 0 taken as 1
   // running burst; trig_q: trigger at the last edge, load a_half_q and cyc_q now
   logic               drive_q, trig_q;
   logic [HALF_W-1:0]  hcnt_q;     // tick within the current half, 1..H
@@ -58,17 +63,16 @@ module ms_tx_channel #(
   // pend: a trigger is pending; trig: trigger at this edge; trig_on: it starts a burst
   // (cycles != 0); half_end: the current half ends at this edge; run: a burst is running
   logic              dcnt_le1, pend, trig, trig_on, half_end, run;
-  logic [HALF_W-1:0] in_half;     // half_period_i with 0 taken as 1
 
-  assign in_half  = {half_period_i[HALF_W-1:1],
-                     half_period_i[0] | (half_period_i[HALF_W-1:1] == '0)};
+  assign p_h1     = (p_half_q[HALF_W-1:1] == '0);
+  assign p_half   = {p_half_q[HALF_W-1:1], p_half_q[0] | p_h1};
   assign dcnt_le1 = (dcnt_q[DELAY_W-1:1] == '0);
   assign pend     = ~dcnt_le1 | dcnt_q[0];
   assign trig     = fire_i ? (delay_i == '0) : (dcnt_le1 & dcnt_q[0]);
   assign trig_on  = fire_i ? (burst_cycles_i != '0) : (p_cyc_q != '0);
   // cyc_q is stale in the cycle after a trigger: p_cyc_q still holds that burst's count
   assign run      = trig_q ? (p_cyc_q != '0) : (cyc_q != '0);
-  assign half_end = trig_q ? p_h1_q : (hcnt_q == a_half_q);
+  assign half_end = trig_q ? p_h1 : (hcnt_q == a_half_q);
 
   // delay counter and the latched parameters
   always_ff @(posedge clk_i) begin
@@ -76,12 +80,10 @@ module ms_tx_channel #(
       dcnt_q   <= '0;
       p_half_q <= '0;
       p_cyc_q  <= '0;
-      p_h1_q   <= 1'b0;
     end else if (fire_i) begin
       dcnt_q   <= delay_i;
-      p_half_q <= in_half;
+      p_half_q <= half_period_i;
       p_cyc_q  <= burst_cycles_i;
-      p_h1_q   <= (half_period_i[HALF_W-1:1] == '0);
     end else if (pend) begin
       dcnt_q <= dcnt_q - DELAY_W'(1);
     end
@@ -120,7 +122,7 @@ module ms_tx_channel #(
     end else begin
       trig_q <= trig;
       if (trig_q) begin
-        a_half_q <= p_half_q;
+        a_half_q <= p_half;
         cyc_q    <= p_cyc_q;
       end else if (half_end && !drive_q && run) begin
         cyc_q <= cyc_q - CYC_W'(1);
