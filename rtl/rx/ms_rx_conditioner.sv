@@ -11,6 +11,8 @@
 //     first sampled high at edge n, rise_o is high after edge n + 1 + max(glitch_min_i, 1).
 //     Consumers subtract 1 + max(glitch_min_i, 1) from their timestamp to recover n.
 //   - A pulse is accepted if and only if it spans at least max(glitch_min_i, 1) samples.
+//   - glitch_min_i is the value in the last clock before sync_q departed from the level (in
+//     reset, or while they agree): a change takes effect from the next pulse or gap.
 module ms_rx_conditioner #(
   parameter int CNT_W = 8
 ) (
@@ -24,11 +26,14 @@ module ms_rx_conditioner #(
   logic             meta_q, sync_q;
   logic             level_q, rise_q;
   logic [CNT_W-1:0] run_q;  // consecutive clocks sync_q has differed from level_q, minus one
-  logic [CNT_W-1:0] need;
-
-  assign need = (glitch_min_i == '0) ? CNT_W'(1) : glitch_min_i;
+  // glitch_min_i as of the last clock the level was settled: a change takes effect for the
+  // next pulse, never half-way through one. Taken straight into a flop: the conditioners sit
+  // by their pins, far from the register block, and a gate on glitch_min_i would be shared by
+  // all of them. 0 behaves as 1 without a gate: run_q + 1 >= max(g, 1) iff run_q + 1 >= g.
+  logic [CNT_W-1:0] gmin_q;
 
   always_ff @(posedge clk_i) begin
+    if (rst_i || sync_q == level_q) gmin_q <= glitch_min_i;
     if (rst_i) begin
       meta_q  <= 1'b0;
       sync_q  <= 1'b0;
@@ -41,7 +46,7 @@ module ms_rx_conditioner #(
       rise_q <= 1'b0;
       if (sync_q == level_q) begin
         run_q <= '0;
-      end else if (run_q + CNT_W'(1) >= need) begin
+      end else if (CNT_W'(run_q + CNT_W'(1)) >= gmin_q) begin
         level_q <= sync_q;
         rise_q  <= sync_q;
         run_q   <= '0;
