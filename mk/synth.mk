@@ -14,12 +14,15 @@
 # Options: SYNTH_APP (firmware in the RAM image, default system_smoke), ECP5_DEVICE (25k,
 # 45k, 85k; default 85k: the board top needs about 32.1k TRELLIS_COMB, 132 % of the 25k, and
 # 64 DP16KD, 114 % of the 25k; docs/synthesis.md),
-# ICE40_NUM_CH (channels on the iCE40, default 8), SYNTH_SEED (nextpnr seed).
+# ICE40_NUM_CH (channels on the iCE40, default 8), SYNTH_SEED (nextpnr seed), SYNTH_DETAIL=1
+# (nextpnr --detailed-timing-report: pnr.json gets every net's arrival times, about 10 MB, for
+# `scripts/synth_report.py late build/synth/ecp5/pnr.json`: the late register inputs by block).
 
 TARGET       ?= ecp5
 SYNTH_APP    ?= system_smoke
 SYNTH_MHZ    := 48
 SYNTH_SEED   ?= 1
+SYNTH_DETAIL ?= 0
 ECP5_DEVICE  ?= 85k
 ICE40_NUM_CH ?= 8
 SYNTH_DIR    := $(BUILD)/synth/$(TARGET)
@@ -99,7 +102,8 @@ $(SYNTH_DIR)/netlist.json: $(SYNTH_DIR)/synth.ys $(SYNTH_HEX)
 $(SYNTH_DIR)/pnr.json: $(SYNTH_DIR)/netlist.json $(SYNTH_PINS)
 	@echo "synth: place and route $(SYNTH_DEVICE) at $(SYNTH_MHZ) MHz (log $(SYNTH_DIR)/nextpnr.log)"
 	@$(SYNTH_YOWASP) nice -n 10 $(SYNTH_PNR) --json $< --freq $(SYNTH_MHZ) --seed $(SYNTH_SEED) \
-	    --timing-allow-fail --report $@.tmp -q -l $(SYNTH_DIR)/nextpnr.log \
+	    --timing-allow-fail --report $@.tmp $(if $(filter 1,$(SYNTH_DETAIL)),--detailed-timing-report) \
+	    -q -l $(SYNTH_DIR)/nextpnr.log \
 	    || { grep -E 'ERROR|utilisation|%' $(SYNTH_DIR)/nextpnr.log | tail -25 >&2; \
 	         echo "synth: nextpnr failed, see $(SYNTH_DIR)/nextpnr.log" >&2; exit 1; }
 	@mv $@.tmp $@

@@ -7,12 +7,17 @@
         --min-mhz 62.4 --max-lut-growth 0.10
 
     .venv/bin/python scripts/synth_report.py blocks build/synth/blocks/ms_scheduler.json ...
+    .venv/bin/python scripts/synth_report.py late build/synth/ecp5/pnr.json --mhz 62.4
 
 `make` writes the report (yosys `stat -json` cell counts + nextpnr `--report` JSON) and exits
 non-zero when a clock misses --require-mhz. `compare` checks a fresh report against the
 committed one (synth/ecp5_report.txt): it fails when Fmax is below --min-mhz or LUT use grew
 by more than --max-lut-growth, and always prints the differences. `blocks` prints a markdown
 table of the yosys cells of blocks synthesised alone (`make synth-blocks`): where the area is.
+`late` reads a nextpnr report written with --detailed-timing-report (`make synth
+SYNTH_DETAIL=1`) and lists the register inputs whose routed arrival time misses a clock of
+--mhz, grouped by block and by register: where the long paths of the whole design are (nextpnr
+itself prints only the single worst path per clock).
 """
 
 from __future__ import annotations
@@ -210,6 +215,60 @@ def blocks_table(paths: list[Path]) -> list[str]:
     return lines
 
 
+# register / RAM inputs that end a timing path (TRELLIS_FF data, enable and set/reset; LUT-RAM
+# write ports; block RAM and multiplier inputs)
+_ENDPOINT_PORTS = {"TRELLIS_FF": ("DI", "M", "CE", "LSR")}
+
+
+def _register_stem(cell: str) -> str:
+    """The RTL register a packed cell belongs to: 'a.b.x_q_TRELLIS_FF_Q_12' -> 'a.b.x_q'."""
+    for cut in ("_TRELLIS_FF", "$DPRAM", "_DPR16X4"):
+        if cut in cell:
+            cell = cell[:cell.index(cut)]
+    return cell
+
+
+def late_endpoints(pnr: dict, mhz: float, setup_ns: float = 0.4) -> tuple[int, dict[tuple[str, str], float]]:
+    """(endpoints seen, {(cell, port): worst arrival ns}) of the endpoints whose arrival
+    (clock-to-out plus logic plus routing, from nextpnr's detailed net timings) exceeds the
+    period at `mhz` minus `setup_ns`."""
+    nets = pnr.get("detailed_net_timings")
+    if nets is None:
+        raise SynthReportError("no detailed_net_timings in the nextpnr report: run nextpnr with "
+                               "--detailed-timing-report (make synth SYNTH_DETAIL=1)")
+    limit = 1000.0 / mhz - setup_ns
+    arrival: dict[tuple[str, str], float] = {}
+    for net in nets:
+        for ep in net.get("endpoints", []):
+            cell, port = ep["cell"], ep["port"]
+            is_ff = "TRELLIS_FF" in cell and port in _ENDPOINT_PORTS["TRELLIS_FF"]
+            if not (is_ff or "DPRAM" in cell or "DP16KD" in cell or "MULT18" in cell):
+                continue
+            delay = ep["delay"]
+            worst = max(delay) if isinstance(delay, list) else float(delay)
+            arrival[(cell, port)] = max(arrival.get((cell, port), 0.0), worst)
+    return len(arrival), {k: v for k, v in arrival.items() if v > limit}
+
+
+def late_tables(pnr: dict, mhz: float, depth: int = 4, rows: int = 40) -> list[str]:
+    """Markdown: late endpoints per block (hierarchy cut at `depth`), then per register."""
+    seen, late = late_endpoints(pnr, mhz)
+    lines = [f"{len(late)} of {seen} register / RAM inputs arrive later than {1000.0 / mhz - 0.4:.2f} ns "
+             f"(a {mhz:g} MHz clock less 0.4 ns setup)", "", "| block | late inputs | worst ns |", "|---|---:|---:|"]
+    blocks: dict[str, list[float]] = {}
+    regs: dict[tuple[str, str], list[float]] = {}
+    for (cell, port), ns in late.items():
+        stem = _register_stem(cell)
+        blocks.setdefault(".".join(stem.split(".")[:depth]), []).append(ns)
+        regs.setdefault((stem, port), []).append(ns)
+    for name, v in sorted(blocks.items(), key=lambda kv: -len(kv[1])):
+        lines.append(f"| {name} | {len(v)} | {max(v):.2f} |")
+    lines += ["", "| register | pin | late bits | worst ns |", "|---|---|---:|---:|"]
+    for (name, port), v in sorted(regs.items(), key=lambda kv: -max(kv[1]))[:rows]:
+        lines.append(f"| {name} | {port} | {len(v)} | {max(v):.2f} |")
+    return lines
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -228,12 +287,20 @@ def main() -> int:
     cp.add_argument("--max-lut-growth", type=float, default=0.10)
     bp = sub.add_parser("blocks", help="table of the yosys cells of blocks synthesised alone")
     bp.add_argument("stats", type=Path, nargs="+", help="yosys `stat -json` outputs, named BLOCK.json")
+    lp = sub.add_parser("late", help="register inputs that miss a clock, from a detailed nextpnr report")
+    lp.add_argument("pnr", type=Path, help="nextpnr --report JSON written with --detailed-timing-report")
+    lp.add_argument("--mhz", type=float, default=62.4, help="clock to check against (default: the 1.3x goal)")
+    lp.add_argument("--depth", type=int, default=4, help="hierarchy levels that name a block")
+    lp.add_argument("--rows", type=int, default=40, help="registers listed, latest first")
     args = ap.parse_args()
     try:
         if args.cmd == "make":
             return make_report(args)
         if args.cmd == "blocks":
             print("\n".join(blocks_table(args.stats)))
+            return 0
+        if args.cmd == "late":
+            print("\n".join(late_tables(_load_json(args.pnr, "nextpnr report"), args.mhz, args.depth, args.rows)))
             return 0
         failures = compare(args.new, args.ref, args.min_mhz, args.max_lut_growth)
     except SynthReportError as e:

@@ -108,3 +108,29 @@ def test_blocks_table_adds_routed_columns_when_a_block_was_placed(tmp_path):
     row_b = dict(zip(cols, (c.strip() for c in rows[3].strip("|").split("|"))))
     assert (row_a["TRELLIS_COMB"], row_a["Fmax MHz"]) == ("1234", "55.25")
     assert (row_b["TRELLIS_COMB"], row_b["Fmax MHz"]) == ("-", "-")
+
+
+def test_late_endpoints_from_detailed_timings():
+    """`synth_report.py late`: register / RAM inputs whose routed arrival misses the clock,
+    grouped per register (packed cell names folded back to the RTL register), LUT inputs
+    ignored; a report without detailed timings is refused with the flag to use."""
+    rep = _report_module()
+    ep = lambda cell, port, ns: {"cell": cell, "port": port, "delay": [ns - 0.1, ns], "event": "posedge clk"}
+    pnr = {"detailed_net_timings": [
+        {"net": "n1", "driver": "a", "port": "Q", "endpoints": [
+            ep("top.u_a.x_q_TRELLIS_FF_Q_3", "DI", 17.0),      # late at 62.4 MHz (limit 15.63 ns)
+            ep("top.u_a.x_q_TRELLIS_FF_Q_4", "CE", 16.0),      # late, same register
+            ep("top.u_a.y_q_TRELLIS_FF_Q", "DI", 15.0),        # in time
+            ep("top.u_a.y_q_LUT4_Z", "A", 30.0)]},             # a LUT input: not an endpoint
+        {"net": "n2", "driver": "b", "port": "Q", "endpoints": [
+            ep("top.u_b.m.0.1$DPRAM_COMB0", "WRE", 20.0)]}]}
+    seen, late = rep.late_endpoints(pnr, 62.4)
+    assert seen == 4
+    assert set(late) == {("top.u_a.x_q_TRELLIS_FF_Q_3", "DI"), ("top.u_a.x_q_TRELLIS_FF_Q_4", "CE"),
+                         ("top.u_b.m.0.1$DPRAM_COMB0", "WRE")}
+    assert rep._register_stem("top.u_a.x_q_TRELLIS_FF_Q_3") == "top.u_a.x_q"
+    text = "\n".join(rep.late_tables(pnr, 62.4, depth=2))
+    assert "| top.u_a | 2 | 17.00 |" in text and "| top.u_a.x_q | DI | 1 | 17.00 |" in text
+    assert rep.late_endpoints(pnr, 50.0)[1].keys() == {("top.u_b.m.0.1$DPRAM_COMB0", "WRE")}  # limit 19.6 ns
+    with pytest.raises(rep.SynthReportError, match="detailed-timing-report"):
+        rep.late_endpoints({"fmax": {}}, 62.4)
