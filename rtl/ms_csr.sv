@@ -106,10 +106,17 @@ module ms_csr
   // delay-table handshake (see the RAM below); declared first because the hwif_in block uses it
   logic                 delay_rd_pending_q, delay_wr_pending_q;
   logic [DELAY_W-1:0]   delay_rdata_a;
-  // event readout: the head is sampled on the request clock and answered on the next one
+  // event readout: the head is sampled on the request clock and answered on the next one.
+  // An EVT_LO read also samples the head's high word (evt_snap_q) and arms the next EVT_HI read
+  // to answer that sample and pop only if it was valid: the two words then always belong to
+  // one event, even when the FIFO was empty at the EVT_LO read and an event arrived before the
+  // EVT_HI read (it was read as lo = 0 and popped with the new event's high word).
   logic                 evt_lo_ack_q, evt_hi_ack_q;
   logic [31:0]          evt_lo_q;
-  logic [31:0]          evt_hi_q;  // {valid, bits 62:32}
+  logic [31:0]          evt_hi_q;    // {valid, bits 62:32}
+  logic [31:0]          evt_snap_q;  // {valid, bits 62:32} of the head at the last EVT_LO read
+  logic                 evt_armed_q; // an EVT_LO read came since the last EVT_HI read
+  logic                 evt_head_valid;
   // VS table: NUM_VS entries of VS_REGS registers (TX_MASK .. PHASE at offsets 0x00 .. 0x20)
   localparam int VS_REGS = 9;
   logic [NUM_VS-1:0]    vs_rd_ack_q, vs_wr_ack_q;
@@ -146,7 +153,9 @@ module ms_csr
     end
   end
 
-  assign evt_pop_o = hwif_out.EVT_HI.req & ~hwif_out.EVT_HI.req_is_wr & evt_rvalid_i;
+  // only EVT_HI pops, so an armed snapshot that was valid is still the head
+  assign evt_head_valid = evt_armed_q ? evt_snap_q[31] : evt_rvalid_i;
+  assign evt_pop_o      = hwif_out.EVT_HI.req & ~hwif_out.EVT_HI.req_is_wr & evt_head_valid;
 
   // Bit 63 of an event word is always zero (docs/fast_firing.md section 6), so EVT_HI carries
   // bits 62:32 and uses its top bit for "valid".
@@ -159,11 +168,20 @@ module ms_csr
       evt_hi_ack_q <= 1'b0;
       evt_lo_q     <= '0;
       evt_hi_q     <= '0;
+      evt_snap_q   <= '0;
+      evt_armed_q  <= 1'b0;
     end else begin
       evt_lo_ack_q <= hwif_out.EVT_LO.req & ~hwif_out.EVT_LO.req_is_wr;
       evt_hi_ack_q <= hwif_out.EVT_HI.req & ~hwif_out.EVT_HI.req_is_wr;
-      if (hwif_out.EVT_LO.req) evt_lo_q <= evt_rvalid_i ? evt_rdata_i[31:0] : 32'd0;
-      if (hwif_out.EVT_HI.req) evt_hi_q <= evt_rvalid_i ? {1'b1, evt_rdata_i[62:32]} : 32'd0;
+      if (hwif_out.EVT_LO.req && !hwif_out.EVT_LO.req_is_wr) begin
+        evt_lo_q    <= evt_rvalid_i ? evt_rdata_i[31:0] : 32'd0;
+        evt_snap_q  <= evt_rvalid_i ? {1'b1, evt_rdata_i[62:32]} : 32'd0;
+        evt_armed_q <= 1'b1;
+      end
+      if (hwif_out.EVT_HI.req && !hwif_out.EVT_HI.req_is_wr) begin
+        evt_hi_q    <= evt_armed_q ? evt_snap_q : (evt_rvalid_i ? {1'b1, evt_rdata_i[62:32]} : 32'd0);
+        evt_armed_q <= 1'b0;
+      end
     end
   end
 

@@ -216,3 +216,52 @@ async def event_readout_pops_on_high_word(dut):
     assert got == expect and pops == len(expect)
     r = await bus.write_raw(R.EVT_HI_ADDR, 0)
     assert r.error, "EVT_HI is read-only"
+
+
+@cocotb.test()
+async def event_words_belong_to_one_event(dut):
+    """An event that arrives between the EVT_LO and the EVT_HI read of an empty FIFO is not
+    popped with the empty low word (the firmware saw lo = 0 with the new event's high word:
+    the system twin lost a first-echo record and reported a bogus one); the next pair reads it
+    whole. EVT_HI alone (the firmware's drain loop) still answers and pops the live head."""
+    bus = await setup(dut)
+    queue: list[int] = []
+    pops = 0
+
+    async def fifo_model():
+        nonlocal pops
+        pop_seen = False
+        while True:
+            await FallingEdge(dut.clk_i)
+            if pop_seen:
+                assert queue, "pop with an empty FIFO"
+                queue.pop(0)
+                pops += 1
+            dut.evt_rvalid_i.value = int(bool(queue))
+            dut.evt_rdata_i.value = queue[0] if queue else 0
+            await Timer(1, "ns")
+            pop_seen = bool(int(dut.evt_pop_o.value))
+
+    cocotb.start_soon(fifo_model())
+    await ClockCycles(dut.clk_i, 2)
+    hi = R.REGISTERS["EVT_HI"].fields
+    rng = random.Random(5)
+    for trial in range(6):
+        ev = rng.getrandbits(45) | (rng.getrandbits(8) << 24)  # low word never 0
+        assert await bus.read(R.EVT_LO_ADDR) == 0, "empty FIFO"
+        queue.append(ev)  # the core writes an event between the two reads
+        await ClockCycles(dut.clk_i, 1 + trial)
+        h = await bus.read(R.EVT_HI_ADDR)
+        assert h == 0 and pops == trial, f"EVT_HI answered 0x{h:X} (pops {pops}) for an EVT_LO of an empty FIFO"
+        lo = await bus.read(R.EVT_LO_ADDR)
+        h = await bus.read(R.EVT_HI_ADDR)
+        assert hi["VALID"].get(h) and ((hi["DATA"].get(h) << 32) | lo) == ev
+        await ClockCycles(dut.clk_i, 2)
+        assert pops == trial + 1 and not queue
+    # the drain loop: EVT_HI reads with no EVT_LO before them pop the live head
+    queue.extend([rng.getrandbits(45) for _ in range(3)])
+    await ClockCycles(dut.clk_i, 2)
+    n = 0
+    while hi["VALID"].get(await bus.read(R.EVT_HI_ADDR)):
+        n += 1
+    assert n == 3 and pops == 6 + 3 and not queue
