@@ -258,13 +258,16 @@ module ms_scheduler #(
   logic       go;
   always_comb begin
     unique case (st_q)
-      S_ISSUE, S_INIT:                        need = 3'd1;  // per-sensor words
+      S_ISSUE:                                need = 3'd1;  // per-sensor words
+      S_STOP:                                 need = 3'd1;  // the table latch's registered enable
+      S_INIT:                                 need = 3'd2;  // the sensor's phase, then start + phase
       S_SCHED, S_EDF:                         need = 3'd2;  // per-sensor words, then their compares
       S_DISP, S_SAFE:                         need = 3'd2;  // stage A; two registered steps of arithmetic
-      S_VCHECK:                               need = 3'd5;  // validation stages V1-V4, then v_err_q
+      S_VCHECK:                               need = 3'd6;  // validation stages V0-V4, then v_err_q
       S_ORDER:                                need = 3'd4;  // four registered steps of arithmetic
-      S_EDGE, S_HEAD, S_CAND:                 need = 3'd4;  // stage C: window ticks, prediction
-      S_HIT, S_CLOSE, S_CONF, S_CSLOT, S_IEL: need = 3'd5;  // stage D: compares on stage C
+      S_EDGE, S_CAND:                         need = 3'd4;  // stage C: window ticks, prediction
+      S_HIT, S_CLOSE, S_HEAD, S_CONF, S_CSLOT, S_IEL:
+                                              need = 3'd5;  // stage D: compares on stage C
       default:                                need = 3'd0;
     endcase
   end
@@ -301,7 +304,7 @@ module ms_scheduler #(
   logic [8:0]        vc_q;           // {sensor, element} read counter
   logic [NUM_VS-1:0][DELAY_W-1:0] vdmax_q;
   logic [3:0]        cfg_err_q, cfg_err_vs_q;
-  logic              en_prev_q, apply_pend_q;
+  logic              en_q, en_prev_q, apply_pend_q;  // enable_i registered here (it comes from the register block), and one clock later
   logic [2:0]        ck_q;           // copy: neighbour offset step 0..6 (offset ck - 3)
   logic [DELAY_W-1:0] cfirst_q, clast_q;
   logic              cany_q, c_done_q, cv_q, c_use_q;
@@ -331,12 +334,21 @@ module ms_scheduler #(
   end
   assign edge_now = rise_i & rx_any;
   assign q_push   = running && ((|edge_now) || (|close_now));
+  // the push is registered (the 24 close compares and the OR of 48 bits do not reach the
+  // queue RAM's write enable in the same clock): a word is at the queue head two clocks
+  // after its tick's cycle, still within sched_go's three ticks of margin
+  logic          q_push_q;
+  logic [QW-1:0] q_data_q;
+  always_ff @(posedge clk_i) begin
+    q_push_q <= q_push;
+    q_data_q <= {tick_prev, edge_now, close_now};
+  end
 
   ms_sched_workq #(.WIDTH(QW), .DEPTH(QDEPTH)) u_workq (
     .clk_i     (clk_i),
     .rst_i     (rst_i || !running),
-    .push_i    (q_push),
-    .data_i    ({tick_prev, edge_now, close_now}),
+    .push_i    (q_push_q),
+    .data_i    (q_data_q),
     .pop_i     (q_pop),
     .head_o    (q_head),
     .empty_o   (q_empty),
@@ -377,8 +389,9 @@ module ms_scheduler #(
 
   // IDLE's decisions are registered (one clock behind the queue head, td_q and tick_i), so its
   // go clock starts no compare chain: S_SETTLE waits one clock more for them (settle_q = 3).
-  // A word pushed while they were computed has tick >= td_q + 2 (sched_go needs three ticks of
-  // margin), so a stale "queue empty" never lets a decision tick pass a queued edge or close.
+  // A word not yet at the queue head when they were computed (the push is registered too) has
+  // tick >= tick_i - 2 > td_q (sched_go needs three ticks of margin), so a stale "queue empty"
+  // never lets a decision tick pass a queued edge or close.
   logic take_c, sched_c, stop_c, late_c;
   logic take_q;  // IDLE: the queue head comes no later than the next time-driven decision
   assign take_c = !q_empty && (!armed_q || ($signed(qh_tick - td_q) <= 0))
@@ -457,8 +470,8 @@ module ms_scheduler #(
     hd_vld_e   <= hd_vld_q[ei_q];
     hd_slot_e  <= hd_slot_m[ei_q];
     hd_close_e <= hd_close_q[ei_q];
-    rel_tx_e   <= sh_tx_q[s_q][rel_q];  // receiver / element rel of sensor s_q (CAND, CONF, IEL)
-    rel_xt_e   <= sh_xt_q[s_q][rel_q];
+    rel_tx_e   <= s_tx_q[rel_q];  // receiver / element rel of sensor s_q (CAND, CONF, IEL)
+    rel_xt_e   <= s_xt_q[rel_q];
     rel_act_e  <= cand_act_q[rel_q];
     rel_te_e   <= cand_te_q[rel_q];
   end
@@ -586,11 +599,17 @@ module ms_scheduler #(
     sc_hold_q   <= hold_q[s_q];
     sc_trk_q    <= tracking_q[s_q];
     sc_qv_q     <= quiet_vld_q[s_q];
-    sc_reinit_q <= sh_reinit_q[s_q] != 8'd0 && trk_pulses_q[s_q] >= sh_reinit_q[s_q];
+    sc_reinit_q <= reinit_due_q[s_q];
     sc_nxt_q    <= $signed(cur_tick_q - nxt_s_q) >= 0;  // nxt_s_q, due_s_q, quiet_s_q: one clock after s_q
     sc_early_q  <= $signed(t_cand - due_s_q) < 0;
     sc_quiet_q  <= $signed(t_cand - quiet_s_q) < 0;
   end
+  // reinit_every reached, per sensor in parallel (a clock behind trk_pulses_q, which changes
+  // only in ISSUE, long before the sensor's next SCHED)
+  logic [NUM_VS-1:0] reinit_due_q;
+  always_ff @(posedge clk_i)
+    for (int s = 0; s < NUM_VS; s++)
+      reinit_due_q[s] <= sh_reinit_q[s] != 8'd0 && trk_pulses_q[s] >= sh_reinit_q[s];
   assign s_eval = sc_act_q && !sc_init_q && (sc_wake_q || (!sc_hold_q && sc_nxt_q));
   // sensor s_q's tracking flag and receiver count for the states after SCHED (s_q and its
   // tracking flag do not change between SCHED and the end of IEL)
@@ -602,12 +621,23 @@ module ms_scheduler #(
   logic [NUM_CH-1:0] s_rx_q, s_all_q;  // receivers; every element the pulse touches (tx | xt | rx)
   logic [5:0]        s_nrx_q;   // two clocks after s_q: the mask, then its popcount
   logic [2:0]        s_order_q;
-  logic [23:0]       s_rmax_q;
+  logic [23:0]       s_rmax_q, s_dbl_q, s_phase_q, s_tvd_q;  // s_tvd_q = T_V + D (two clocks after s_q)
+  logic [15:0]       s_tv_q, s_tn_q;
+  logic [31:0]       s_rmd_q;   // max ToF - D, 32-bit (two clocks after s_q)
+  logic [NUM_CH-1:0] s_tx_q, s_xt_q;
   logic [7:0]        s_burst_q, s_seq_q, s_tpc_q;
   logic              s_ep_q;
   always_ff @(posedge clk_i) begin
     s_trk_q   <= tracking_q[s_q];
     s_rx_q    <= sh_rx_q[s_q];
+    s_tx_q    <= sh_tx_q[s_q];
+    s_xt_q    <= sh_xt_q[s_q];
+    s_tv_q    <= sh_tv_q[s_q];
+    s_tn_q    <= sh_tn_q[s_q];
+    s_dbl_q   <= sh_dbl_q[s_q];
+    s_phase_q <= sh_phase_q[s_q];
+    s_tvd_q   <= 24'(s_tv_q) + s_dbl_q;
+    s_rmd_q   <= 32'(s_rmax_q) - 32'(s_dbl_q);
     s_nrx_q   <= popcount(s_rx_q);
     s_all_q   <= sh_tx_q[s_q] | sh_xt_q[s_q] | sh_rx_q[s_q];
     s_order_q <= sh_order_q[s_q];
@@ -671,7 +701,7 @@ module ms_scheduler #(
     win_c_q <= win_rd;
     rxs_c_q <= rxs_rd;
   end
-  assign i_gap  = seq_q[s_q] - irx.seq;
+  assign i_gap  = s_seq_q - irx.seq;  // seq_q[s_q]
   assign i_pred = pred_d_q;
   assign i_lo   = lo_c_q;
   assign i_hi   = hi_c_q;
@@ -686,7 +716,7 @@ module ms_scheduler #(
   logic [49:0] o_mul3;
   logic [26:0] o_lhs, o_lhs_q, o_rhs_q;
   logic        o_feas;
-  assign o_x    = te_min_q - 24'(sh_tv_q[s_q]) - sh_dbl_q[s_q];
+  assign o_x    = te_min_q - s_tvd_q;  // te_min - T_V - D
   assign o_mul3 = 50'(o_x_q) * 50'd11184811;  // ceil(2^25 / 3): exact floor(x / 3) for x < 2^25
   always_comb begin
     unique case (n_q)
@@ -713,7 +743,7 @@ module ms_scheduler #(
   end
   always_ff @(posedge clk_i) begin  // fourth clock: (n + 1) T_s and T_max + T_N, then the decision
     o_lhs_q <= o_lhs;
-    o_rhs_q <= 27'(te_max_q) + 27'(sh_tn_q[s_q]);
+    o_rhs_q <= 27'(te_max_q) + 27'(s_tn_q);
   end
   assign o_feas = (o_ts_q != 24'd0) && (o_lhs_q >= o_rhs_q);
 
@@ -727,7 +757,7 @@ module ms_scheduler #(
   logic [KW-1:0] free_slot;
   assign free_slot = lsb_slot(~wv_e);
   logic [31:0] iw_close;
-  assign iw_close = iw_close_d_q;
+  assign iw_close = iw_close_c_q;
   logic [31:0] trig_dly;
   assign trig_dly = ta_c_q + ~tick_i;  // t0 + delay - tick_i - 1
 
@@ -741,6 +771,29 @@ module ms_scheduler #(
   logic [8:0]         v_pa;   // {sensor, element} whose delay is on delay_rdata_i in S_VREAD
   assign vs   = vc_q[VW-1:0];
   assign v_pa = vc_q - 9'd1;
+  // S_VREAD's running maximum runs one clock behind the read: the tx-mask bit of the delay
+  // on delay_rdata_i (the mask comes from the register block) and the delay are registered
+  // first, then compared with the sensor's maximum (the FSM below)
+  logic               v0_ok_q, v_ok_q;
+  logic [NUM_CH-1:0]  v0_row_q;   // the sensor's tx mask (from the register block)
+  logic [RW-1:0]      v0_e_q;
+  logic [DELAY_W-1:0] v0_d_q, v_d_q;
+  logic [VW-1:0]      v0_s_q, v_s_q;
+  always_ff @(posedge clk_i) begin
+    if (rst_i) begin
+      v0_ok_q <= 1'b0;
+      v_ok_q  <= 1'b0;
+    end else begin
+      v0_ok_q <= st_q == S_VREAD && vc_q != 9'd0 && vc_q <= 9'(NUM_VS * 32) && v_pa[RW-1:0] < RW'(NUM_CH);
+      v_ok_q  <= v0_ok_q && v0_row_q[v0_e_q];
+    end
+    v0_row_q <= vs_tx_mask_i[v_pa[RW+VW-1:RW]];
+    v0_e_q   <= v_pa[RW-1:0];
+    v0_s_q   <= v_pa[RW+VW-1:RW];
+    v0_d_q   <= delay_rdata_i;
+    v_d_q    <= v0_d_q;
+    v_s_q    <= v0_s_q;
+  end
   logic [1:0]         v1_mode_q;
   logic [NUM_CH-1:0]  v1_tx_q;
   logic               v1_rx0_q, v1_order_q, v1_k0_q, v1_b0_q, v1_w0_q;
@@ -752,20 +805,43 @@ module ms_scheduler #(
   logic               v2_txbad_q, v2_dshort_q, v2_wshort_q;
   logic [23:0]        v3_dbl_q;
   logic               v4_tof_q, v4_lead_q;
+  // V0: entry vs of the table as it comes from the register block (an 8:1 multiplexer of
+  // flops across the chip), registered before any compare
+  logic [1:0]         v0_mode_q;
+  logic [NUM_CH-1:0]  v0_tx_q, v0_rx_q;
+  logic [2:0]         v0_order_q;
+  logic [3:0]         v0_k_q;
+  logic [7:0]         v0_burst_q;
+  logic [15:0]        v0_tv_q, v0_tn_q;
+  logic [19:0]        v0_dead_q, v0_xt_q;
+  logic [23:0]        v0_tmax_q;
+  logic               v_any_q;
   always_ff @(posedge clk_i) begin
-    v_burst_ticks <= 26'(vs_burst_cycles_i[vs]) * 26'({burst_half_period_i, 1'b0});
+    v0_mode_q   <= vs_mode_i[vs];
+    v0_tx_q     <= vs_tx_mask_i[vs];
+    v0_rx_q     <= vs_rx_mask_i[vs];
+    v0_order_q  <= vs_order_i[vs];
+    v0_k_q      <= vs_miss_limit_i[vs];
+    v0_burst_q  <= vs_burst_cycles_i[vs];
+    v0_tv_q     <= vs_t_v_i[vs];
+    v0_tn_q     <= vs_t_n_i[vs];
+    v0_dead_q   <= vs_t_dead_i[vs];
+    v0_xt_q     <= vs_t_xtalk_i[vs];
+    v0_tmax_q   <= vs_max_tof_i[vs];
+    v_any_q     <= v_any;
+    v_burst_ticks <= 26'(v0_burst_q) * 26'({burst_half_period_i, 1'b0});
     // V1
-    v1_mode_q   <= vs_mode_i[vs];
-    v1_tx_q     <= vs_tx_mask_i[vs];
-    v1_rx0_q    <= vs_rx_mask_i[vs] == '0;
-    v1_order_q  <= vs_order_i[vs] > 3'd4;
-    v1_k0_q     <= vs_miss_limit_i[vs] == 4'd0;
-    v1_b0_q     <= vs_burst_cycles_i[vs] == 8'd0;
-    v1_w0_q     <= vs_t_v_i[vs] == '0 || vs_t_n_i[vs] == '0 || vs_t_xtalk_i[vs] == '0;
-    v1_dead_q   <= vs_t_dead_i[vs];
-    v1_xt_q     <= vs_t_xtalk_i[vs];
-    v1_tmax_q   <= vs_max_tof_i[vs];
-    v1_tvn_q    <= 17'(vs_t_v_i[vs]) + 17'(vs_t_n_i[vs]);
+    v1_mode_q   <= v0_mode_q;
+    v1_tx_q     <= v0_tx_q;
+    v1_rx0_q    <= v0_rx_q == '0;
+    v1_order_q  <= v0_order_q > 3'd4;
+    v1_k0_q     <= v0_k_q == 4'd0;
+    v1_b0_q     <= v0_burst_q == 8'd0;
+    v1_w0_q     <= v0_tv_q == '0 || v0_tn_q == '0 || v0_xt_q == '0;
+    v1_dead_q   <= v0_dead_q;
+    v1_xt_q     <= v0_xt_q;
+    v1_tmax_q   <= v0_tmax_q;
+    v1_tvn_q    <= 17'(v0_tv_q) + 17'(v0_tn_q);
     v1_dmax_q   <= vdmax_q[vs];
     // V2
     v2_dx_q     <= (v1_dead_q > v1_xt_q) ? v1_dead_q : v1_xt_q;
@@ -814,7 +890,7 @@ module ms_scheduler #(
                 : (cj_raw >= 7'(NUM_CH)) ? RW'(cj_raw - 7'(NUM_CH)) : RW'(cj_raw);
   assign c_xt   = xt_of(vs_tx_mask_i[cs], vs_xtalk_nb_i[cs]);
   assign c_dist = (ck_q >= 3'd3) ? ck_q - 3'd3 : 3'd3 - ck_q;
-  assign c_use  = vs_tx_mask_i[cs][cj] && ((ck_q == 3'd3) ? vs_tx_mask_i[cs][ce]
+  assign c_use  = sh_tx_q[cs][cj] && ((ck_q == 3'd3) ? sh_tx_q[cs][ce]
                                           : (c_xt[ce] && c_dist <= {1'b0, vs_xtalk_nb_i[cs]}));
   logic [DELAY_W-1:0] c_first, c_last;
   assign c_first = (c_use_q && (!cany_q || delay_rdata_i < cfirst_q)) ? delay_rdata_i : cfirst_q;
@@ -828,6 +904,16 @@ module ms_scheduler #(
   assign sp_m  = 6'(sp_q - 7'd8);
   assign sp_ua = sh_tx_q[sp_m[5:3]] | sh_rx_q[sp_m[5:3]] | sh_xt_q[sp_m[5:3]];
   assign sp_ub = sh_tx_q[sp_m[2:0]] | sh_rx_q[sp_m[2:0]] | sh_xt_q[sp_m[2:0]];
+  // registered, the OR and the sh_share_q write one clock later (the FSM's else branch)
+  logic              sp_v_q, stop_ld_q;
+  logic [5:0]        sp_mq;
+  logic [NUM_CH-1:0] sp_and_q;
+  always_ff @(posedge clk_i) begin
+    sp_v_q    <= !rst_i && st_q == S_COPY && go && sp_q >= 7'd8 && sp_q < 7'd72;
+    sp_mq     <= sp_m;
+    sp_and_q  <= sp_ua & sp_ub;
+    stop_ld_q <= !rst_i && st_q == S_STOP && ph_q == 3'd0;  // S_STOP's go is its second clock
+  end
 
   // conflict scan: the latest retry t0 among the conflicts seen (model _conflict). Each
   // CONF / CSLOT step offers at most two retries, x and y, registered with their flags in
@@ -866,7 +952,9 @@ module ms_scheduler #(
   logic [31:0]        ta_c_q, tb_c_q, tws_c_q, twe_c_q;  // t0 + blank a / b, t0 + window offsets
   logic signed [24:0] h_dv_d_q;
   logic [24:0]        h_abs_d_q;
-  logic [31:0]        iw_close_d_q;
+  logic [31:0]        iw_close_c_q;    // IEL: close tick of the new window, t_q + p_weo - 1 + lat (stage C)
+  logic               iw_first_d_q, bu_later_d_q, tu_later_d_q;
+  logic               sw_lt_hd_d_q, sw_lt_min_d_q;  // IEL: its compares with the element's head, blank, tx_until
   logic [23:0]        te_d_q;          // CAND: the clamped prediction
   logic [31:0]        t_cand_q;        // cur_tick_q + P (the candidate t0 of a SCHED decision)
   logic [31:0]        due_isu_q, nxt_isu_q, due_ini_q, nxt_ini_q, nxt_early_q, nxt_quiet_q, nxt_retry_q, quiet_isu_q;
@@ -875,21 +963,24 @@ module ms_scheduler #(
   logic signed [8:0]  p_gap;
   logic [VW-1:0]      p_s, p_s_q;
   logic               c_due_lt_q;
+  logic [31:0]        c_due_q, eng_mlead_q;  // due_q[c_s_q]; eng_tick_q - P
   logic [23:0]        p_te, p_wso, p_weo;
   assign p_gap = (st_q == S_EDGE) ? 9'(g_gap) : $signed({1'b0, i_gap});
   assign p_s   = (st_q == S_EDGE) ? g_s : s_q;
   assign p_te  = rel_te_e;
   // the candidate's t0 (t_q, fixed from SCHED to IEL) plus the sensor's window offsets,
   // registered long before CONF / IEL read them
-  logic [31:0] t_mtv_q, t_ptn_q, t_pdbl_q, t_prmax_q;
+  logic [31:0] t_mtv_q, t_ptn_q, t_pdbl_q, t_prmax_q, t_ptnl_q, t_prmaxl_q;
   always_ff @(posedge clk_i) begin
-    t_mtv_q   <= t_q - 32'(sh_tv_q[s_q]);
-    t_ptn_q   <= t_q + 32'(sh_tn_q[s_q]);
-    t_pdbl_q  <= t_q + 32'(sh_dbl_q[s_q]);
-    t_prmax_q <= t_q + 32'(sh_rmax_q[s_q]);
+    t_mtv_q    <= t_q - 32'(s_tv_q);
+    t_ptn_q    <= t_q + 32'(s_tn_q);
+    t_pdbl_q   <= t_q + 32'(s_dbl_q);
+    t_prmax_q  <= t_q + 32'(s_rmax_q);
+    t_ptnl_q   <= t_ptn_q + 32'(lat) - 32'd1;    // ... and the window's close latency
+    t_prmaxl_q <= t_prmax_q + 32'(lat) - 32'd1;
   end
-  assign p_wso = !tracking_q[s_q] ? sh_dbl_q[s_q] : p_te - 24'(sh_tv_q[s_q]);
-  assign p_weo = !tracking_q[s_q] ? sh_rmax_q[s_q] : p_te + 24'(sh_tn_q[s_q]);
+  assign p_wso = !s_trk_q ? s_dbl_q : p_te - 24'(s_tv_q);
+  assign p_weo = !s_trk_q ? s_rmax_q : p_te + 24'(s_tn_q);
   always_ff @(posedge clk_i) begin
     due_s_q     <= due_q[s_q];
     nxt_s_q     <= nxt_q[s_q];
@@ -903,7 +994,8 @@ module ms_scheduler #(
     p_s_q       <= p_s;  // (stage B) the sensor's clamp bounds one clock later
     lo_c_q      <= sh_dbl_q[p_s_q] + 24'(sh_tv_q[p_s_q]);
     hi_c_q      <= sh_rmax_q[p_s_q] - 24'(sh_tn_q[p_s_q]);
-    c_due_lt_q  <= $signed(cur_tick_q - due_q[c_s_q]) < 0;  // CLOSE: a safety moves due earlier
+    c_due_q     <= due_q[c_s_q];
+    c_due_lt_q  <= $signed(cur_tick_q - c_due_q) < 0;  // CLOSE: a safety moves due earlier
     h_tof_c_q   <= 24'(n_edge - win_rd.t0);
     c_wso_c_q   <= p_wso;
     c_weo_c_q   <= p_weo;
@@ -928,17 +1020,25 @@ module ms_scheduler #(
                                                : (&wv_e));
       ry_d_q    <= (srem_q != '0) ? w_end_c_q - 32'(cws_q) : minclose_q;
     end
-    iw_close_d_q <= twe_c_q - 32'd1 + 32'(lat);
+    iw_close_c_q <= s_trk_q ? t_ptnl_q + 32'(p_te) : t_prmaxl_q;  // twe_c_q - 1 + lat in one carry chain
+    // IEL's per-element write enables: compares on stage C, so no write enable follows a carry chain
+    iw_first_d_q <= !hd_vld_e || $signed(iw_close_c_q - hd_close_e) < 0;
+    // HEAD / CSLOT: the slot's close tick against the element's head / the running minimum
+    sw_lt_hd_d_q  <= $signed(w_close_c_q - hd_close_e) < 0;
+    sw_lt_min_d_q <= $signed(w_close_c_q - minclose_q) < 0;
+    bu_later_d_q <= later(tb_c_q, bu_e);
+    tu_later_d_q <= later(tb_c_q, tu_e);
     te_d_q       <= i_te;
     // per-sensor ticks written by SCHED / CONF / ISSUE / INIT, computed while the state reads
     t_cand_q     <= cur_tick_q + LEAD32;
     due_isu_q    <= t_q + 32'(period_q);
     nxt_isu_q    <= t_q + 32'(period_q) - LEAD32;
-    quiet_isu_q  <= t_q + 32'(sh_rmax_q[s_q]) - 32'(sh_dbl_q[s_q]);
-    due_ini_q    <= eng_tick_q + 32'(sh_phase_q[s_q]);
-    nxt_ini_q    <= eng_tick_q + 32'(sh_phase_q[s_q]) - LEAD32;
-    nxt_early_q  <= due_q[s_q] - LEAD32;
-    nxt_quiet_q  <= quiet_q[s_q] - LEAD32;
+    quiet_isu_q  <= t_q + s_rmd_q;  // t_q + max ToF - D
+    eng_mlead_q  <= eng_tick_q - LEAD32;
+    due_ini_q    <= eng_tick_q + 32'(s_phase_q);   // (S_INIT waits two clocks for these)
+    nxt_ini_q    <= eng_mlead_q + 32'(s_phase_q);
+    nxt_early_q  <= due_s_q - LEAD32;    // due_q[s_q] - P
+    nxt_quiet_q  <= quiet_s_q - LEAD32;  // quiet_q[s_q] - P
     nxt_retry_q  <= retry_q - LEAD32;
   end
 
@@ -954,21 +1054,49 @@ module ms_scheduler #(
       ovr_q        <= 1'b0;
       cfg_err_q    <= '0;
       cfg_err_vs_q <= '0;
+      en_q         <= 1'b0;
       en_prev_q    <= 1'b0;
       apply_pend_q <= 1'b0;
       stop_req_q   <= 1'b0;
       sh_act_q     <= '0;
       vc_q         <= '0;
     end else begin
-      en_prev_q <= enable_i;
+      en_q      <= enable_i;
+      en_prev_q <= en_q;
       if (q_ovf) ovr_q <= 1'b1;
-      if (apply_i || (enable_i && !en_prev_q)) apply_pend_q <= 1'b1;
+      if (apply_i || (en_q && !en_prev_q)) apply_pend_q <= 1'b1;
       if (go) begin
         retry_q     <= rn_new;
         retry_vld_q <= rv_new;
       end
+      if (v_ok_q && v_d_q > vdmax_q[v_s_q]) vdmax_q[v_s_q] <= v_d_q;  // S_VREAD (S_OFF / S_SETTLE clear it)
+      // S_STOP's go clock (its second): the table is latched with a registered enable, not
+      // with the state decode, since it reaches about 1,800 flops (and a stop in S_STOP's
+      // first clock only leaves the latched table unused until the next apply)
+      if (stop_ld_q) begin
+        for (int s = 0; s < NUM_VS; s++) begin
+          sh_tx_q[s]    <= vs_tx_mask_i[s];
+          sh_rx_q[s]    <= vs_rx_mask_i[s];
+          sh_nb_q[s]    <= vs_xtalk_nb_i[s];  // sh_xt_q, sh_share_q: built in S_COPY
+          sh_act_q[s]   <= vs_mode_i[s] != 2'd0;
+          sh_track_q[s] <= vs_mode_i[s] == 2'd1;
+          sh_order_q[s] <= vs_order_i[s];
+          sh_k_q[s]     <= vs_miss_limit_i[s];
+          sh_tv_q[s]    <= vs_t_v_i[s];
+          sh_tn_q[s]    <= vs_t_n_i[s];
+          sh_vmax_q[s]  <= vs_vmax_i[s];
+          sh_rmax_q[s]  <= vs_max_tof_i[s];
+          sh_phase_q[s] <= vs_phase_i[s];
+          sh_burst_q[s] <= vs_burst_cycles_i[s];
+          sh_gate_q     <= miss_gate_i;
+          sh_reinit_q[s] <= vs_reinit_every_i[s];
+          sh_dbl_q[s]   <= 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
+                           + 24'(vdmax_q[s]);
+        end
+      end
+      if (sp_v_q) sh_share_q[sp_mq[5:3]][sp_mq[2:0]] <= |sp_and_q;  // S_COPY pair step, a clock later
 
-      if (!enable_i && started_q) begin  // stop: windows dropped, armed triggers still fire
+      if (!en_q && started_q) begin  // stop: windows dropped, armed triggers still fire
         st_q       <= S_OFF;
         started_q  <= 1'b0;
         stop_req_q <= 1'b0;
@@ -987,12 +1115,9 @@ module ms_scheduler #(
               st_q         <= S_VREAD;
             end
           end
-          S_VREAD: begin  // max phasing delay of every sensor's tx group (data one clock later)
-            vc_q <= vc_q + 9'd1;
-            if (vc_q != 9'd0 && v_pa[RW-1:0] < RW'(NUM_CH) && vs_tx_mask_i[v_pa[RW+VW-1:RW]][v_pa[RW-1:0]]
-                && delay_rdata_i > vdmax_q[v_pa[RW+VW-1:RW]])
-              vdmax_q[v_pa[RW+VW-1:RW]] <= delay_rdata_i;
-            if (vc_q == 9'(NUM_VS * 32)) begin
+          S_VREAD: begin  // max phasing delay of every sensor's tx group (data one clock later,
+            vc_q <= vc_q + 9'd1;  // its maximum two more clocks later: v0_ok_q, v_ok_q above)
+            if (vc_q == 9'(NUM_VS * 32 + 2)) begin
               vc_q <= '0;
               st_q <= S_VCHECK;
             end
@@ -1002,7 +1127,7 @@ module ms_scheduler #(
               cfg_err_q    <= v_err_q;
               cfg_err_vs_q <= 4'(vs);
               st_q         <= started_q ? S_SETTLE : S_OFF;
-            end else if (vs == VW'(NUM_VS - 1) && !v_any) begin
+            end else if (vs == VW'(NUM_VS - 1) && !v_any_q) begin
               cfg_err_q    <= E_EMPTY_TABLE;
               cfg_err_vs_q <= 4'd0;
               st_q         <= started_q ? S_SETTLE : S_OFF;
@@ -1020,28 +1145,9 @@ module ms_scheduler #(
               vc_q <= vc_q + 9'd1;
             end
           end
-          S_STOP: begin  // latch the table, then build the BLK RAM
+          S_STOP: begin  // latch the table (stop_ld_q above), then build the BLK RAM
             started_q  <= 1'b0;
             stop_req_q <= 1'b0;
-            for (int s = 0; s < NUM_VS; s++) begin
-              sh_tx_q[s]    <= vs_tx_mask_i[s];
-              sh_rx_q[s]    <= vs_rx_mask_i[s];
-              sh_nb_q[s]    <= vs_xtalk_nb_i[s];  // sh_xt_q, sh_share_q: built in S_COPY
-              sh_act_q[s]   <= vs_mode_i[s] != 2'd0;
-              sh_track_q[s] <= vs_mode_i[s] == 2'd1;
-              sh_order_q[s] <= vs_order_i[s];
-              sh_k_q[s]     <= vs_miss_limit_i[s];
-              sh_tv_q[s]    <= vs_t_v_i[s];
-              sh_tn_q[s]    <= vs_t_n_i[s];
-              sh_vmax_q[s]  <= vs_vmax_i[s];
-              sh_rmax_q[s]  <= vs_max_tof_i[s];
-              sh_phase_q[s] <= vs_phase_i[s];
-              sh_burst_q[s] <= vs_burst_cycles_i[s];
-              sh_gate_q     <= miss_gate_i;
-              sh_reinit_q[s] <= vs_reinit_every_i[s];
-              sh_dbl_q[s]   <= 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
-                               + 24'(vdmax_q[s]);
-            end
             vc_q     <= '0;
             ck_q     <= '0;
             sp_q     <= '0;
@@ -1056,7 +1162,6 @@ module ms_scheduler #(
             // which sensors share an element, from the latched table, one per clock
             if (sp_q != 7'd72) sp_q <= sp_q + 7'd1;
             if (sp_q < 7'd8)       sh_xt_q[sp_q[2:0]] <= xt_of(sh_tx_q[sp_q[2:0]], sh_nb_q[sp_q[2:0]]);
-            else if (sp_q < 7'd72) sh_share_q[sp_m[5:3]][sp_m[2:0]] <= |(sp_ua & sp_ub);
             cv_q    <= !c_done_q;
             c_use_q <= c_use && !c_done_q;
             ce_q    <= ce;
@@ -1082,12 +1187,12 @@ module ms_scheduler #(
               if (ck_d_q == 3'd6) begin
                 blk_q[int'(cs_q) * 32 + int'(ce_q)] <= '{
                     a: c_first,
-                    b: vs_tx_mask_i[cs_q][ce_q] ? BW'(c_first) + BW'(vs_t_dead_i[cs_q])
+                    b: sh_tx_q[cs_q][ce_q] ? BW'(c_first) + BW'(vs_t_dead_i[cs_q])
                                                 : BW'(c_last) + BW'(vs_t_xtalk_i[cs_q])};
                 cany_q <= 1'b0;
               end
             end
-            if (c_done_q && !cv_q) st_q <= enable_i ? S_START : S_OFF;
+            if (c_done_q && !cv_q) st_q <= en_q ? S_START : S_OFF;
           end
           S_START: begin  // start tick S = tick_i (model start_tick); due and nxt in S_INIT
             started_q  <= 1'b1;
@@ -1323,7 +1428,7 @@ module ms_scheduler #(
             end else begin
               srem_q[sk] <= 1'b0;
               found_q    <= 1'b1;
-              if (!found_q || $signed(sw_close - minclose_q) < 0) minclose_q <= sw_close;
+              if (!found_q || sw_lt_min_d_q) minclose_q <= sw_close;  // sw_close earlier than minclose_q
             end
           end
           S_ISSUE: begin  // the pulse goes: sensor state now, then element by element
@@ -1375,7 +1480,10 @@ module ms_scheduler #(
   logic run_ok;   // the FSM's case statement runs in this cycle
   logic rxs_we;
   rxs_t rxs_wd;
-  assign run_ok = !rst_i && !(!enable_i && started_q) && go;
+  // no rst_i here (it would put the reset net into every write enable): in reset the FSM
+  // goes to S_OFF, and what a state writes in the reset clock is cleared or rewritten by the
+  // start (valid bits, S_INIT, the init pings) before anything reads it
+  assign run_ok = !(!en_q && started_q) && go;
   always_comb begin
     rxs_we = 1'b0;
     rxs_wd = rxs_c_q;
@@ -1462,7 +1570,7 @@ module ms_scheduler #(
   logic [31:0]               bu_wd, hd_close_wd;
   logic [KW-1:0]             hd_slot_wd;
   logic [VW-1:0]             sid_kill;
-  assign el_clr = rst_i || (!enable_i && started_q) || (st_q == S_STOP) || (st_q == S_START);
+  assign el_clr = rst_i || (!en_q && started_q) || (st_q == S_STOP) || (st_q == S_START);
   always_comb begin
     sid_kill = (st_q == S_SAFE) ? sf_s_q : c_s_q;
     for (int k = 0; k < WSLOTS; k++) sid_mask[k] = (wsid_e[k] == sid_kill);
@@ -1505,14 +1613,14 @@ module ms_scheduler #(
         if (srem_q == '0) begin
           hdv_we = 1'b1;
           hdv_wd = found_q;
-        end else if (!found_q || $signed(sw_close - hd_close_e) < 0) begin
+        end else if (!found_q || sw_lt_hd_d_q) begin  // sw_close earlier than hd_close_e
           hd_we = 1'b1;
         end
       end
       S_IEL: begin
         if (rem_q != '0) begin
-          bu_we = c_blk && later(bu_wd, bu_e);
-          tu_we = rel_tx_e && later(bu_wd, tu_e);  // a tx element's blank is its dead zone
+          bu_we = c_blk && bu_later_d_q;     // later(bu_wd, bu_e)
+          tu_we = rel_tx_e && tu_later_d_q;  // later(bu_wd, tu_e): a tx element's blank is its dead zone
           if (c_win) begin
             wv_we              = 1'b1;
             wv_wd[free_slot]   = 1'b1;
@@ -1521,7 +1629,7 @@ module ms_scheduler #(
             wr_wd[free_slot]   = 1'b0;
             wsid_we            = 1'b1;
             wsid_wd[free_slot] = s_q;
-            if (!hd_vld_e || $signed(iw_close - hd_close_e) < 0) begin
+            if (iw_first_d_q) begin  // !hd_vld_e || iw_close earlier than hd_close_e
               hd_we  = 1'b1;
               hdv_we = 1'b1;
               hdv_wd = 1'b1;
