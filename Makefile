@@ -55,16 +55,17 @@ GEN_OUTPUTS  := $(GEN)/rtl/ms_layout_pkg.sv $(GEN)/sv/sonar_regs.sv $(GEN)/sv/so
                 $(GEN)/firmware/sonar_regs.h $(GEN)/firmware/ms_layout.h $(PY_REGS)
 
 $(STAMPS)/gen: $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl $(LAYOUT_FILE) host/multisonar/tools/gen_layout.py \
-               host/multisonar/tools/peakrdl_pyconst.py host/multisonar/layout.py scripts/gen_vex_icache.py $(STAMPS)/venv
+               host/multisonar/tools/peakrdl_pyconst.py host/multisonar/layout.py scripts/gen_vex_icache.py $(STAMPS)/venv \
+               Makefile
 	@echo "gen: layout parameters and register map ($(RDL)) -> $(GEN)/, $(PY_REGS)"
 	@$(VPY) -m multisonar.tools.gen_layout --layout $(LAYOUT) --out $(GEN) >/dev/null
 	@$(VENV)/bin/peakrdl regblock $(RDL) -I $(GEN)/rdl -o $(GEN)/sv --cpuif passthrough \
 	    --module-name sonar_regs --package-name sonar_regs_pkg --default-reset rst \
-	    --err-if-bad-addr --err-if-bad-rw
+	    --err-if-bad-addr --err-if-bad-rw --rt-read-fanin
 	@$(VENV)/bin/peakrdl c-header $(RDL) -I $(GEN)/rdl -o $(GEN)/firmware/sonar_regs.h
 	@$(VENV)/bin/peakrdl regblock rtl/regs/soc_regs.rdl -o $(GEN)/sv --cpuif passthrough \
 	    --module-name soc_regs --package-name soc_regs_pkg --default-reset rst \
-	    --err-if-bad-addr --err-if-bad-rw
+	    --err-if-bad-addr --err-if-bad-rw --rt-read-fanin
 	@$(VENV)/bin/peakrdl c-header $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl -I $(GEN)/rdl \
 	    -t ms_soc_map --instantiate -o $(GEN)/firmware/ms_soc_map.h
 	@mkdir -p $(dir $(PY_REGS)) && touch $(dir $(PY_REGS))/__init__.py
