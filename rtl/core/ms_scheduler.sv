@@ -905,12 +905,18 @@ module ms_scheduler #(
   assign sp_ua = sh_tx_q[sp_m[5:3]] | sh_rx_q[sp_m[5:3]] | sh_xt_q[sp_m[5:3]];
   assign sp_ub = sh_tx_q[sp_m[2:0]] | sh_rx_q[sp_m[2:0]] | sh_xt_q[sp_m[2:0]];
   // registered, the OR and the sh_share_q write one clock later (the FSM's else branch)
-  logic              sp_v_q, stop_ld_q;
+  logic              sp_v_q, stop_ld_q, xt_we_q;
+  logic [2:0]        xt_s_q;
   logic [5:0]        sp_mq;
   logic [NUM_CH-1:0] sp_and_q;
   always_ff @(posedge clk_i) begin
     sp_v_q    <= !rst_i && st_q == S_COPY && go && sp_q >= 7'd8 && sp_q < 7'd72;
     sp_mq     <= sp_m;
+    // S_COPY's crosstalk masks: sensor sp_q (< 8) written from registered strobes a clock
+    // after its FSM clock (mask k is read first by the pair step at sp_q = 8 + k >= 9)
+    xt_we_q   <= !rst_i && st_q == S_COPY && go && sp_q < 7'd8;
+    xt_s_q    <= sp_q[2:0];
+    if (xt_we_q) sh_xt_q[xt_s_q] <= xt_of(sh_tx_q[xt_s_q], sh_nb_q[xt_s_q]);
     sp_and_q  <= sp_ua & sp_ub;
     stop_ld_q <= !rst_i && st_q == S_STOP && ph_q == 3'd0;  // S_STOP's go is its second clock
   end
@@ -1060,9 +1066,11 @@ module ms_scheduler #(
       stop_req_q   <= 1'b0;
       sh_act_q     <= '0;
       vc_q         <= '0;
+      start_go_q   <= 1'b0;
     end else begin
-      en_q      <= enable_i;
-      en_prev_q <= en_q;
+      en_q       <= enable_i;
+      en_prev_q  <= en_q;
+      start_go_q <= 1'b0;  // S_COPY sets it with its move to S_START
       if (q_ovf) ovr_q <= 1'b1;
       if (apply_i || (en_q && !en_prev_q)) apply_pend_q <= 1'b1;
       if (go) begin
@@ -1161,7 +1169,7 @@ module ms_scheduler #(
             // meanwhile (the copy takes NUM_VS * NUM_CH * 7 > 72 clocks): crosstalk masks, then
             // which sensors share an element, from the latched table, one per clock
             if (sp_q != 7'd72) sp_q <= sp_q + 7'd1;
-            if (sp_q < 7'd8)       sh_xt_q[sp_q[2:0]] <= xt_of(sh_tx_q[sp_q[2:0]], sh_nb_q[sp_q[2:0]]);
+            // sp_q < 8: sensor sp_q's crosstalk mask, written a clock later (xt_we_q below)
             cv_q    <= !c_done_q;
             c_use_q <= c_use && !c_done_q;
             ce_q    <= ce;
@@ -1192,24 +1200,15 @@ module ms_scheduler #(
                 cany_q <= 1'b0;
               end
             end
-            if (c_done_q && !cv_q) st_q <= en_q ? S_START : S_OFF;
+            if (c_done_q && !cv_q) begin
+              st_q       <= en_q ? S_START : S_OFF;
+              start_go_q <= en_q;
+            end
           end
           S_START: begin  // start tick S = tick_i (model start_tick); due and nxt in S_INIT
             started_q  <= 1'b1;
             eng_tick_q <= tick_i;
-            s_q        <= '0;
-            for (int s = 0; s < NUM_VS; s++) begin
-              quiet_vld_q[s] <= 1'b0;
-              tracking_q[s]  <= 1'b0;
-              in_init_q[s]   <= 1'b0;
-              epoch_q[s]     <= 1'b0;
-              wake_q[s]      <= 1'b0;
-              hold_q[s]      <= 1'b0;
-              any_trk_q[s]   <= 1'b0;
-              seq_q[s]       <= '0;
-              init_open_q[s] <= '0;
-              trk_pulses_q[s] <= '0;
-            end
+            s_q        <= '0;   // per-sensor state cleared: see the per-sensor writes
             st_q       <= S_INIT;  // element state: see the per-element writes
           end
           S_INIT: begin  // due = S + phase, one sensor per clock (per-sensor writes)
@@ -1270,10 +1269,7 @@ module ms_scheduler #(
             if (!h_wh_q) begin  // max_echoes_per_window = 1 (wh: per-element writes)
               evt_valid_q <= 1'b1;
               evt_data_q  <= {20'd0, hw.init, 1'b0, 1'b1, 1'b1, h_s_q, hw.seq, er, h_tof};
-              if (h_ep_q) begin
-                wake_q[h_s_q] <= 1'b1;
-                if (hw.init) any_trk_q[h_s_q] <= 1'b1;  // RXS: written by the RXS port below
-              end
+              // h_ep_q: wake, any_trk (per-sensor writes); RXS: written by the RXS port below
             end
           end
           S_CLOSE: begin
@@ -1285,29 +1281,14 @@ module ms_scheduler #(
             sf_e_q        <= '0;
             sf_s_q        <= c_s_q;
             sf_ret_q      <= 1'b0;
-            if (c_valid) begin
-              wake_q[c_s_q]       <= 1'b1;
+            if (c_valid) begin  // wake, tracking, init_open, in_init: per-sensor writes
               if (!wh_e[c_slot]) begin
                 evt_valid_q <= 1'b1;
                 evt_data_q  <= {20'd0, cw.init, 1'b1, 1'b0, 1'b0, c_s_q, cw.seq, clr, cw.we};
               end
-              if (c_empty && !cw.init && c_ep_q) begin
-                if (c_kmiss_q && c_trk_q) begin
-                  // safety: re-initialise now; every window of the sensor is cancelled
-                  tracking_q[c_s_q] <= 1'b0;
-                  // (the slots of every element are cleared by S_SAFE, one element per clock)
-                  // due = min(due, now): per-sensor writes
-                  for (int s = 0; s < NUM_VS; s++) wake_q[s] <= 1'b1;
-                end
-              end
-              if (cw.init && c_ep_q) begin
-                init_open_q[c_s_q] <= c_open_q - 6'd1;
-                if (c_last_q) begin
-                  in_init_q[c_s_q]  <= 1'b0;
-                  // any_trk may include this tick's samples (EDGE before CLOSE)
-                  tracking_q[c_s_q] <= c_trk_nx_q;
-                end
-              end
+              // c_safety (empty, missed too often while tracking): re-initialise now; every
+              // window of the sensor is cancelled (the slots of every element by S_SAFE, one
+              // element per clock); due = min(due, now): per-sensor writes
             end
           end
           S_SAFE: begin  // safety cancel: element sf_e_q's windows of sensor sf_s_q (per-element writes)
@@ -1324,12 +1305,8 @@ module ms_scheduler #(
           end
           // ------------------------------------------------ SCHED phase: sensors ascending
           S_SCHED: begin
-            if (s_eval && !s_reinit) begin
-              wake_q[s_q] <= 1'b0;
-              hold_q[s_q] <= 1'b0;
-            end
+            // wake, hold, tracking: per-sensor writes
             if (s_reinit) begin  // (model reinit_every) the same sensor again after the cancel, as untracked
-              tracking_q[s_q] <= 1'b0;
               sf_e_q          <= '0;
               sf_s_q          <= s_q;
               sf_ret_q        <= 1'b1;
@@ -1354,8 +1331,7 @@ module ms_scheduler #(
             end
           end
           S_EDF: begin  // earliest due first among sensors sharing an element
-            if (eo_share_q && o_elig && o_first) begin
-              hold_q[s_q] <= 1'b1;
+            if (eo_share_q && o_elig && o_first) begin  // hold: per-sensor writes
               st_q        <= S_NEXT;
             end else if (o_q == VW'(NUM_VS - 1)) begin
               rem_q      <= s_rx_q;
@@ -1433,17 +1409,7 @@ module ms_scheduler #(
           end
           S_ISSUE: begin  // the pulse goes: sensor state now, then element by element
             kseq_q           <= s_seq_q;
-            seq_q[s_q]       <= s_seq_q + 8'd1;  // due, nxt: per-sensor writes
-            quiet_q[s_q]     <= quiet_isu_q;  // t0 + max ToF - D
-            quiet_vld_q[s_q] <= 1'b1;
-            trk_pulses_q[s_q] <= !s_trk_q ? 8'd0 : s_tpc_q + 8'(s_tpc_q != 8'hFF);
-            if (!s_trk_q) begin  // init ping: new epoch, every receiver untracked
-              epoch_q[s_q]     <= !s_ep_q;
-              in_init_q[s_q]   <= 1'b1;
-              init_open_q[s_q] <= s_nrx_q;
-              any_trk_q[s_q]   <= 1'b0;
-            end
-            for (int s = 0; s < NUM_VS; s++) if (VW'(s) != s_q) wake_q[s] <= 1'b1;
+            // seq, quiet, epoch, ... and due, nxt: per-sensor writes
             pulse_q      <= 1'b1;
             pulse_vs_q   <= s_q;
             pulse_seq_q  <= s_seq_q;
@@ -1519,46 +1485,109 @@ module ms_scheduler #(
     if (run_ok && rxs_we) rxs_q[rxs_ra] <= rxs_wd;
   end
 
-  // ---- per-sensor due and next-evaluation ticks: one write per clock, at sensor si
-  logic [VW-1:0] si;
-  logic          due_we, nxt_we;
-  logic [31:0]   due_wd, nxt_wd;
-  assign si = (st_q == S_CLOSE) ? c_s_q : s_q;
-  always_comb begin  // next-evaluation ticks are written as (tick - P), precomputed in stage D
-    due_we = 1'b0;
-    nxt_we = 1'b0;
-    due_wd = due_isu_q;  // S_ISSUE: t0 + period
-    nxt_wd = nxt_isu_q;
-    unique case (st_q)
-      S_INIT: begin
-        due_we = 1'b1;
-        nxt_we = 1'b1;
-        due_wd = due_ini_q;  // start tick + phase
-        nxt_wd = nxt_ini_q;
-      end
-      S_CLOSE: begin
-        due_we = c_safety && c_due_lt_q;
-        due_wd = cur_tick_q;
-      end
-      S_SCHED: begin
-        nxt_we = s_early || s_quiet;
-        nxt_wd = s_early ? nxt_early_q : nxt_quiet_q;
-      end
-      S_CONF: begin
-        nxt_we = (rem_q == '0) && retry_vld_q;
-        nxt_wd = nxt_retry_q;
-      end
-      S_ISSUE: begin
-        due_we = 1'b1;
-        nxt_we = 1'b1;
-      end
-      default: ;
-    endcase
-  end
+  // ---- per-sensor due and next-evaluation ticks (written as tick - P, precomputed in stage D):
+  // one sensor per clock, in the go clocks of S_INIT, S_CLOSE, S_SCHED, S_CONF and S_ISSUE, with
+  // the registered state strobes of the per-sensor writes below (s_q is stable through these
+  // states; S_CLOSE's sensor c_s_q is decoded in its go clock)
   always_ff @(posedge clk_i) begin
     for (int s = 0; s < NUM_VS; s++) begin
-      if (run_ok && due_we && si == VW'(s)) due_q[s] <= due_wd;
-      if (run_ok && nxt_we && si == VW'(s)) nxt_q[s] <= nxt_wd;
+      if (ps_live) begin
+        if (ini_go_q[s]) begin  // start tick + phase
+          due_q[s] <= due_ini_q;
+          nxt_q[s] <= nxt_ini_q;
+        end
+        if (cls_go_q && c_s_q == VW'(s) && c_safety && c_due_lt_q) due_q[s] <= cur_tick_q;  // due = min(due, now)
+        if (sch_go_q[s] && (s_early || s_quiet)) nxt_q[s] <= s_early ? nxt_early_q : nxt_quiet_q;
+        if (cnf_go_q[s] && rem_q == '0 && retry_vld_q) nxt_q[s] <= nxt_retry_q;
+        if (isu_go_q[s]) begin  // t0 + period
+          due_q[s] <= due_isu_q;
+          nxt_q[s] <= nxt_isu_q;
+        end
+      end
+    end
+  end
+
+  // ---- per-sensor state (seq, quiet, wake, hold, tracking, ...): written in the go clocks of
+  // S_START, S_HIT, S_CLOSE, S_SCHED, S_EDF and S_ISSUE, as the FSM above says. The state (and,
+  // where the sensor index is stable through the state, the sensor) part of each write enable
+  // is registered the clock before the go clock, so no write enable waits for the st_q / ph_q
+  // decode (in context that decode fanned out to 8 x 32 CE pins and was the slowest path at
+  // 48 MHz). nx_go: the next clock is this state's go clock (need >= 1; S_START, need 0, is
+  // entered only from S_COPY, which sets start_go_q). ps_live is the FSM's stop guard: no write
+  // in the stop clock, where the FSM's case statement does not run. The strobes are cleared in
+  // reset; the reset net itself stays out of these enables (it crosses the chip): a strobe of
+  // the clock before a reset may still write in the reset's first clock, and S_START writes
+  // every sensor's state (quiet_q behind quiet_vld_q) before the engine reads any of it.
+  logic              nx_go, ps_live, hit_go_q, cls_go_q, start_go_q;
+  logic [NUM_VS-1:0] isu_go_q, sch_go_q, edf_go_q, ini_go_q, cnf_go_q;
+  assign nx_go   = !go && (ph_q + 3'd1 == need);
+  assign ps_live = !(!en_q && started_q);
+  always_ff @(posedge clk_i) begin
+    for (int s = 0; s < NUM_VS; s++) begin
+      isu_go_q[s] <= !rst_i && nx_go && st_q == S_ISSUE && s_q == VW'(s);
+      sch_go_q[s] <= !rst_i && nx_go && st_q == S_SCHED && s_q == VW'(s);
+      edf_go_q[s] <= !rst_i && nx_go && st_q == S_EDF && s_q == VW'(s);
+      ini_go_q[s] <= !rst_i && nx_go && st_q == S_INIT && s_q == VW'(s);
+      cnf_go_q[s] <= !rst_i && nx_go && st_q == S_CONF && s_q == VW'(s);
+    end
+    hit_go_q <= !rst_i && nx_go && st_q == S_HIT;
+    cls_go_q <= !rst_i && nx_go && st_q == S_CLOSE;
+  end
+  always_ff @(posedge clk_i) begin
+    if (ps_live) begin
+      if (start_go_q) begin  // S_START: every sensor's state from scratch
+        quiet_vld_q  <= '0;
+        tracking_q   <= '0;
+        in_init_q    <= '0;
+        epoch_q      <= '0;
+        wake_q       <= '0;
+        hold_q       <= '0;
+        any_trk_q    <= '0;
+        seq_q        <= '0;
+        init_open_q  <= '0;
+        trk_pulses_q <= '0;
+      end
+      if (hit_go_q && !h_wh_q && h_ep_q) begin  // S_HIT: a first echo of the current epoch
+        wake_q[h_s_q] <= 1'b1;
+        if (hw.init) any_trk_q[h_s_q] <= 1'b1;
+      end
+      if (cls_go_q && c_valid) begin  // S_CLOSE
+        wake_q[c_s_q] <= 1'b1;
+        if (c_empty && !cw.init && c_ep_q && c_kmiss_q && c_trk_q) begin
+          tracking_q[c_s_q] <= 1'b0;  // safety re-initialisation: every sensor re-evaluates
+          wake_q            <= '1;
+        end
+        if (cw.init && c_ep_q) begin
+          init_open_q[c_s_q] <= c_open_q - 6'd1;
+          if (c_last_q) begin
+            in_init_q[c_s_q]  <= 1'b0;
+            tracking_q[c_s_q] <= c_trk_nx_q;  // any_trk may include this tick's samples (EDGE before CLOSE)
+          end
+        end
+      end
+      for (int s = 0; s < NUM_VS; s++) begin
+        if (sch_go_q[s]) begin  // S_SCHED
+          if (s_eval && !s_reinit) begin
+            wake_q[s] <= 1'b0;
+            hold_q[s] <= 1'b0;
+          end
+          if (s_reinit) tracking_q[s] <= 1'b0;
+        end
+        if (edf_go_q[s] && eo_share_q && o_elig && o_first) hold_q[s] <= 1'b1;  // S_EDF: deferred
+        if (isu_go_q[s]) begin  // S_ISSUE: the pulse goes
+          seq_q[s]        <= s_seq_q + 8'd1;
+          quiet_q[s]      <= quiet_isu_q;  // t0 + max ToF - D
+          quiet_vld_q[s]  <= 1'b1;
+          trk_pulses_q[s] <= !s_trk_q ? 8'd0 : s_tpc_q + 8'(s_tpc_q != 8'hFF);
+          if (!s_trk_q) begin  // init ping: new epoch, every receiver untracked
+            epoch_q[s]     <= !s_ep_q;
+            in_init_q[s]   <= 1'b1;
+            init_open_q[s] <= s_nrx_q;
+            any_trk_q[s]   <= 1'b0;
+          end
+        end
+        if ((|isu_go_q) && !isu_go_q[s]) wake_q[s] <= 1'b1;  // S_ISSUE: the other sensors re-evaluate
+      end
     end
   end
 
@@ -1571,6 +1600,13 @@ module ms_scheduler #(
   logic [KW-1:0]             hd_slot_wd;
   logic [VW-1:0]             sid_kill;
   assign el_clr = rst_i || (!en_q && started_q) || (st_q == S_STOP) || (st_q == S_START);
+  // ew_q[e]: the next clock is the go clock of a state working on element e (ei_q is valid
+  // from a state's second clock and stable to its go clock; the states that write these
+  // arrays, HIT, CLOSE, SAFE, HEAD and IEL, all need >= 2), so a per-element write enable is
+  // a flop and the state's write flag, not the go / st_q decode and a 5-bit compare
+  logic [NUM_CH-1:0] ew_q;
+  always_ff @(posedge clk_i)
+    for (int e = 0; e < NUM_CH; e++) ew_q[e] <= nx_go && ei_q == RW'(e);
   always_comb begin
     sid_kill = (st_q == S_SAFE) ? sf_s_q : c_s_q;
     for (int k = 0; k < WSLOTS; k++) sid_mask[k] = (wsid_e[k] == sid_kill);
@@ -1642,15 +1678,15 @@ module ms_scheduler #(
   end
   always_ff @(posedge clk_i) begin
     for (int e = 0; e < NUM_CH; e++) begin
-      if (el_clr)                               wv_q[e] <= '0;
-      else if (run_ok && wv_we && ei_q == RW'(e)) wv_q[e] <= wv_wd;
-      if (el_clr)                                 hd_vld_q[e] <= 1'b0;
-      else if (run_ok && hdv_we && ei_q == RW'(e))  hd_vld_q[e] <= hdv_wd;
-      if (run_ok && hd_we && ei_q == RW'(e))        hd_close_q[e] <= hd_close_wd;
-      if (rst_i || (run_ok && st_q == S_START))   bu_ok_q[e] <= 1'b0;
-      else if (run_ok && bu_we && ei_q == RW'(e))   bu_ok_q[e] <= 1'b1;
-      if (rst_i || (run_ok && st_q == S_START))   tu_ok_q[e] <= 1'b0;
-      else if (run_ok && tu_we && ei_q == RW'(e))   tu_ok_q[e] <= 1'b1;
+      if (el_clr)                        wv_q[e] <= '0;
+      else if (ps_live && ew_q[e] && wv_we)  wv_q[e] <= wv_wd;
+      if (el_clr)                          hd_vld_q[e] <= 1'b0;
+      else if (ps_live && ew_q[e] && hdv_we) hd_vld_q[e] <= hdv_wd;
+      if (ps_live && ew_q[e] && hd_we)       hd_close_q[e] <= hd_close_wd;
+      if (rst_i || (run_ok && st_q == S_START)) bu_ok_q[e] <= 1'b0;
+      else if (ps_live && ew_q[e] && bu_we)     bu_ok_q[e] <= 1'b1;
+      if (rst_i || (run_ok && st_q == S_START)) tu_ok_q[e] <= 1'b0;
+      else if (ps_live && ew_q[e] && tu_we)     tu_ok_q[e] <= 1'b1;
     end
     if (run_ok && st_q == S_START) bu_start_q <= tick_i;
   end
