@@ -54,7 +54,7 @@ module ms_link_cmd_rx #(
   logic [15:0]  cnt_q;
   logic [31:0]  crc_q, crc_n;
   logic         ovl_q;
-  logic [WW-1:0] wr_q, rd_q, xw_q;
+  logic [WW-1:0] wr_q, rd_q, xw_q, xw_p1_q;  // xw_p1_q = xw_q + 1: no adder before the descriptor write
   logic         take, store, wr_word, room, desc_full;
   logic [DESC_W:0] dw_q, dr_q;
 
@@ -87,11 +87,12 @@ module ms_link_cmd_rx #(
       ovl_q <= 1'b0;
       wr_q  <= '0;
       xw_q  <= '0;
+      xw_p1_q <= WW'(1);
       dw_q  <= '0;
     end else if (take) begin
       if (out_end_i) begin
         d_bytes_q[dw_q[DESC_W-1:0]] <= (out_zlp_i || cnt_q == 16'hFFFF) ? cnt_q : cnt_q + 16'd1;
-        d_words_q[dw_q[DESC_W-1:0]] <= xw_q + WW'(wr_word);
+        d_words_q[dw_q[DESC_W-1:0]] <= wr_word ? xw_p1_q : xw_q;
         d_crc_q[dw_q[DESC_W-1:0]]   <= crc_n == CRC32_RESIDUE;
         d_ovl_q[dw_q[DESC_W-1:0]]   <= ovl_q || (!out_zlp_i && !store);
         dw_q  <= dw_q + 1'b1;
@@ -101,6 +102,7 @@ module ms_link_cmd_rx #(
         crc_q <= CRC32_INIT;
         ovl_q <= 1'b0;
         xw_q  <= '0;
+        xw_p1_q <= WW'(1);
       end else begin
         if (!out_zlp_i && cnt_q != 16'hFFFF) cnt_q <= cnt_q + 16'd1;
         crc_q <= crc_n;
@@ -109,7 +111,10 @@ module ms_link_cmd_rx #(
           acc_q <= (nb_q == 2'd3) ? 32'd0 : word;
           nb_q  <= nb_q + 2'd1;
         end
-        if (wr_word) xw_q <= xw_q + 1'b1;
+        if (wr_word) begin
+          xw_q    <= xw_p1_q;
+          xw_p1_q <= xw_p1_q + 1'b1;
+        end
       end
       if (wr_word) wr_q <= wr_q + 1'b1;
     end

@@ -53,12 +53,15 @@ module ms_pico_bridge #(
   assign wr_data_o   = mem_wdata_i;
   assign wr_biten_o  = {{8{mem_wstrb_i[3]}}, {8{mem_wstrb_i[2]}}, {8{mem_wstrb_i[1]}}, {8{mem_wstrb_i[0]}}};
 
+  // The read data is sampled every clock, with no enable: it is what the slave answers in the
+  // clock ready_q is set, and only read while ready_q is high. (An enable would put the CPU's
+  // address decode and the slave's ack in front of 32 CE pins: late in the board top.)
+  always_ff @(posedge clk_i) rdata_q <= nack ? 32'd0 : rd_data_i;
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
       state_q <= IDLE;
       ready_q <= 1'b0;
       err_q   <= 1'b0;
-      rdata_q <= '0;
     end else begin
       ready_q <= 1'b0;
       err_q   <= 1'b0;
@@ -67,7 +70,6 @@ module ms_pico_bridge #(
                     if (ack) begin  // the regblock may answer a read in the request clock
                       ready_q <= 1'b1;
                       err_q   <= nack;
-                      rdata_q <= nack ? 32'd0 : rd_data_i;
                       state_q <= DONE;
                     end else begin
                       state_q <= WAIT_ACK;
@@ -76,7 +78,6 @@ module ms_pico_bridge #(
         WAIT_ACK: if (ack) begin
                     ready_q <= 1'b1;
                     err_q   <= nack;
-                    rdata_q <= nack ? 32'd0 : rd_data_i;
                     state_q <= DONE;
                   end
         DONE:     state_q <= IDLE;  // mem_valid drops in the clock after mem_ready
