@@ -250,6 +250,36 @@ def late_endpoints(pnr: dict, mhz: float, setup_ns: float = 0.4) -> tuple[int, d
     return len(arrival), {k: v for k, v in arrival.items() if v > limit}
 
 
+def late_sources(pnr: dict, mhz: float) -> dict[str, int]:
+    """Where the late paths start: each late endpoint is traced back through the latest
+    arriving input of every cell on its way (from the detailed net timings) until a register
+    output or a cell whose inputs the report does not list; returns {that cell: late endpoints}.
+    A high-fanout enable shows as one cell with many endpoints behind it."""
+    _, late = late_endpoints(pnr, mhz)
+    arrival_in: dict[str, dict[str, float]] = {}
+    driver: dict[tuple[str, str], tuple[str, str]] = {}
+    for net in pnr["detailed_net_timings"]:
+        for ep in net.get("endpoints", []):
+            delay = ep["delay"]
+            worst = max(delay) if isinstance(delay, list) else float(delay)
+            ports = arrival_in.setdefault(ep["cell"], {})
+            ports[ep["port"]] = max(ports.get(ep["port"], 0.0), worst)
+            driver[(ep["cell"], ep["port"])] = (net["driver"], net["port"])
+    starts: dict[str, int] = {}
+    for cell, port in late:
+        for _ in range(200):  # a path is far shorter; the bound only guards against loops
+            src = driver.get((cell, port))
+            if src is None:
+                break
+            cell, out_port = src
+            inputs = arrival_in.get(cell)
+            if out_port == "Q" or not inputs or "TRELLIS_FF" in cell:
+                break
+            port = max(inputs, key=inputs.__getitem__)
+        starts[cell] = starts.get(cell, 0) + 1
+    return starts
+
+
 def late_tables(pnr: dict, mhz: float, depth: int = 4, rows: int = 40) -> list[str]:
     """Markdown: late endpoints per block (hierarchy cut at `depth`), then per register."""
     seen, late = late_endpoints(pnr, mhz)
@@ -292,6 +322,8 @@ def main() -> int:
     lp.add_argument("--mhz", type=float, default=62.4, help="clock to check against (default: the 1.3x goal)")
     lp.add_argument("--depth", type=int, default=4, help="hierarchy levels that name a block")
     lp.add_argument("--rows", type=int, default=40, help="registers listed, latest first")
+    lp.add_argument("--sources", action="store_true",
+                    help="also list where the late paths start (cells with the most late endpoints behind them)")
     args = ap.parse_args()
     try:
         if args.cmd == "make":
@@ -300,7 +332,12 @@ def main() -> int:
             print("\n".join(blocks_table(args.stats)))
             return 0
         if args.cmd == "late":
-            print("\n".join(late_tables(_load_json(args.pnr, "nextpnr report"), args.mhz, args.depth, args.rows)))
+            pnr = _load_json(args.pnr, "nextpnr report")
+            print("\n".join(late_tables(pnr, args.mhz, args.depth, args.rows)))
+            if args.sources:
+                print("\n| late paths start at (register, or the first cell the report names) | late inputs |\n|---|---:|")
+                for cell, n in sorted(late_sources(pnr, args.mhz).items(), key=lambda kv: -kv[1])[:args.rows]:
+                    print(f"| {cell} | {n} |")
             return 0
         failures = compare(args.new, args.ref, args.min_mhz, args.max_lut_growth)
     except SynthReportError as e:

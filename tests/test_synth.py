@@ -134,3 +134,18 @@ def test_late_endpoints_from_detailed_timings():
     assert rep.late_endpoints(pnr, 50.0)[1].keys() == {("top.u_b.m.0.1$DPRAM_COMB0", "WRE")}  # limit 19.6 ns
     with pytest.raises(rep.SynthReportError, match="detailed-timing-report"):
         rep.late_endpoints({"fmax": {}}, 62.4)
+
+
+def test_late_sources_trace_back_to_the_fanout():
+    """`synth_report.py late --sources`: each late endpoint is traced back through the latest
+    input of each cell to the register (or first unlisted cell) its path starts at."""
+    rep = _report_module()
+    ep = lambda cell, port, ns: {"cell": cell, "port": port, "delay": [ns - 0.1, ns], "event": "posedge clk"}
+    pnr = {"detailed_net_timings": [
+        {"net": "q1", "driver": "top.st_q_TRELLIS_FF_Q", "port": "Q", "endpoints": [ep("top.dec_LUT4_Z", "A", 9.0)]},
+        {"net": "q2", "driver": "top.ok_q_TRELLIS_FF_Q", "port": "Q", "endpoints": [ep("top.dec_LUT4_Z", "B", 3.0)]},
+        {"net": "ce", "driver": "top.dec_LUT4_Z", "port": "Z", "endpoints": [
+            ep("top.x_q_TRELLIS_FF_Q_1", "CE", 17.0), ep("top.x_q_TRELLIS_FF_Q_2", "CE", 16.5),
+            ep("top.y_q_TRELLIS_FF_Q", "CE", 12.0)]},                      # in time: not traced
+        {"net": "d", "driver": "top.ok_q_TRELLIS_FF_Q", "port": "Q", "endpoints": [ep("top.z_q_TRELLIS_FF_Q", "DI", 16.0)]}]}
+    assert rep.late_sources(pnr, 62.4) == {"top.st_q_TRELLIS_FF_Q": 2, "top.ok_q_TRELLIS_FF_Q": 1}
