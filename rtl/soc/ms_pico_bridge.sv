@@ -1,7 +1,9 @@
 // ms_pico_bridge: PicoRV32 native memory port -> PeakRDL passthrough register bus.
 //
-// Timing contract: while mem_valid_i is high and sel_i selects this bridge, one bus request
-// is issued (held while the slave stalls), then the bridge takes rd_ack/wr_ack (in the request
+// Timing contract: while mem_valid_i is high and sel_i selects this bridge, the request
+// (address, write data, strobes) is registered, and one bus request is issued from those
+// registers in the next clock (held while the slave stalls), so no path runs from the CPU
+// through the register block's decode. The bridge then takes rd_ack/wr_ack (in the request
 // clock or any later one: the regblock answers some reads combinationally) and answers
 // mem_ready_o for exactly one clock with the read data. A slave error still completes the
 // access (read data 0) and strobes err_o, so a wrong address never hangs the CPU.
@@ -32,9 +34,13 @@ module ms_pico_bridge #(
   input  logic              wr_ack_i,
   input  logic              wr_err_i
 );
-  typedef enum logic [1:0] {IDLE, WAIT_ACK, DONE} state_e;
+  typedef enum logic [1:0] {IDLE, REQ, WAIT_ACK, DONE} state_e;
   state_e state_q;
-  logic   is_wr, stall, ack, nack;
+  logic   stall, ack, nack;
+  logic              is_wr_q;
+  logic [ADDR_W-1:0] addr_q;
+  logic [31:0]       wdata_q;
+  logic [3:0]        wstrb_q;
   logic   [31:0] rdata_q;
   logic   ready_q, err_q;
 
@@ -42,16 +48,24 @@ module ms_pico_bridge #(
   logic [31-ADDR_W:0] unused_addr_hi;
   assign unused_addr_hi = mem_addr_i[31:ADDR_W];
 
-  assign is_wr = |mem_wstrb_i;
-  assign stall = is_wr ? req_stall_wr_i : req_stall_rd_i;
+  assign stall = is_wr_q ? req_stall_wr_i : req_stall_rd_i;
   assign ack   = rd_ack_i | wr_ack_i;
   assign nack  = rd_err_i | wr_err_i;
 
-  assign req_o       = (state_q == IDLE) & sel_i & mem_valid_i;
-  assign req_is_wr_o = is_wr;
-  assign addr_o      = mem_addr_i[ADDR_W-1:0];
-  assign wr_data_o   = mem_wdata_i;
-  assign wr_biten_o  = {{8{mem_wstrb_i[3]}}, {8{mem_wstrb_i[2]}}, {8{mem_wstrb_i[1]}}, {8{mem_wstrb_i[0]}}};
+  assign req_o       = (state_q == REQ);
+  assign req_is_wr_o = is_wr_q;
+  assign addr_o      = addr_q;
+  assign wr_data_o   = wdata_q;
+  assign wr_biten_o  = {{8{wstrb_q[3]}}, {8{wstrb_q[2]}}, {8{wstrb_q[1]}}, {8{wstrb_q[0]}}};
+  // the request, registered while the bridge is idle (no enable from the CPU's decode)
+  always_ff @(posedge clk_i) begin
+    if (state_q == IDLE) begin
+      is_wr_q <= |mem_wstrb_i;
+      addr_q  <= mem_addr_i[ADDR_W-1:0];
+      wdata_q <= mem_wdata_i;
+      wstrb_q <= mem_wstrb_i;
+    end
+  end
 
   // The read data is sampled every clock, with no enable: it is what the slave answers in the
   // clock ready_q is set, and only read while ready_q is high. (An enable would put the CPU's
@@ -66,7 +80,8 @@ module ms_pico_bridge #(
       ready_q <= 1'b0;
       err_q   <= 1'b0;
       unique case (state_q)
-        IDLE:     if (req_o && !stall) begin
+        IDLE:     if (sel_i && mem_valid_i) state_q <= REQ;
+        REQ:      if (!stall) begin
                     if (ack) begin  // the regblock may answer a read in the request clock
                       ready_q <= 1'b1;
                       err_q   <= nack;

@@ -609,6 +609,7 @@ async def cmd_fuzz(dut):
 
 WDT_MARGIN = 600_000     # clocks of the watchdog timeout left when the hang is established
 WDT_CYCLES = 48_000_000  # sonar_app.c WDT_CYCLES (WDT_TIMEOUT written at boot)
+BRIDGE_WAIT_ACK = 2        # ms_pico_bridge state_e: IDLE, REQ, WAIT_ACK, DONE
 
 
 @cocotb.test(timeout_time=600_000, timeout_unit="ms")
@@ -635,7 +636,7 @@ async def watchdog_recovers_hang(dut):
     while True:
         await FallingEdge(dut.clk_i)
         if int(soc.u_soc_bridge.state_q.value) == 0 and not int(soc.cpu_rst_q.value):
-            soc.u_soc_bridge.state_q.value = 1  # WAIT_ACK, no request outstanding
+            soc.u_soc_bridge.state_q.value = BRIDGE_WAIT_ACK  # no request outstanding
             break
     t_hang = int(dut.cycle_o.value)
     drive0 = int(dut.drive_edges_o.value)
@@ -651,7 +652,7 @@ async def watchdog_recovers_hang(dut):
     await ClockCycles(dut.clk_i, 20_000)  # frames already queued drain
     b.packets()
     frames_hung0, mail0 = int(dut.n_frames_o.value), len(b.mail)
-    assert int(soc.u_soc_bridge.state_q.value) == 1, "the hang did not take"
+    assert int(soc.u_soc_bridge.state_q.value) == BRIDGE_WAIT_ACK, "the hang did not take"
     # a command sent during the hang: it must not be answered before the recovery
     n_rep = int(dut.n_replies_o.value)
     echo = P.encode_command(P.Opcode.ECHO, b"during the hang", seq=23)
