@@ -1049,10 +1049,20 @@ module ms_scheduler #(
   end
 
   // ------------------------------------------------------------------ main FSM
+  logic cand_clr_q;  // S_EDF moved to S_CAND in the last clock
   always_ff @(posedge clk_i) begin
     evt_valid_q  <= 1'b0;
     trig_valid_q <= 1'b0;
     pulse_q      <= 1'b0;
+    // S_CAND's first clock clears the candidate set from a flop (S_EDF's go only sets
+    // cand_clr_q), so the clear is not behind EDF's decision logic; S_CAND writes it from its
+    // go clock on (need 4)
+    cand_clr_q   <= 1'b0;
+    if (cand_clr_q) begin
+      cand_act_q <= '0;
+      te_min_q   <= '1;
+      te_max_q   <= '0;
+    end
     if (rst_i) begin
       st_q         <= S_OFF;
       ph_q         <= '0;
@@ -1335,9 +1345,7 @@ module ms_scheduler #(
               st_q        <= S_NEXT;
             end else if (o_q == VW'(NUM_VS - 1)) begin
               rem_q      <= s_rx_q;
-              cand_act_q <= '0;
-              te_min_q   <= '1;
-              te_max_q   <= '0;
+              cand_clr_q <= 1'b1;  // candidates and te_min / te_max cleared in S_CAND's first clock
               st_q       <= S_CAND;
             end else begin
               o_q <= o_q + 1'b1;
