@@ -275,7 +275,7 @@ module ms_scheduler #(
 
   logic [31:0]       eng_tick_q, cur_tick_q, t_q, retry_q, minclose_q, stop_at_q;
   logic              retry_vld_q, stop_req_q, started_q, ovr_q, found_q;
-  logic [1:0]        settle_q;   // clocks until td_q is valid again
+  logic [2:0]        settle_q;   // clocks until td_q is valid again
   // outputs
   logic              evt_valid_q, trig_valid_q, pulse_q, pulse_init_q;
   logic [63:0]       evt_data_q;
@@ -358,37 +358,44 @@ module ms_scheduler #(
   logic [NUM_CH-1:0] qh_edges, qh_closes;
   assign {qh_tick, qh_edges, qh_closes} = q_head;
 
-  // ---- next time-driven decision tick td, in three register stages (per-sensor offset,
-  // minimum tree, add) so that no clock carries a long compare chain; S_SETTLE waits for them
+  // ---- next time-driven decision tick td, in four register stages (per-sensor offset, the
+  // minimum of each pair of sensors, the minimum of those, add) so that no clock carries more
+  // than two 32-bit compares in series; S_SETTLE waits for them
+  localparam int NH = (NUM_VS + 1) / 2;
   logic [NUM_VS-1:0]       ev_on;
   logic [NUM_VS-1:0][31:0] ev_off, ev_off_q;
+  logic [NH-1:0][31:0]     ev_pair_q;
   logic [31:0]             td_min, td_min_q, td_q;
-  logic                    armed_q1, armed_q2, armed_q;
+  logic                    armed_q1, armed_q1b, armed_q2, armed_q;
   always_comb begin
     for (int s = 0; s < NUM_VS; s++) begin
       ev_on[s]  = sh_act_q[s] && !in_init_q[s] && (wake_q[s] || !hold_q[s]);
       ev_off[s] = (wake_q[s] || !later(nxt_q[s], eng_tick_q)) ? 32'd0 : nxt_q[s] - eng_tick_q;
     end
   end
-  // balanced minimum over the (offset, or all-ones when not armed) of every sensor
-  function automatic logic [31:0] min_tree(input logic [NUM_VS-1:0][31:0] v);
-    logic [31:0] m [2*NUM_VS];
-    for (int i = 0; i < NUM_VS; i++) m[NUM_VS + i] = v[i];
-    for (int i = NUM_VS - 1; i >= 1; i--) m[i] = (m[2*i] < m[2*i+1]) ? m[2*i] : m[2*i+1];
+  // balanced minimum over the pair minima (offset, or all-ones when not armed, of every sensor)
+  function automatic logic [31:0] min_tree(input logic [NH-1:0][31:0] v);
+    logic [31:0] m [2*NH];
+    for (int i = 0; i < NH; i++) m[NH + i] = v[i];
+    for (int i = NH - 1; i >= 1; i--) m[i] = (m[2*i] < m[2*i+1]) ? m[2*i] : m[2*i+1];
     min_tree = m[1];
   endfunction
-  assign td_min = min_tree(ev_off_q);
+  assign td_min = min_tree(ev_pair_q);
   always_ff @(posedge clk_i) begin
     for (int s = 0; s < NUM_VS; s++) ev_off_q[s] <= ev_on[s] ? ev_off[s] : 32'hFFFF_FFFF;
-    armed_q1 <= |ev_on;
-    td_min_q <= td_min;
-    armed_q2 <= armed_q1;
+    for (int i = 0; i < NH; i++)
+      ev_pair_q[i] <= (2 * i + 1 >= NUM_VS || ev_off_q[2 * i] < ev_off_q[2 * i + 1]) ? ev_off_q[2 * i]
+                                                                                   : ev_off_q[2 * i + 1];
+    armed_q1  <= |ev_on;
+    armed_q1b <= armed_q1;
+    td_min_q  <= td_min;
+    armed_q2  <= armed_q1b;
     td_q     <= eng_tick_q + td_min_q;
     armed_q  <= armed_q2;
   end
 
   // IDLE's decisions are registered (one clock behind the queue head, td_q and tick_i), so its
-  // go clock starts no compare chain: S_SETTLE waits one clock more for them (settle_q = 3).
+  // go clock starts no compare chain: S_SETTLE waits one clock more for them (settle_q = 4).
   // A word not yet at the queue head when they were computed (the push is registered too) has
   // tick >= tick_i - 2 > td_q (sched_go needs three ticks of margin), so a stale "queue empty"
   // never lets a decision tick pass a queued edge or close.
@@ -411,7 +418,7 @@ module ms_scheduler #(
     stop_ok  <= stop_c;
     lag_late <= late_c;
   end
-  assign q_pop  = (st_q == S_IDLE) && (settle_q == 2'd0) && !stop_ok && take_q;
+  assign q_pop  = (st_q == S_IDLE) && (settle_q == 3'd0) && !stop_ok && take_q;
   // engine headroom, for the benches (read through the hierarchy, no port): the largest
   // tick_i - cur_tick_q in any clock of engine work since the start, i.e. how late the engine
   // ever was with the work of a logical tick (a trigger is late beyond LEAD; overrun_o rises
@@ -1226,8 +1233,8 @@ module ms_scheduler #(
             if (s_q == VW'(NUM_VS - 1)) st_q <= S_SETTLE;
           end
           // ------------------------------------------------ engine
-          S_SETTLE: begin  // td_q follows the state changed before, three clocks later
-            settle_q <= 2'd3;
+          S_SETTLE: begin  // td_q follows the state changed before, four clocks later
+            settle_q <= 3'd4;
             st_q     <= S_IDLE;
             if (apply_pend_q && !stop_req_q) begin
               apply_pend_q <= 1'b0;
@@ -1237,8 +1244,8 @@ module ms_scheduler #(
             end
           end
           S_IDLE: begin
-            if (settle_q != 2'd0) begin
-              settle_q <= settle_q - 2'd1;
+            if (settle_q != 3'd0) begin
+              settle_q <= settle_q - 3'd1;
             end else if (stop_ok) begin
               st_q <= S_STOP;
             end else if (take_q || sched_go) begin
