@@ -12,7 +12,7 @@
 #                             SYNTH_BLOCKS_PNR=1 each block is also placed and routed alone
 #                             (out of context) for its routed Fmax
 # Options: SYNTH_APP (firmware in the RAM image, default system_smoke), ECP5_DEVICE (25k,
-# 45k, 85k; default 85k: the board top needs about 34.4k TRELLIS_COMB, 142 % of the 25k, and
+# 45k, 85k; default 85k: the board top needs about 35.2k TRELLIS_COMB, 145 % of the 25k, and
 # 64 DP16KD, 114 % of the 25k; docs/synthesis.md),
 # ICE40_NUM_CH (channels on the iCE40, default 8), SYNTH_SEED (nextpnr seed), SYNTH_PLACER
 # (ECP5 nextpnr placer: static, the default, or heap), SYNTH_DETAIL=1
