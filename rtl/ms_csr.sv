@@ -7,7 +7,8 @@
 // one indexed multiplexer instead of the regblock's per-register readback chain).
 //
 // Bus: PeakRDL "passthrough" protocol. A request is accepted on a clock with req high and
-// no stall; rd_ack / wr_ack answer one or more clocks later (a register access answers on
+// no stall; rd_ack / wr_ack answer three or more clocks later (the request and the answer
+// each pass a register slice by the regblock; inside it a register access answers on
 // the next clock, a VS-table access one clock later (the new value is in effect from the
 // clock after the request, as for the other registers), a delay-table access one clock after
 // the RAM read). VS-table writes take byte lanes: byte k is written when wr_biten bit 8k is
@@ -84,21 +85,70 @@ module ms_csr
   sonar_regs__in_t  hwif_in;
   sonar_regs__out_t hwif_out;
 
+  // ---- bus slice: the request is registered here, by the register block, and so is the
+  // answer on its way back. The bus master (the SoC bridge) sits by the CPU, across the chip:
+  // without the slice its wires and the regblock's address decode and readback shared one
+  // clock (the board top's slowest path, about 19 ns of wire). Costs two clocks per access.
+  // The slot holds a request while the regblock stalls it; the master is stalled only then.
+  logic              rq_valid_q, rq_is_wr_q;
+  logic [ADDR_W-1:0] rq_addr_q;
+  logic [31:0]       rq_wr_data_q, rq_wr_biten_q;
+  logic              rb_stall_wr, rb_stall_rd, rq_held;
+  logic              rb_rd_ack, rb_rd_err, rb_wr_ack, rb_wr_err;
+  logic [31:0]       rb_rd_data;
+  logic              rs_rd_ack_q, rs_rd_err_q, rs_wr_ack_q, rs_wr_err_q;
+  logic [31:0]       rs_rd_data_q;
+
+  assign rq_held = rq_valid_q && (rq_is_wr_q ? rb_stall_wr : rb_stall_rd);
+  always_ff @(posedge clk_i) begin
+    if (rst_i) rq_valid_q <= 1'b0;
+    else if (!rq_held) rq_valid_q <= bus_req_i;
+  end
+  always_ff @(posedge clk_i) begin
+    if (!rq_held) begin
+      rq_is_wr_q    <= bus_req_is_wr_i;
+      rq_addr_q     <= bus_addr_i;
+      rq_wr_data_q  <= bus_wr_data_i;
+      rq_wr_biten_q <= bus_wr_biten_i;
+    end
+  end
+  always_ff @(posedge clk_i) begin
+    if (rst_i) begin
+      rs_rd_ack_q <= 1'b0;
+      rs_rd_err_q <= 1'b0;
+      rs_wr_ack_q <= 1'b0;
+      rs_wr_err_q <= 1'b0;
+    end else begin
+      rs_rd_ack_q <= rb_rd_ack;
+      rs_rd_err_q <= rb_rd_err;
+      rs_wr_ack_q <= rb_wr_ack;
+      rs_wr_err_q <= rb_wr_err;
+    end
+  end
+  always_ff @(posedge clk_i) rs_rd_data_q <= rb_rd_data;
+  assign bus_req_stall_wr_o = rq_held;
+  assign bus_req_stall_rd_o = rq_held;
+  assign bus_rd_ack_o  = rs_rd_ack_q;
+  assign bus_rd_err_o  = rs_rd_err_q;
+  assign bus_rd_data_o = rs_rd_data_q;
+  assign bus_wr_ack_o  = rs_wr_ack_q;
+  assign bus_wr_err_o  = rs_wr_err_q;
+
   sonar_regs u_regs (
     .clk                  (clk_i),
     .rst                  (rst_i),
-    .s_cpuif_req          (bus_req_i),
-    .s_cpuif_req_is_wr    (bus_req_is_wr_i),
-    .s_cpuif_addr         (bus_addr_i),
-    .s_cpuif_wr_data      (bus_wr_data_i),
-    .s_cpuif_wr_biten     (bus_wr_biten_i),
-    .s_cpuif_req_stall_wr (bus_req_stall_wr_o),
-    .s_cpuif_req_stall_rd (bus_req_stall_rd_o),
-    .s_cpuif_rd_ack       (bus_rd_ack_o),
-    .s_cpuif_rd_err       (bus_rd_err_o),
-    .s_cpuif_rd_data      (bus_rd_data_o),
-    .s_cpuif_wr_ack       (bus_wr_ack_o),
-    .s_cpuif_wr_err       (bus_wr_err_o),
+    .s_cpuif_req          (rq_valid_q),
+    .s_cpuif_req_is_wr    (rq_is_wr_q),
+    .s_cpuif_addr         (rq_addr_q),
+    .s_cpuif_wr_data      (rq_wr_data_q),
+    .s_cpuif_wr_biten     (rq_wr_biten_q),
+    .s_cpuif_req_stall_wr (rb_stall_wr),
+    .s_cpuif_req_stall_rd (rb_stall_rd),
+    .s_cpuif_rd_ack       (rb_rd_ack),
+    .s_cpuif_rd_err       (rb_rd_err),
+    .s_cpuif_rd_data      (rb_rd_data),
+    .s_cpuif_wr_ack       (rb_wr_ack),
+    .s_cpuif_wr_err       (rb_wr_err),
     .hwif_in              (hwif_in),
     .hwif_out             (hwif_out)
   );
@@ -222,28 +272,30 @@ module ms_csr
 
   logic [NUM_VS-1:0][VS_REGS-1:0][31:0] vs_q;  // packed: flip-flops, not a memory
   logic [3:0]  vs_reg;   // register within the entry: byte offset / 4
-  logic [2:0]  vs_sel;   // entry of the request (one-hot req -> index)
-  logic        vs_req;
-  assign vs_reg = hwif_out.VS[0].addr[5:2];
-  always_comb begin
-    vs_req = 1'b0;
-    vs_sel = '0;
-    for (int v = 0; v < int'(NUM_VS); v++) begin
-      if (hwif_out.VS[v].req) begin
-        vs_req = 1'b1;
-        vs_sel = 3'(v);
-      end
-    end
+  logic [2:0]  vs_sel;   // entry of the held request
+  logic        vs_wr;    // the regblock accepts a write to the VS table in this clock
+  // The entry and the write come from the held request's address bits, decoded as the slice
+  // registers it (rq_vs_q), not from the regblock's VS[v].req: that is a range compare per
+  // entry (carry chains) and was the start of the board top's slowest path. VS[v] spans
+  // 0x100 + 0x40 v .. + 0x23 (0x100 .. 0x2E3), so the hit is addr[10:8] = 1 or 2 with
+  // addr[5:0] <= 0x23, and the entry is {addr[9], addr[7:6]}. The regblock accepts a write when it does not stall it
+  // (cpuif_req_masked), so vs_wr equals OR_v(VS[v].req & req_is_wr).
+  logic        rq_vs_q;
+  always_ff @(posedge clk_i) begin
+    if (!rq_held) rq_vs_q <= !bus_addr_i[10] && (bus_addr_i[9] ^ bus_addr_i[8])
+                             && (!bus_addr_i[5] || bus_addr_i[4:2] == 3'd0);
   end
+  assign vs_reg = rq_addr_q[5:2];
+  assign vs_sel = {rq_addr_q[9], rq_addr_q[7:6]};
+  assign vs_wr  = rq_valid_q && rq_is_wr_q && !rb_stall_wr && rq_vs_q;
   always_ff @(posedge clk_i) begin
     for (int v = 0; v < int'(NUM_VS); v++) begin
       for (int r = 0; r < VS_REGS; r++) begin
         for (int b = 0; b < 4; b++) begin
           if (rst_i) begin
             vs_q[v][r][8*b +: 8] <= vs_reset(r)[8*b +: 8];
-          end else if (hwif_out.VS[v].req && hwif_out.VS[v].req_is_wr && vs_reg == 4'(r)
-                       && hwif_out.VS[v].wr_biten[8*b]) begin
-            vs_q[v][r][8*b +: 8] <= hwif_out.VS[v].wr_data[8*b +: 8] & vs_fields(r)[8*b +: 8];
+          end else if (vs_wr && vs_sel == 3'(v) && vs_reg == 4'(r) && rq_wr_biten_q[8*b]) begin
+            vs_q[v][r][8*b +: 8] <= rq_wr_data_q[8*b +: 8] & vs_fields(r)[8*b +: 8];
           end
         end
       end
@@ -259,7 +311,9 @@ module ms_csr
         vs_wr_ack_q[v] <= hwif_out.VS[v].req && hwif_out.VS[v].req_is_wr;
       end
     end
-    if (vs_req) vs_rdata_q <= (vs_reg < 4'(VS_REGS)) ? vs_q[vs_sel][vs_reg] : 32'd0;
+    // sampled every clock: the regblock takes it in the clock of vs_rd_ack_q, the one after
+    // the request, when it holds the request's entry and register
+    vs_rdata_q <= (vs_reg < 4'(VS_REGS)) ? vs_q[vs_sel][vs_reg] : 32'd0;
   end
 
   for (genvar v = 0; v < NUM_VS; v++) begin : g_vs
