@@ -329,9 +329,17 @@ module ms_scheduler #(
     rx_any = '0;
     for (int s = 0; s < NUM_VS; s++) if (sh_act_q[s]) rx_any = rx_any | sh_rx_q[s];
   end
-  for (genvar r = 0; r < NUM_CH; r++) begin : g_close
-    assign close_now[r] = hd_vld_q[r] && (hd_close_q[r] == tick_prev);
-  end
+  // The 24 close-tick compares are registered per element: close_eq_q[r] is hd_close_q[r] ==
+  // tick_i of the clock before, i.e. == tick_prev now, on the head of the clock before (with
+  // tick_prev, fanned out to 768 compare inputs across the chip, they were the board top's
+  // slowest path into q_push_q). The same as comparing the current head unless a head is
+  // written in the clock before its close tick; every head is written long before it (a new
+  // window's close is at least the lead ahead, a rescanned head is a later window of the
+  // element), and the simulation check at the per-element writes below stops if one is not.
+  logic [NUM_CH-1:0] close_eq_q;
+  always_ff @(posedge clk_i)
+    for (int r = 0; r < NUM_CH; r++) close_eq_q[r] <= hd_close_q[r] == tick_i;
+  assign close_now = hd_vld_q & close_eq_q;
   assign edge_now = rise_i & rx_any;
   assign q_push   = running && ((|edge_now) || (|close_now));
   // the push is registered (the 24 close compares and the OR of 48 bits do not reach the
@@ -1622,6 +1630,51 @@ module ms_scheduler #(
   logic [NUM_CH-1:0] ew_q;
   always_ff @(posedge clk_i)
     for (int e = 0; e < NUM_CH; e++) ew_q[e] <= nx_go && ei_q == RW'(e);
+  // The head's write enables (hd_close_q: 24 x 32 CE pins, hd_vld_q) are registered per
+  // element in the clock before the go clock too, with their data conditions taken from
+  // stage C (w_close_c_q, iw_close_c_q) and stage A, which hold their final values from that
+  // clock: the same compares as sw_lt_hd_d_q / iw_first_d_q, one clock earlier. (From the
+  // stage-D flops through the state decode, hd_we fanned out to 768 CE pins: the slowest
+  // scheduler path of the board top at 62.4 MHz.) hd_we / hdv_we still drive the head's slot
+  // RAM write and the simulation check below.
+  logic              hd_we_nx, hdv_we_nx;
+  logic [NUM_CH-1:0] hdw_q, hdvw_q;
+  always_comb begin
+    hd_we_nx  = 1'b0;
+    hdv_we_nx = 1'b0;
+    unique case (st_q)
+      S_CLOSE: hdv_we_nx = 1'b1;
+      S_HEAD: begin
+        hdv_we_nx = srem_q == '0;
+        hd_we_nx  = srem_q != '0 && (!found_q || $signed(w_close_c_q - hd_close_e) < 0);
+      end
+      S_IEL: begin
+        hd_we_nx  = rem_q != '0 && c_win && (!hd_vld_e || $signed(iw_close_c_q - hd_close_e) < 0);
+        hdv_we_nx = hd_we_nx;
+      end
+      default: ;
+    endcase
+  end
+  always_ff @(posedge clk_i)
+    for (int e = 0; e < NUM_CH; e++) begin
+      hdw_q[e]  <= nx_go && ei_q == RW'(e) && hd_we_nx;
+      hdvw_q[e] <= nx_go && ei_q == RW'(e) && hdv_we_nx;
+    end
+`ifndef SYNTHESIS
+  // simulation checks (the scoreboards run with them): the early enables are the go clock's,
+  // and a head is written with a close tick in the future and never over one closing now
+  // (close_eq_q compares the head of one clock before)
+  always_ff @(posedge clk_i) begin
+    if (!rst_i && (hdw_q != (ew_q & {NUM_CH{hd_we}}) || hdvw_q != (ew_q & {NUM_CH{hdv_we}})))
+      $error("ms_scheduler: early head write enables %h/%h, go clock's %h/%h (state %0d)",
+             hdw_q, hdvw_q, ew_q & {NUM_CH{hd_we}}, ew_q & {NUM_CH{hdv_we}}, st_q);
+    for (int e = 0; e < NUM_CH; e++)
+      if (!rst_i && ps_live && hdw_q[e]
+          && ($signed(hd_close_wd - tick_i) <= 0 || (hd_vld_q[e] && hd_close_q[e] == tick_i)))
+        $error("ms_scheduler: element %0d's head written at tick %0d with close tick %0d over %0d",
+               e, tick_i, hd_close_wd, hd_close_q[e]);
+  end
+`endif
   always_comb begin
     sid_kill = (st_q == S_SAFE) ? sf_s_q : c_s_q;
     for (int k = 0; k < WSLOTS; k++) sid_mask[k] = (wsid_e[k] == sid_kill);
@@ -1695,9 +1748,9 @@ module ms_scheduler #(
     for (int e = 0; e < NUM_CH; e++) begin
       if (el_clr)                        wv_q[e] <= '0;
       else if (ps_live && ew_q[e] && wv_we)  wv_q[e] <= wv_wd;
-      if (el_clr)                          hd_vld_q[e] <= 1'b0;
-      else if (ps_live && ew_q[e] && hdv_we) hd_vld_q[e] <= hdv_wd;
-      if (ps_live && ew_q[e] && hd_we)       hd_close_q[e] <= hd_close_wd;
+      if (el_clr)                     hd_vld_q[e] <= 1'b0;
+      else if (ps_live && hdvw_q[e])  hd_vld_q[e] <= hdv_wd;
+      if (ps_live && hdw_q[e])        hd_close_q[e] <= hd_close_wd;
       if (rst_i || (run_ok && st_q == S_START)) bu_ok_q[e] <= 1'b0;
       else if (ps_live && ew_q[e] && bu_we)     bu_ok_q[e] <= 1'b1;
       if (rst_i || (run_ok && st_q == S_START)) tu_ok_q[e] <= 1'b0;
