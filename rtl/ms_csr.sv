@@ -9,11 +9,11 @@
 // Bus: PeakRDL "passthrough" protocol. A request is accepted on a clock with req high and
 // no stall; rd_ack / wr_ack answer three or more clocks later (the request and the answer
 // each pass a register slice by the regblock; inside it a register access answers on
-// the next clock, a VS-table access one clock later (the new value is in effect from the
-// clock after the request, as for the other registers), a delay-table access one clock after
-// the RAM read). VS-table writes take byte lanes: byte k is written when wr_biten bit 8k is
-// set (the SoC bridges only make whole-byte enables). Unmapped addresses and writes to
-// read-only registers answer with rd_err / wr_err.
+// the next clock, a VS-table write one clock later and a read two clocks later (a written
+// value is in effect from the clock after the request, as for the other registers), a
+// delay-table access one clock after the RAM read). VS-table writes take byte lanes: byte k
+// is written when wr_biten bit 8k is set (the SoC bridges only make whole-byte enables).
+// Unmapped addresses and writes to read-only registers answer with rd_err / wr_err.
 //
 // Counters (events, pulses, overflows) increment on one-clock strobes from the core and
 // clear together on CTRL.clear_counters; the overflow counter saturates instead of wrapping.
@@ -301,19 +301,31 @@ module ms_csr
       end
     end
   end
+  // Reads take two register stages (the 72 registers are spread over the chip next to the
+  // scheduler that uses them; a 72:1 multiplexer in one clock was the slowest CSR path):
+  // the request clock selects the register in every entry (vs_row_q), the next one the entry
+  // (vs_rdata_q); the answer (vs_rd_ack_q) comes with it, two clocks after the request.
+  // Both stages sample every clock: the held request's address is stable in the first one,
+  // and vs_sel_q keeps its entry for the second.
+  logic [NUM_VS-1:0][31:0] vs_row_q;
+  logic [2:0]              vs_sel_q;
+  logic [NUM_VS-1:0]       vs_rd_req_q;
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
+      vs_rd_req_q <= '0;
       vs_rd_ack_q <= '0;
       vs_wr_ack_q <= '0;
     end else begin
       for (int v = 0; v < int'(NUM_VS); v++) begin
-        vs_rd_ack_q[v] <= hwif_out.VS[v].req && !hwif_out.VS[v].req_is_wr;
+        vs_rd_req_q[v] <= hwif_out.VS[v].req && !hwif_out.VS[v].req_is_wr;
         vs_wr_ack_q[v] <= hwif_out.VS[v].req && hwif_out.VS[v].req_is_wr;
       end
+      vs_rd_ack_q <= vs_rd_req_q;
     end
-    // sampled every clock: the regblock takes it in the clock of vs_rd_ack_q, the one after
-    // the request, when it holds the request's entry and register
-    vs_rdata_q <= (vs_reg < 4'(VS_REGS)) ? vs_q[vs_sel][vs_reg] : 32'd0;
+    for (int v = 0; v < int'(NUM_VS); v++)
+      vs_row_q[v] <= (vs_reg < 4'(VS_REGS)) ? vs_q[v][vs_reg] : 32'd0;
+    vs_sel_q   <= vs_sel;
+    vs_rdata_q <= vs_row_q[vs_sel_q];
   end
 
   for (genvar v = 0; v < NUM_VS; v++) begin : g_vs

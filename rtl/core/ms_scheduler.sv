@@ -307,10 +307,11 @@ module ms_scheduler #(
   logic              en_q, en_prev_q, apply_pend_q;  // enable_i registered here (it comes from the register block), and one clock later
   logic [2:0]        ck_q;           // copy: neighbour offset step 0..6 (offset ck - 3)
   logic [DELAY_W-1:0] cfirst_q, clast_q;
-  logic              cany_q, c_done_q, cv_q, c_use_q;
-  logic [RW-1:0]     ce_q;
-  logic [VW-1:0]     cs_q;
-  logic [2:0]        ck_d_q;
+  logic              cany_q, c_done_q, cv_q, c_use_q, cv2_q, c_use2_q;
+  logic [RW-1:0]     ce_q, ce2_q;
+  logic [VW-1:0]     cs_q, cs2_q;
+  logic [2:0]        ck_d_q, ck_d2_q;
+  logic [DELAY_W-1:0] c_rd_q;        // the delay read, registered (stage 2 of the copy)
 
   logic [8:0] lat;
   assign lat = 9'd1 + ((glitch_min_i == 8'd0) ? 9'd1 : {1'b0, glitch_min_i});
@@ -908,8 +909,12 @@ module ms_scheduler #(
   assign c_use  = sh_tx_q[cs][cj] && ((ck_q == 3'd3) ? sh_tx_q[cs][ce]
                                           : (c_xt[ce] && c_dist <= {1'b0, vs_xtalk_nb_i[cs]}));
   logic [DELAY_W-1:0] c_first, c_last;
-  assign c_first = (c_use_q && (!cany_q || delay_rdata_i < cfirst_q)) ? delay_rdata_i : cfirst_q;
-  assign c_last  = (c_use_q && (!cany_q || delay_rdata_i > clast_q))  ? delay_rdata_i : clast_q;
+  // The delay is registered before its compares (c_rd_q; the step's flags follow in *2_q):
+  // the CSR's delay RAM sits across the chip, and its output, two compares and the BLK adder
+  // in one clock were the board top's slowest path once the rest reached 57 MHz.
+  always_ff @(posedge clk_i) c_rd_q <= delay_rdata_i;
+  assign c_first = (c_use2_q && (!cany_q || c_rd_q < cfirst_q)) ? c_rd_q : cfirst_q;
+  assign c_last  = (c_use2_q && (!cany_q || c_rd_q > clast_q))  ? c_rd_q : clast_q;
 
   assign delay_raddr_o = (st_q == S_VREAD) ? vc_q[7:0] : {cs, cj};
 
@@ -1186,11 +1191,13 @@ module ms_scheduler #(
             sp_q     <= '0;
             cv_q     <= 1'b0;
             c_use_q  <= 1'b0;
+            cv2_q    <= 1'b0;
+            c_use2_q <= 1'b0;
             cany_q   <= 1'b0;
             c_done_q <= 1'b0;
             st_q     <= S_COPY;
           end
-          S_COPY: begin  // per (sensor, element): offsets -3..3 read in turn, data one clock later
+          S_COPY: begin  // per (sensor, element): offsets -3..3 read in turn, data two clocks later (c_rd_q)
             // meanwhile (the copy takes NUM_VS * NUM_CH * 7 > 72 clocks): crosstalk masks, then
             // which sensors share an element, from the latched table, one per clock
             if (sp_q != 7'd72) sp_q <= sp_q + 7'd1;
@@ -1200,6 +1207,11 @@ module ms_scheduler #(
             ce_q    <= ce;
             cs_q    <= cs;
             ck_d_q  <= ck_q;
+            cv2_q    <= cv_q;
+            c_use2_q <= c_use_q;
+            ce2_q    <= ce_q;
+            cs2_q    <= cs_q;
+            ck_d2_q  <= ck_d_q;
             if (!c_done_q) begin
               if (ck_q == 3'd6) begin
                 ck_q <= '0;
@@ -1213,19 +1225,19 @@ module ms_scheduler #(
                 ck_q <= ck_q + 3'd1;
               end
             end
-            if (cv_q) begin
+            if (cv2_q) begin
               cfirst_q <= c_first;
               clast_q  <= c_last;
-              cany_q   <= cany_q || c_use_q;
-              if (ck_d_q == 3'd6) begin
-                blk_q[int'(cs_q) * 32 + int'(ce_q)] <= '{
+              cany_q   <= cany_q || c_use2_q;
+              if (ck_d2_q == 3'd6) begin
+                blk_q[int'(cs2_q) * 32 + int'(ce2_q)] <= '{
                     a: c_first,
-                    b: sh_tx_q[cs_q][ce_q] ? BW'(c_first) + BW'(vs_t_dead_i[cs_q])
-                                                : BW'(c_last) + BW'(vs_t_xtalk_i[cs_q])};
+                    b: sh_tx_q[cs2_q][ce2_q] ? BW'(c_first) + BW'(vs_t_dead_i[cs2_q])
+                                                  : BW'(c_last) + BW'(vs_t_xtalk_i[cs2_q])};
                 cany_q <= 1'b0;
               end
             end
-            if (c_done_q && !cv_q) begin
+            if (c_done_q && !cv_q && !cv2_q) begin
               st_q       <= en_q ? S_START : S_OFF;
               start_go_q <= en_q;
             end

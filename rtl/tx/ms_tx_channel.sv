@@ -30,8 +30,8 @@
 //     channels sit by their pins, across the chip from the register block, so any gate on
 //     half_period_i would be shared by all channels (Yosys merges it) and add a second
 //     chip-long net to the path. H = 0 -> 1 is applied to the latched copy.
-//   - The half counter counts up from 1 and is cleared (flop sync reset, no data mux) on
-//     the trigger and at the end of each half, found by comparing with a_half_q.
+//   - The half counter counts up from 1 and is cleared (flop sync reset) at the end of each
+//     half, found by comparing with a_half_q; one edge after a trigger it is loaded with 2.
 //   - cyc_q counts the periods left including the current one: running = cyc_q != 0.
 module ms_tx_channel #(
   parameter int DELAY_W = 16,
@@ -89,10 +89,16 @@ module ms_tx_channel #(
     end
   end
 
-  // half counter: runs freely when idle (its half_end pulses then change nothing)
+  // half counter: runs freely when idle (its half_end pulses then change nothing). It restarts
+  // one edge after a trigger, not at it: in the cycle after a trigger half_end comes from
+  // p_h1, not from hcnt_q, so the edge ending that cycle loads what the count would be by
+  // then (2, or 1 when the first half ends there). trig stays out of the 16 sync resets: it
+  // comes from the scheduler's delay across the chip (the phaser's slowest path at 62.4 MHz).
   always_ff @(posedge clk_i) begin
-    if (rst_i || trig || half_end) begin
+    if (rst_i || half_end) begin
       hcnt_q <= HALF_W'(1);
+    end else if (trig_q) begin
+      hcnt_q <= HALF_W'(2);
     end else begin
       hcnt_q <= hcnt_q + HALF_W'(1);
     end
