@@ -12,7 +12,7 @@
 #                             SYNTH_BLOCKS_PNR=1 each block is also placed and routed alone
 #                             (out of context) for its routed Fmax
 # Options: SYNTH_APP (firmware in the RAM image, default system_smoke), ECP5_DEVICE (25k,
-# 45k, 85k; default 85k: the board top needs about 35.2k TRELLIS_COMB, 145 % of the 25k, and
+# 45k, 85k; default 85k: the board top needs about 34.3k TRELLIS_COMB, 141 % of the 25k, and
 # 64 DP16KD, 114 % of the 25k; docs/synthesis.md),
 # ICE40_NUM_CH (channels on the iCE40, default 8), SYNTH_SEED (nextpnr seed), SYNTH_PLACER
 # (ECP5 nextpnr placer: static, the default, or heap), SYNTH_DETAIL=1
@@ -120,6 +120,23 @@ $(SYNTH_DIR)/report.txt: $(SYNTH_DIR)/pnr.json $(SYNTH_BIT) scripts/synth_report
 	    --stat $(SYNTH_DIR)/stat.json --pnr $< --require-mhz $(SYNTH_MHZ) --out $@.tmp \
 	    --note "top $(SYNTH_TOP), firmware $(SYNTH_HEX), seed $(SYNTH_SEED)" \
 	    && mv $@.tmp $@
+
+# ---- CI gate (.ci/run calls it before make test): the ECP5 flow from scratch, then the fresh
+# report against the committed synth/ecp5_report.txt (scripts/synth_report.py compare, the
+# table of differences always printed). Fails when timing at 48 MHz is not met (make synth),
+# when Fmax is below SYNTH_MIN_MHZ or when LUT use grew more than 10 %. The flow is
+# deterministic (pinned yowasp tools, fixed seed), so CI reproduces the committed figures.
+# SYNTH_MIN_MHZ is the 48 MHz requirement until the board top reaches the 1.3x goal (62.4
+# MHz; issue #8, docs/synthesis.md); then it becomes 62.4.
+SYNTH_MIN_MHZ ?= 48
+.PHONY: synth-check
+synth-check:
+	@rm -rf $(BUILD)/synth/ecp5
+	@$(MAKE) --no-print-directory synth TARGET=ecp5 SYNTH_SEED=1 SYNTH_DETAIL=0
+	@echo "synth-check: build/synth/ecp5/report.txt against synth/ecp5_report.txt (Fmax >= $(SYNTH_MIN_MHZ) MHz, LUTs +10 % at most)"
+	@$(VPY) scripts/synth_report.py compare $(BUILD)/synth/ecp5/report.txt synth/ecp5_report.txt \
+	    --min-mhz $(SYNTH_MIN_MHZ) --max-lut-growth 0.10
+	@grep -E '^(fmax_mhz|luts):' $(BUILD)/synth/ecp5/report.txt | sed 's/^/synth-check: /'
 
 # ---- area per block: each block synthesised alone (ECP5 cells), printed as a markdown table
 SYNTH_BLOCKS ?= ms_scheduler ms_csr ms_tx_phaser ms_event_fifo ms_rx_conditioner ms_sonar_core

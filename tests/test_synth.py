@@ -5,9 +5,10 @@ firmware image in the SoC RAM), then checks the fresh build/synth/ecp5/report.tx
 committed synth/ecp5_report.txt: Fmax of the 48 MHz system clock must reach 62.4 MHz (1.3x
 margin) and LUT use must not grow by more than 10 %. The differences are always printed.
 After an intended change, commit the new report: cp build/synth/ecp5/report.txt synth/ecp5_report.txt
-The full flow takes long on a 2-core machine (docs/synthesis.md). It is opt-in (MS_SYNTH=1)
-until the design fits the 25F and meets timing (issue #8 open); the report comparison itself
-is always tested.
+The full flow takes about 10 minutes on a 2-core machine (docs/synthesis.md). CI runs it as
+`make synth-check` (.ci/run) with the 48 MHz requirement as the Fmax floor; this test, opt-in
+(MS_SYNTH=1), asserts the 1.3x goal, which the board top does not reach yet (issue #8 open);
+the report comparison itself is always tested.
 """
 
 from __future__ import annotations
@@ -38,8 +39,8 @@ def _report_module():
 
 def test_ecp5_synthesis_meets_timing_with_margin(capsys):
     if os.environ.get("MS_SYNTH") != "1":
-        # opt-in until issue #8 is done: the design in the tree does not fit the LFE5U-25F yet
-        # and place-and-route of the 85F takes over an hour here (docs/synthesis.md)
+        # opt-in until issue #8 is done: the board top reaches 55.8 MHz, not 62.4 (CI's
+        # make synth-check runs the same flow with the 48 MHz floor; docs/synthesis.md)
         pytest.skip("ECP5 synthesis + place-and-route is opt-in (MS_SYNTH=1) until the design fits and meets timing")
     t0 = time.monotonic()
     run = subprocess.run(["make", "-s", "synth", "TARGET=ecp5"], cwd=ROOT, capture_output=True, text=True)
