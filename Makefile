@@ -70,8 +70,8 @@ $(STAMPS)/gen: $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl $(LAYOUT_FILE) 
 	    -t ms_soc_map --instantiate -o $(GEN)/firmware/ms_soc_map.h
 	@mkdir -p $(dir $(PY_REGS)) && touch $(dir $(PY_REGS))/__init__.py
 	@$(VENV)/bin/peakrdl pyconst $(RDL) -I $(GEN)/rdl -o $(PY_REGS)
-	@# VexRiscv_Full with a 16 KiB instruction cache, derived from the pinned core (firmware/README.md)
-	@$(VPY) scripts/gen_vex_icache.py --kib 16 --out $(GEN)/cpu/VexRiscv_Full.v >/dev/null
+	@# the pinned standard VexRiscv with a 16 KiB instruction cache (firmware/README.md)
+	@$(VPY) scripts/gen_vex_icache.py --kib 16 --out $(GEN)/cpu/VexRiscv_icache16k.v >/dev/null
 	@touch $@
 
 # ---------------------------------------------------------------- firmware images

@@ -1,6 +1,6 @@
 # All RTL of the project in compile order, one path per line; $GEN is build/gen,
 # $PICORV32 / $VEXRISCV the verilog folders of the pinned pythondata-cpu-picorv32 / -vexriscv packages;
-# $GEN/cpu/VexRiscv_Full.v is the pinned VexRiscv_Full with a 16 KiB I-cache (scripts/gen_vex_icache.py).
+# $GEN/cpu/VexRiscv_icache16k.v is the pinned standard VexRiscv with a 16 KiB I-cache (scripts/gen_vex_icache.py).
 # Lint, cocotb tests and (later) synthesis read this one list.
 $GEN/rtl/ms_layout_pkg.sv
 $GEN/sv/sonar_regs_pkg.sv
@@ -12,7 +12,7 @@ rtl/event/ms_event_fifo.sv
 rtl/tx/ms_tx_channel.sv
 rtl/tx/ms_tx_phaser.sv
 $PICORV32/picorv32.v
-$GEN/cpu/VexRiscv_Full.v
+$GEN/cpu/VexRiscv_icache16k.v
 $GEN/sv/soc_regs_pkg.sv
 $GEN/sv/soc_regs.sv
 rtl/common/ms_ram_sp_bytes.sv

@@ -61,8 +61,8 @@ import test_ms_soc_geometry as tsg  # noqa: E402  (run_image, budget constants)
 VARIANTS = ("f64", "f32", "q")
 CPU_INFO = {
     "picorv32": "PicoRV32 (RV32IM, ENABLE_FAST_MUL, one RAM wait state)",
-    "vexriscv": "VexRiscv_Full (RV32IM, 5 stages, 16 KiB I cache (scripts/gen_vex_icache.py) / 4 KiB D cache, "
-                "1-cycle MUL, RAM shared by both buses)",
+    "vexriscv": "VexRiscv, pinned standard configuration (RV32IM, 5 stages, 16 KiB I cache "
+                "(scripts/gen_vex_icache.py) / 4 KiB D cache, 1-cycle MUL, RAM shared by both buses)",
 }
 DEFAULT_MAX_CASES = {"f64": 4, "f32": 4, "q": 0}  # a soft-float case is ~20 M simulated cycles
 BENCH = ROOT / "build" / "bench"
@@ -81,7 +81,7 @@ def image_size(variant: str, cpu: str) -> tuple[int, int]:
 def measure(variant: str, reuse: bool, max_cases: int = 0, cpu: str = tsg.DEFAULT_CPU,
             defines: tuple[str, ...] = ()) -> dict:
     js = BENCH / f"fw_cycles_{variant}{'' if cpu == 'picorv32' else '_' + cpu}{'_cold' if defines else ''}.json"
-    hexfile = tsg.firmware_hex(f"bench_geom_{variant}", cpu, defines)
+    hexfile = tsg.firmware_hex(f"bench_geom_{variant}", cpu, tsg.BENCH_DEFINES[cpu] + tuple(defines))
     if reuse and js.exists() and js.stat().st_mtime > hexfile.stat().st_mtime:
         raw = json.loads(js.read_text())
         dec = gc.decode(raw["words"], complete=False)
@@ -116,7 +116,9 @@ def stats(dec: dict, cs, ref) -> dict:
     return dict(
         cyc={k: (np.median(v[t]), v[t].max(), mx(v, ~t)) for k, v in cyc.items()},
         fix=(np.median(fix[t]), fix[t].max(), mx(fix, ~t)),
-        cpi=fix[t].sum() / max(ins[t].sum(), 1), ins_fix=(np.median(ins[t]), ins[t].max()),
+        # no readable counter (an image built with BENCH_NO_INSTRET reports 0): n/a
+        cpi=fix[t].sum() / ins[t].sum() if ins[t].sum() else None,
+        ins_fix=(np.median(ins[t]), ins[t].max()) if ins[t].sum() else (None, None),
         cyl=(np.median(cyl), cyl.max()) if cyl.size else None,
         cyl_err_mm=max((max(e["cylinder_centre_m"], e["cylinder_radius_m"]) * 1e3 for e in cerr), default=None),
         cyl_diffs=sum((not e["cylinder_same_flag"]) + (not e["cylinder_same_reason"])
@@ -179,14 +181,15 @@ def main() -> None:
         cyl = "n/a" if r["cyl"] is None else f"{r['cyl'][0]:,.0f} / {r['cyl'][1]:,}"
         print(f"| {v} | {r['n_cases']} | {c['prepare'][0]:,.0f} | {c['point'][0]:,.0f} / {c['point'][1]:,} "
               f"| {c['wall'][0]:,.0f} / {c['wall'][1]:,} | **{r['fix'][0]:,.0f} / {r['fix'][1]:,}** | {f(r['fix'][2])} "
-              f"| {r['ins_fix'][0]:,.0f} | {r['cpi']:.2f} | {48e6 / r['fix'][1]:,.0f} | {cyl} | {r['size']:,} "
+              f"| {f(r['ins_fix'][0])} | {'n/a' if r['cpi'] is None else format(r['cpi'], '.2f')} | {48e6 / r['fix'][1]:,.0f} | {cyl} | {r['size']:,} "
               f"| {r['err_range_mm']:.2g} | {r['err_bearing_deg']:.2g} "
               f"| {'n/a' if r['cyl_err_mm'] is None else format(r['cyl_err_mm'], '.2g')} "
               f"| {r['flag_diff']} / {r['reason_diff']} / {r['kind_diff']} ({r['cyl_diffs']}) |")
     r0 = next(iter(res.values()))
     print(f"\ncycles: SoC cycle timer around the library call (timer read overhead {r0['overhead']} cycles "
           f"subtracted); typical cases = 3 adjacent ring receivers, 1..4 m, +-20 deg, 1 us noise; "
-          f"CPI = cycles / retired instructions (rdinstret) over the typical fixes.\n"
+          f"CPI = cycles / retired instructions (rdinstret) over the typical fixes"
+          f"{' (n/a: this core has no readable counter; the instruction counts are those of --cpu picorv32)' if tsg.BENCH_DEFINES[a.cpu] else ''}.\n"
           f"errors: max over the cases run where C and Python are both valid, same 1 um inputs on both sides; "
           f"diffs: cases where valid flag / reason / edge-wall-uncertain kind differ from Python (cylinder: flag + "
           f"reason diffs on the pillars).\n"

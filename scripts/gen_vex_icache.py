@@ -1,8 +1,13 @@
 #!/usr/bin/env python3
-"""Derive VexRiscv_Full with a larger instruction cache from the pinned, pre-generated core.
+"""Derive the VexRiscv with a larger instruction cache from the pinned, pre-generated core.
+
+The input is the pinned package's standard configuration, VexRiscv.v (RV32IM, 5 stages, 4 KiB
+caches, no readable user counters). VexRiscv_Full.v (the same pipeline plus every machine
+CSR, rdcycle / rdinstret) was the input until issue #8: its CSR plugin limited the board top
+to 55.8 MHz (docs/synthesis.md), and both patch the same way (--src).
 
 Why (issue #5, firmware/README.md "Soft-core CPU"): the per-pulse geometry fix executes
-~15 KB of straight-line code; VexRiscv_Full's 4 KiB direct-mapped instruction cache refetches
+~15 KB of straight-line code; the pinned 4 KiB direct-mapped instruction cache refetches
 most of it on every fix (37 % of the cycles were line refills). The pinned
 pythondata-cpu-vexriscv (SpinalHDL output, no sbt / Maven here to regenerate it with
 --iCacheSize) has no variant with a larger cache, so this script rewrites the few places of
@@ -21,9 +26,9 @@ changes (the core's pipeline, the bus, the data cache are untouched). Every subs
 asserted to apply exactly as often as expected, so a different input file fails loudly.
 
 The installed package is never edited; the output is a new file (default
-build/gen/cpu/VexRiscv_Full.v, which rtl/sources.f lists; module name unchanged: VexRiscv).
+build/gen/cpu/VexRiscv_icache16k.v, which rtl/sources.f lists; module name unchanged: VexRiscv).
 
-    .venv/bin/python scripts/gen_vex_icache.py [--kib 16] [--out build/gen/cpu/VexRiscv_Full.v]
+    .venv/bin/python scripts/gen_vex_icache.py [--kib 16] [--src FILE] [--out FILE]
 """
 
 from __future__ import annotations
@@ -35,6 +40,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 LINE_BYTES = 32
 ORIG_KIB = 4
+SOURCE = "VexRiscv.v"  # in pythondata_cpu_vexriscv.data_location
+DEFAULT_OUT = "build/gen/cpu/VexRiscv_icache16k.v"  # relative to the repository
 
 
 class PatchError(RuntimeError):
@@ -45,7 +52,7 @@ def _sub(text: str, old: str, new: str, count: int) -> str:
     n = text.count(old)
     if n != count:
         raise PatchError(f"expected {count} occurrence(s) of {old!r} in InstructionCache, found {n}: "
-                         f"the pinned VexRiscv_Full.v is not the one this patch was written for")
+                         f"the pinned core is not the one this patch was written for")
     return text.replace(old, new)
 
 
@@ -103,18 +110,18 @@ def derive(src: Path, kib: int) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--kib", type=int, default=16, help="instruction cache size in KiB (power of two >= 4)")
-    ap.add_argument("--out", type=Path, default=ROOT / "build/gen/cpu/VexRiscv_Full.v")
-    ap.add_argument("--src", type=Path, default=None, help="input (default: the installed VexRiscv_Full.v)")
+    ap.add_argument("--out", type=Path, default=ROOT / DEFAULT_OUT)
+    ap.add_argument("--src", type=Path, default=None, help=f"input (default: the installed {SOURCE})")
     a = ap.parse_args()
     if a.src is None:
         import pythondata_cpu_vexriscv
-        a.src = Path(pythondata_cpu_vexriscv.data_location) / "VexRiscv_Full.v"
+        a.src = Path(pythondata_cpu_vexriscv.data_location) / SOURCE
     out = derive(a.src, a.kib)
     a.out.parent.mkdir(parents=True, exist_ok=True)
     tmp = a.out.with_suffix(".tmp")
     tmp.write_text(out)
     tmp.replace(a.out)
-    print(f"gen: {a.out} (VexRiscv_Full, {a.kib} KiB instruction cache)")
+    print(f"gen: {a.out} ({a.src.name}, {a.kib} KiB instruction cache)")
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@
 (rtl/soc/ms_soc.sv, default RAM 64 KiB, the geometry benchmark image as INIT_FILE) with
 CPU = picorv32 / vexriscv, not placed. Prints a markdown table of LUT4 (as mapped), CCU2C carry
 cells, FF, MULT18X18D and DP16KD per CPU. The VexRiscv is the one rtl/sources.f lists
-(build/gen/cpu/VexRiscv_Full.v: VexRiscv_Full with the 16 KiB instruction cache of
+(build/gen/cpu/VexRiscv_icache16k.v: the standard VexRiscv with the 16 KiB instruction cache of
 scripts/gen_vex_icache.py). Slow (a few minutes per CPU on one core): run it niced.
 
     nice -n 10 .venv/bin/python scripts/synth_soc_cpu.py [--cpus picorv32,vexriscv]

@@ -1,7 +1,7 @@
 // ms_soc: the soft-core SoC next to the sonar core.
 //
-// CPU (parameter): "vexriscv" (default: VexRiscv_Full of pythondata-cpu-vexriscv, pipelined
-// RV32IM, 4 KiB D cache and a 16 KiB I cache derived by scripts/gen_vex_icache.py so the
+// CPU (parameter): "vexriscv" (default: the standard VexRiscv of pythondata-cpu-vexriscv,
+// pipelined RV32IM, 4 KiB D cache and a 16 KiB I cache derived by scripts/gen_vex_icache.py so the
 // per-pulse geometry meets its cycle budget, firmware/README.md; ms_vex_bridge, see the g_vex
 // block) or "picorv32" (RV32IM: ENABLE_FAST_MUL or ENABLE_MUL, ENABLE_DIV; pythondata-cpu-picorv32;
 // CPI ~5 with its one-wait-state RAM; smaller, for the iCE40), with
@@ -148,9 +148,12 @@ module ms_soc #(
     assign mem_ready = ram_ready_q | per_ready;
     assign mem_rdata = ram_ready_q ? ram_rdata : per_rdata;
   end else if (CPU == "vexriscv") begin : g_vex
-    // VexRiscv_Full (pythondata-cpu-vexriscv): 5-stage pipeline with bypassing, 4 KiB
-    // instruction and 4 KiB write-through data cache (32-byte lines), single-cycle MUL
-    // (DSP), iterative DIV, all CSRs (rdcycle / rdinstret); ms_vex_bridge shares the RAM.
+    // VexRiscv, the pinned standard configuration (pythondata-cpu-vexriscv VexRiscv.v):
+    // 5-stage pipeline with bypassing, 16 KiB instruction cache (scripts/gen_vex_icache.py)
+    // and 4 KiB write-through data cache (32-byte lines), single-cycle MUL (DSP), iterative
+    // DIV, machine-mode CSRs for traps but no readable counters (rdcycle / rdinstret trap:
+    // the SoC's cycle timer counts instead); ms_vex_bridge shares the RAM. VexRiscv_Full
+    // (every CSR) limited the board to 55.8 MHz through its CSR plugin (docs/synthesis.md).
     // Its data cache bypasses only addresses with bit 31 set (its I/O range): firmware
     // reaches the peripherals uncached through their aliases 0x9000_0000 / 0xA000_0000 (the
     // decode below ignores bit 31).
