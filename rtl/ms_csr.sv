@@ -323,7 +323,10 @@ module ms_csr
       vs_rd_ack_q <= vs_rd_req_q;
     end
     for (int v = 0; v < int'(NUM_VS); v++)
-      vs_row_q[v] <= (vs_reg < 4'(VS_REGS)) ? vs_q[v][vs_reg] : 32'd0;
+      // offsets 0x24..0x3F of an entry are outside the table (the regblock answers rd_err and
+      // ignores the data), so they may read register 8: a clamped index, not a zeroing sync
+      // reset of all 256 flops decoded from the address
+      vs_row_q[v] <= vs_q[v][vs_reg[3] ? 4'(VS_REGS - 1) : vs_reg];
     vs_sel_q   <= vs_sel;
     vs_rdata_q <= vs_row_q[vs_sel_q];
   end

@@ -313,8 +313,14 @@ module ms_scheduler #(
   logic [2:0]        ck_d_q, ck_d2_q;
   logic [DELAY_W-1:0] c_rd_q;        // the delay read, registered (stage 2 of the copy)
 
-  logic [8:0] lat;
-  assign lat = 9'd1 + ((glitch_min_i == 8'd0) ? 9'd1 : {1'b0, glitch_min_i});
+  // detection latency L = 1 + max(glitch_min_i, 1), and L - 1, registered: glitch_min_i is a
+  // configuration register (a change takes effect one clock later), and a registered operand
+  // keeps the decode out of the 32-bit adders below
+  logic [8:0] lat_q, latm1_q;
+  always_ff @(posedge clk_i) begin
+    latm1_q <= (glitch_min_i == 8'd0) ? 9'd1 : {1'b0, glitch_min_i};
+    lat_q   <= 9'd1 + ((glitch_min_i == 8'd0) ? 9'd1 : {1'b0, glitch_min_i});
+  end
 
   // ---- work queue: one word per tick with an edge (of a receiving element) or a close
   logic [NUM_CH-1:0] close_now, edge_now, rx_any;
@@ -496,7 +502,7 @@ module ms_scheduler #(
   logic [31:0] n_edge, n_edge_q, e_ws, e_we;
   logic        e_match;
   assign n_edge  = n_edge_q;
-  always_ff @(posedge clk_i) n_edge_q <= cur_tick_q - 32'(lat);  // cur_tick_q is set two clocks before any EDGE / HIT
+  always_ff @(posedge clk_i) n_edge_q <= cur_tick_q - 32'(lat_q);  // cur_tick_q is set two clocks before any EDGE / HIT
   assign e_ws    = w_start_c_q;
   assign e_we    = w_end_c_q;
   assign e_match = ($signed(n_edge - e_ws) >= 0) && ($signed(n_edge - e_we) < 0);
@@ -593,8 +599,19 @@ module ms_scheduler #(
   assign c_valid = c_wv_q && c_eq_q;
   logic c_empty;
   assign c_empty  = c_empty_q;
-  logic c_safety;  // K empty windows in a row: every window of sensor c_s is cancelled
-  assign c_safety = c_valid && c_empty && !cw.init && c_ep_q && c_kmiss_q && c_trk_q;
+  // K empty windows in a row: every window of sensor c_s is cancelled. Registered as one flop
+  // from the inputs of the seven flops it ANDs (the same value in every clock, by construction):
+  // it selects the slot-valid write data, which fans out to every element.
+  logic c_safety, c_safety_q;
+  always_ff @(posedge clk_i)
+    c_safety_q <= wv_e[c_slot] && w_close_c_q == cur_tick_q && (!wh_e[c_slot] || wr_e[c_slot])
+                  && !win_rd.init && cw.epoch == epoch_q[c_s_q] && c_miss >= sh_k_q[c_s_q] && tracking_q[c_s_q];
+  assign c_safety = c_safety_q;
+`ifndef SYNTHESIS
+  always_ff @(posedge clk_i)
+    if (!rst_i && c_safety_q != (c_valid && c_empty && !cw.init && c_ep_q && c_kmiss_q && c_trk_q))
+      $error("ms_scheduler: registered c_safety differs from its terms");
+`endif
 
   // HEAD / conflict scan: slot sk of element el_q
   logic [31:0] sw_close;
@@ -1002,8 +1019,8 @@ module ms_scheduler #(
     t_ptn_q    <= t_q + 32'(s_tn_q);
     t_pdbl_q   <= t_q + 32'(s_dbl_q);
     t_prmax_q  <= t_q + 32'(s_rmax_q);
-    t_ptnl_q   <= t_ptn_q + 32'(lat) - 32'd1;    // ... and the window's close latency
-    t_prmaxl_q <= t_prmax_q + 32'(lat) - 32'd1;
+    t_ptnl_q   <= t_ptn_q + 32'(latm1_q);    // ... and the window's close latency
+    t_prmaxl_q <= t_prmax_q + 32'(latm1_q);
   end
   assign p_wso = !s_trk_q ? s_dbl_q : p_te - 24'(s_tv_q);
   assign p_weo = !s_trk_q ? s_rmax_q : p_te + 24'(s_tn_q);
@@ -1015,7 +1032,7 @@ module ms_scheduler #(
     quiet_o_q   <= quiet_q[o_q];
     w_start_c_q <= win_rd.t0 + 32'(win_rd.ws);
     w_end_c_q   <= win_rd.t0 + 32'(win_rd.we);
-    w_close_c_q <= win_rd.t0 + 32'(win_rd.we) - 32'd1 + 32'(lat);
+    w_close_c_q <= win_rd.t0 + (32'(win_rd.we) + 32'(latm1_q));
     gap_c_q     <= p_gap;
     p_s_q       <= p_s;  // (stage B) the sensor's clamp bounds one clock later
     lo_c_q      <= sh_dbl_q[p_s_q] + 24'(sh_tv_q[p_s_q]);
@@ -1070,6 +1087,47 @@ module ms_scheduler #(
 
   // ------------------------------------------------------------------ main FSM
   logic cand_clr_q;  // S_EDF moved to S_CAND in the last clock
+  // The table latch, in S_STOP's go clock (its second): a registered enable straight to the
+  // CE pins, not the state decode and no reset term, since it reaches about 1,000 flops (a stop
+  // in S_STOP's first clock only leaves the latched table unused until the next apply).
+  // dbl_pre_q is the sensor's blanking max(T_dead, T_xtalk) + vdmax computed a clock ahead, so
+  // no compare and adder sit in front of the latch; the table and vdmax_q do not change in
+  // S_STOP's first clock (a CSR write racing an apply is undefined anyway; checked below).
+  logic [NUM_VS-1:0][23:0] dbl_pre_q;
+  always_ff @(posedge clk_i) begin
+    for (int s = 0; s < NUM_VS; s++)
+      dbl_pre_q[s] <= 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
+                      + 24'(vdmax_q[s]);
+    if (stop_ld_q) begin
+      sh_gate_q <= miss_gate_i;
+      for (int s = 0; s < NUM_VS; s++) begin
+        sh_tx_q[s]     <= vs_tx_mask_i[s];
+        sh_rx_q[s]     <= vs_rx_mask_i[s];
+        sh_nb_q[s]     <= vs_xtalk_nb_i[s];  // sh_xt_q, sh_share_q: built in S_COPY
+        sh_track_q[s]  <= vs_mode_i[s] == 2'd1;
+        sh_order_q[s]  <= vs_order_i[s];
+        sh_k_q[s]      <= vs_miss_limit_i[s];
+        sh_tv_q[s]     <= vs_t_v_i[s];
+        sh_tn_q[s]     <= vs_t_n_i[s];
+        sh_vmax_q[s]   <= vs_vmax_i[s];
+        sh_rmax_q[s]   <= vs_max_tof_i[s];
+        sh_phase_q[s]  <= vs_phase_i[s];
+        sh_burst_q[s]  <= vs_burst_cycles_i[s];
+        sh_reinit_q[s] <= vs_reinit_every_i[s];
+        sh_dbl_q[s]    <= dbl_pre_q[s];
+      end
+    end
+  end
+`ifndef SYNTHESIS
+  // the latched blanking equals the one computed from the table in the latch clock itself
+  always_ff @(posedge clk_i)
+    if (!rst_i && stop_ld_q)
+      for (int s = 0; s < NUM_VS; s++)
+        if (dbl_pre_q[s] != 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
+                            + 24'(vdmax_q[s]))
+          $error("ms_scheduler: sensor %0d's table or vdmax changed in S_STOP's first clock", s);
+`endif
+
   always_ff @(posedge clk_i) begin
     evt_valid_q  <= 1'b0;
     trig_valid_q <= 1'b0;
@@ -1108,30 +1166,8 @@ module ms_scheduler #(
         retry_vld_q <= rv_new;
       end
       if (v_ok_q && v_d_q > vdmax_q[v_s_q]) vdmax_q[v_s_q] <= v_d_q;  // S_VREAD (S_OFF / S_SETTLE clear it)
-      // S_STOP's go clock (its second): the table is latched with a registered enable, not
-      // with the state decode, since it reaches about 1,800 flops (and a stop in S_STOP's
-      // first clock only leaves the latched table unused until the next apply)
-      if (stop_ld_q) begin
-        for (int s = 0; s < NUM_VS; s++) begin
-          sh_tx_q[s]    <= vs_tx_mask_i[s];
-          sh_rx_q[s]    <= vs_rx_mask_i[s];
-          sh_nb_q[s]    <= vs_xtalk_nb_i[s];  // sh_xt_q, sh_share_q: built in S_COPY
-          sh_act_q[s]   <= vs_mode_i[s] != 2'd0;
-          sh_track_q[s] <= vs_mode_i[s] == 2'd1;
-          sh_order_q[s] <= vs_order_i[s];
-          sh_k_q[s]     <= vs_miss_limit_i[s];
-          sh_tv_q[s]    <= vs_t_v_i[s];
-          sh_tn_q[s]    <= vs_t_n_i[s];
-          sh_vmax_q[s]  <= vs_vmax_i[s];
-          sh_rmax_q[s]  <= vs_max_tof_i[s];
-          sh_phase_q[s] <= vs_phase_i[s];
-          sh_burst_q[s] <= vs_burst_cycles_i[s];
-          sh_gate_q     <= miss_gate_i;
-          sh_reinit_q[s] <= vs_reinit_every_i[s];
-          sh_dbl_q[s]   <= 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
-                           + 24'(vdmax_q[s]);
-        end
-      end
+      // S_STOP's go clock (its second): the table latch above; sh_act_q alone has a reset
+      if (stop_ld_q) for (int s = 0; s < NUM_VS; s++) sh_act_q[s] <= vs_mode_i[s] != 2'd0;
       if (sp_v_q) sh_share_q[sp_mq[5:3]][sp_mq[2:0]] <= |sp_and_q;  // S_COPY pair step, a clock later
 
       if (!en_q && started_q) begin  // stop: windows dropped, armed triggers still fire
@@ -1524,23 +1560,39 @@ module ms_scheduler #(
   // one sensor per clock, in the go clocks of S_INIT, S_CLOSE, S_SCHED, S_CONF and S_ISSUE, with
   // the registered state strobes of the per-sensor writes below (s_q is stable through these
   // states; S_CLOSE's sensor c_s_q is decoded in its go clock)
+  // The states' go strobes are exclusive (each decodes st_q, and one s_q), so the value written
+  // to nxt_q is one shared multiplexer selected by registered state flags, not eight per-sensor
+  // priority chains; each sensor's enable is its own strobes.
+  logic        isu_any_q, cnf_any_q, sch_any_q;
+  logic [31:0] nxt_wd;
+  always_ff @(posedge clk_i) begin
+    isu_any_q <= !rst_i && nx_go && st_q == S_ISSUE;
+    cnf_any_q <= !rst_i && nx_go && st_q == S_CONF;
+    sch_any_q <= !rst_i && nx_go && st_q == S_SCHED;
+  end
+  always_comb begin
+    if (isu_any_q)      nxt_wd = nxt_isu_q;    // t0 + period
+    else if (cnf_any_q) nxt_wd = nxt_retry_q;
+    else if (sch_any_q) nxt_wd = s_early ? nxt_early_q : nxt_quiet_q;
+    else                nxt_wd = nxt_ini_q;    // start tick + phase
+  end
   always_ff @(posedge clk_i) begin
     for (int s = 0; s < NUM_VS; s++) begin
       if (ps_live) begin
-        if (ini_go_q[s]) begin  // start tick + phase
-          due_q[s] <= due_ini_q;
-          nxt_q[s] <= nxt_ini_q;
-        end
+        if (ini_go_q[s]) due_q[s] <= due_ini_q;
         if (cls_go_q && c_s_q == VW'(s) && c_safety && c_due_lt_q) due_q[s] <= cur_tick_q;  // due = min(due, now)
-        if (sch_go_q[s] && (s_early || s_quiet)) nxt_q[s] <= s_early ? nxt_early_q : nxt_quiet_q;
-        if (cnf_go_q[s] && rem_q == '0 && retry_vld_q) nxt_q[s] <= nxt_retry_q;
-        if (isu_go_q[s]) begin  // t0 + period
-          due_q[s] <= due_isu_q;
-          nxt_q[s] <= nxt_isu_q;
-        end
+        if (isu_go_q[s]) due_q[s] <= due_isu_q;
+        if (ini_go_q[s] || (sch_go_q[s] && (s_early || s_quiet)) || (cnf_go_q[s] && rem_q == '0 && retry_vld_q)
+            || isu_go_q[s])
+          nxt_q[s] <= nxt_wd;
       end
     end
   end
+`ifndef SYNTHESIS
+  always_ff @(posedge clk_i)
+    if (!rst_i && !$onehot0({isu_go_q, cnf_go_q, sch_go_q, ini_go_q}))
+      $error("ms_scheduler: go strobes of two sensor states in one clock: %b", {isu_go_q, cnf_go_q, sch_go_q, ini_go_q});
+`endif
 
   // ---- per-sensor state (seq, quiet, wake, hold, tracking, ...): written in the go clocks of
   // S_START, S_HIT, S_CLOSE, S_SCHED, S_EDF and S_ISSUE, as the FSM above says. The state (and,
@@ -1649,13 +1701,20 @@ module ms_scheduler #(
   // stage-D flops through the state decode, hd_we fanned out to 768 CE pins: the slowest
   // scheduler path of the board top at 62.4 MHz.) hd_we / hdv_we still drive the head's slot
   // RAM write and the simulation check below.
-  logic              hd_we_nx, hdv_we_nx;
-  logic [NUM_CH-1:0] hdw_q, hdvw_q;
+  // The slot-valid bits' write enables (wv_q: 24 x 16 CE pins) likewise: S_CLOSE's c_valid
+  // one clock early is what c_wv_q / c_eq_q register at the go edge.
+  logic              hd_we_nx, hdv_we_nx, wv_we_nx;
+  logic [NUM_CH-1:0] hdw_q, hdvw_q, wvw_q;
   always_comb begin
     hd_we_nx  = 1'b0;
     hdv_we_nx = 1'b0;
+    wv_we_nx  = 1'b0;
     unique case (st_q)
-      S_CLOSE: hdv_we_nx = 1'b1;
+      S_CLOSE: begin
+        hdv_we_nx = 1'b1;
+        wv_we_nx  = wv_e[c_slot] && w_close_c_q == cur_tick_q;
+      end
+      S_SAFE: wv_we_nx = 1'b1;
       S_HEAD: begin
         hdv_we_nx = srem_q == '0;
         hd_we_nx  = srem_q != '0 && (!found_q || $signed(w_close_c_q - hd_close_e) < 0);
@@ -1663,6 +1722,7 @@ module ms_scheduler #(
       S_IEL: begin
         hd_we_nx  = rem_q != '0 && c_win && (!hd_vld_e || $signed(iw_close_c_q - hd_close_e) < 0);
         hdv_we_nx = hd_we_nx;
+        wv_we_nx  = rem_q != '0 && c_win;
       end
       default: ;
     endcase
@@ -1671,6 +1731,7 @@ module ms_scheduler #(
     for (int e = 0; e < NUM_CH; e++) begin
       hdw_q[e]  <= nx_go && ei_q == RW'(e) && hd_we_nx;
       hdvw_q[e] <= nx_go && ei_q == RW'(e) && hdv_we_nx;
+      wvw_q[e]  <= nx_go && ei_q == RW'(e) && wv_we_nx;
     end
 `ifndef SYNTHESIS
   // simulation checks (the scoreboards run with them): the early enables are the go clock's,
@@ -1680,6 +1741,9 @@ module ms_scheduler #(
     if (!rst_i && (hdw_q != (ew_q & {NUM_CH{hd_we}}) || hdvw_q != (ew_q & {NUM_CH{hdv_we}})))
       $error("ms_scheduler: early head write enables %h/%h, go clock's %h/%h (state %0d)",
              hdw_q, hdvw_q, ew_q & {NUM_CH{hd_we}}, ew_q & {NUM_CH{hdv_we}}, st_q);
+    if (!rst_i && wvw_q != (ew_q & {NUM_CH{wv_we}}))
+      $error("ms_scheduler: early slot-valid write enables %h, go clock's %h (state %0d)",
+             wvw_q, ew_q & {NUM_CH{wv_we}}, st_q);
     for (int e = 0; e < NUM_CH; e++)
       if (!rst_i && ps_live && hdw_q[e]
           && ($signed(hd_close_wd - tick_i) <= 0 || (hd_vld_q[e] && hd_close_q[e] == tick_i)))
@@ -1739,7 +1803,7 @@ module ms_scheduler #(
           tu_we = rel_tx_e && tu_later_d_q;  // later(bu_wd, tu_e): a tx element's blank is its dead zone
           if (c_win) begin
             wv_we              = 1'b1;
-            wv_wd[free_slot]   = 1'b1;
+            wv_wd              = wv_e | (wv_e + 1'b1);  // bit free_slot (the lowest free) set, as a carry chain
             wh_we              = 1'b1;
             wh_wd[free_slot]   = 1'b0;
             wr_wd[free_slot]   = 1'b0;
@@ -1759,7 +1823,7 @@ module ms_scheduler #(
   always_ff @(posedge clk_i) begin
     for (int e = 0; e < NUM_CH; e++) begin
       if (el_clr)                        wv_q[e] <= '0;
-      else if (ps_live && ew_q[e] && wv_we)  wv_q[e] <= wv_wd;
+      else if (ps_live && wvw_q[e])       wv_q[e] <= wv_wd;
       if (el_clr)                     hd_vld_q[e] <= 1'b0;
       else if (ps_live && hdvw_q[e])  hd_vld_q[e] <= hdv_wd;
       if (ps_live && hdw_q[e])        hd_close_q[e] <= hd_close_wd;
