@@ -163,15 +163,29 @@ module ms_scheduler #(
   endfunction
 
   // ------------------------------------------------------------------ shadow configuration
-  logic [NUM_VS-1:0][NUM_CH-1:0] sh_tx_q, sh_rx_q, sh_xt_q;
-  logic [NUM_VS-1:0]             sh_act_q, sh_track_q;  // mode != off, mode == track
-  logic [NUM_VS-1:0][2:0]        sh_order_q;
-  logic [NUM_VS-1:0][3:0]        sh_k_q;
-  logic [NUM_VS-1:0][15:0]       sh_tv_q, sh_tn_q, sh_vmax_q;
-  logic [NUM_VS-1:0][23:0]       sh_rmax_q, sh_phase_q, sh_dbl_q;
-  logic [NUM_VS-1:0][7:0]        sh_burst_q;
+  // Per-sensor fields the engine reads one sensor at a time live in distributed RAM (*_m: one
+  // write port, written by S_LOAD one sensor per clock; each read index is a copy of the RAM
+  // instead of an 8:1 multiplexer of flops). Flops hold what is read for all sensors at once.
+  logic [NUM_CH-1:0] sh_tx_m  [NUM_VS];
+  logic [NUM_CH-1:0] sh_rx_m  [NUM_VS];
+  logic [NUM_CH-1:0] sh_xt_m  [NUM_VS];  // crosstalk neighbours (xt_of)
+  logic [NUM_CH-1:0] sh_use_m [NUM_VS];  // tx | xt | rx: every element a pulse touches
+  logic              sh_track_m [NUM_VS];  // mode == track
+  logic [2:0]        sh_order_m [NUM_VS];
+  logic [3:0]        sh_k_m     [NUM_VS];
+  logic [15:0]       sh_tv_m    [NUM_VS];
+  logic [15:0]       sh_tn_m    [NUM_VS];
+  logic [15:0]       sh_vmax_m  [NUM_VS];
+  logic [23:0]       sh_rmax_m  [NUM_VS];
+  logic [23:0]       sh_phase_m [NUM_VS];
+  logic [23:0]       sh_dbl_m   [NUM_VS];  // blanking max(T_dead, T_xtalk) + max delay
+  logic [23:0]       sh_lo_m    [NUM_VS];  // prediction clamp: dbl + T_V
+  logic [23:0]       sh_hi_m    [NUM_VS];  // ... and max ToF - T_N
+  logic [7:0]        sh_burst_m [NUM_VS];
+  logic [1:0]        sh_nb_m    [NUM_VS];
+  logic [NUM_VS-1:0]             sh_act_q;  // mode != off
+  logic [NUM_CH-1:0]             sh_rxany_q;  // receivers of the active sensors
   logic [NUM_VS-1:0][NUM_VS-1:0] sh_share_q;
-  logic [NUM_VS-1:0][1:0]        sh_nb_q;
   logic [15:0]                   sh_gate_q;  // gated miss rule (0 off)
   logic [NUM_VS-1:0][7:0]        sh_reinit_q;  // forced re-initialisation after this many tracking pulses (0 off)
   logic [6:0]                    sp_q;  // S_COPY: crosstalk masks (0..7), then sensor pairs (8..71)
@@ -184,7 +198,11 @@ module ms_scheduler #(
   blk_t blk_q [NUM_VS * 32];
 
   // ------------------------------------------------------------------ sensor state
-  logic [NUM_VS-1:0][31:0] due_q, quiet_q, nxt_q;
+  // due, quiet (max ToF end of the last pulse) and next-evaluation ticks: distributed RAM,
+  // one write port each (the per-sensor writes below), read by sensor index and registered
+  logic [31:0] due_m [NUM_VS];
+  logic [31:0] quiet_m [NUM_VS];
+  logic [31:0] nxt_m [NUM_VS];
   logic [NUM_VS-1:0]       quiet_vld_q, tracking_q, in_init_q, epoch_q, wake_q, hold_q, any_trk_q;
   logic [NUM_VS-1:0][7:0]  seq_q;
   logic [NUM_VS-1:0][5:0]  init_open_q;
@@ -234,6 +252,7 @@ module ms_scheduler #(
   logic [NUM_CH-1:0]                     hd_vld_q;     // head: next window to close
   logic [KW-1:0]                         hd_slot_m [32];
   logic [NUM_CH-1:0][31:0]               hd_close_q;
+  logic [31:0]                           hd_close_m [NUM_CH];  // copy of hd_close_q for the engine's reads at ei
 
   // candidate pulse: per receiver predicted T_E and whether it gets a window
   logic [23:0]       cand_te_q [NUM_CH];
@@ -241,7 +260,7 @@ module ms_scheduler #(
 
   // ------------------------------------------------------------------ engine
   typedef enum logic [4:0] {
-    S_OFF, S_VREAD, S_VCHECK, S_STOP, S_COPY, S_START, S_SETTLE, S_IDLE, S_DISP,
+    S_OFF, S_VREAD, S_VCHECK, S_STOP, S_LOAD, S_COPY, S_START, S_SETTLE, S_IDLE, S_DISP,
     S_EDGE, S_HIT, S_CLOSE, S_HEAD, S_SCHED, S_NEXT, S_EDF, S_CAND, S_ORDER, S_CONF, S_CSLOT,
     S_ISSUE, S_IEL, S_SAFE, S_INIT
   } state_t;
@@ -275,7 +294,7 @@ module ms_scheduler #(
 
   logic [31:0]       eng_tick_q, cur_tick_q, t_q, retry_q, minclose_q, stop_at_q;
   logic              retry_vld_q, stop_req_q, started_q, ovr_q, found_q;
-  logic [2:0]        settle_q;   // clocks until td_q is valid again
+  logic [3:0]        settle_q;   // clocks until td_q is valid again
   // outputs
   logic              evt_valid_q, trig_valid_q, pulse_q, pulse_init_q;
   logic [63:0]       evt_data_q;
@@ -334,7 +353,7 @@ module ms_scheduler #(
   always_ff @(posedge clk_i) tick_prev <= tick_i;
   always_comb begin
     rx_any = '0;
-    for (int s = 0; s < NUM_VS; s++) if (sh_act_q[s]) rx_any = rx_any | sh_rx_q[s];
+    rx_any = sh_rxany_q;
   end
   // The 24 close-tick compares are registered per element: close_eq_q[r] is hd_close_q[r] ==
   // tick_i of the clock before, i.e. == tick_prev now, on the head of the clock before (with
@@ -373,44 +392,37 @@ module ms_scheduler #(
   logic [NUM_CH-1:0] qh_edges, qh_closes;
   assign {qh_tick, qh_edges, qh_closes} = q_head;
 
-  // ---- next time-driven decision tick td, in four register stages (per-sensor offset, the
-  // minimum of each pair of sensors, the minimum of those, add) so that no clock carries more
-  // than two 32-bit compares in series; S_SETTLE waits for them
-  localparam int NH = (NUM_VS + 1) / 2;
-  logic [NUM_VS-1:0]       ev_on;
-  logic [NUM_VS-1:0][31:0] ev_off, ev_off_q;
-  logic [NH-1:0][31:0]     ev_pair_q;
-  logic [31:0]             td_min, td_min_q, td_q;
-  logic                    armed_q1, armed_q1b, armed_q2, armed_q;
-  always_comb begin
-    for (int s = 0; s < NUM_VS; s++) begin
-      ev_on[s]  = sh_act_q[s] && !in_init_q[s] && (wake_q[s] || !hold_q[s]);
-      ev_off[s] = (wake_q[s] || !later(nxt_q[s], eng_tick_q)) ? 32'd0 : nxt_q[s] - eng_tick_q;
-    end
-  end
-  // balanced minimum over the pair minima (offset, or all-ones when not armed, of every sensor)
-  function automatic logic [31:0] min_tree(input logic [NH-1:0][31:0] v);
-    logic [31:0] m [2*NH];
-    for (int i = 0; i < NH; i++) m[NH + i] = v[i];
-    for (int i = NH - 1; i >= 1; i--) m[i] = (m[2*i] < m[2*i+1]) ? m[2*i] : m[2*i+1];
-    min_tree = m[1];
-  endfunction
-  assign td_min = min_tree(ev_pair_q);
+  // ---- next time-driven decision tick td = eng_tick + the least offset nxt - eng_tick (0 when
+  // due, all-ones when the sensor is not armed) over the sensors, one sensor per clock: the scan
+  // restarts at sensor 0 in S_SETTLE (td_s_q is 0 in every other state) and the running
+  // minimum is complete NUM_VS + 2 clocks later (registered sensor words, offset, minimum).
+  // Nothing changes a sensor's state in S_SETTLE / S_IDLE, so a later minimum still holds.
+  // S_SETTLE waits TD_SETTLE clocks for td_q and the IDLE decisions registered from it.
+  localparam logic [3:0] TD_SETTLE = 4'(NUM_VS + 3);
+  logic [VW-1:0] td_s_q;
+  logic          td_on_q, td_wake_q, td_first_q, td_first1_q;
+  logic [31:0]   td_nxt_q, td_off_q, td_acc_q, td_q;
+  logic          armed_q;
   always_ff @(posedge clk_i) begin
-    for (int s = 0; s < NUM_VS; s++) ev_off_q[s] <= ev_on[s] ? ev_off[s] : 32'hFFFF_FFFF;
-    for (int i = 0; i < NH; i++)
-      ev_pair_q[i] <= (2 * i + 1 >= NUM_VS || ev_off_q[2 * i] < ev_off_q[2 * i + 1]) ? ev_off_q[2 * i]
-                                                                                   : ev_off_q[2 * i + 1];
-    armed_q1  <= |ev_on;
-    armed_q1b <= armed_q1;
-    td_min_q  <= td_min;
-    armed_q2  <= armed_q1b;
-    td_q     <= eng_tick_q + td_min_q;
-    armed_q  <= armed_q2;
+    td_s_q      <= (st_q inside {S_SETTLE, S_IDLE}) && td_s_q != VW'(NUM_VS - 1) ? td_s_q + 1'b1
+                 : (st_q inside {S_SETTLE, S_IDLE}) ? td_s_q : '0;
+    // the sensor's words
+    td_on_q     <= sh_act_q[td_s_q] && !in_init_q[td_s_q] && (wake_q[td_s_q] || !hold_q[td_s_q]);
+    td_wake_q   <= wake_q[td_s_q];
+    td_nxt_q    <= nxt_m[td_s_q];
+    td_first_q  <= st_q == S_SETTLE;  // sensor 0 of a new scan
+    // its offset
+    td_off_q    <= !td_on_q ? 32'hFFFF_FFFF
+                 : (td_wake_q || !later(td_nxt_q, eng_tick_q)) ? 32'd0 : td_nxt_q - eng_tick_q;
+    td_first1_q <= td_first_q;
+    // the running minimum, and td
+    td_acc_q    <= (td_first1_q || td_off_q < td_acc_q) ? td_off_q : td_acc_q;
+    td_q        <= eng_tick_q + td_acc_q;
+    armed_q     <= td_acc_q != 32'hFFFF_FFFF;  // an armed sensor's offset is < 2^31
   end
 
   // IDLE's decisions are registered (one clock behind the queue head, td_q and tick_i), so its
-  // go clock starts no compare chain: S_SETTLE waits one clock more for them (settle_q = 4).
+  // go clock starts no compare chain: S_SETTLE waits one clock more for them (TD_SETTLE).
   // A word not yet at the queue head when they were computed (the push is registered too) has
   // tick >= tick_i - 2 > td_q (sched_go needs three ticks of margin), so a stale "queue empty"
   // never lets a decision tick pass a queued edge or close.
@@ -433,7 +445,7 @@ module ms_scheduler #(
     stop_ok  <= stop_c;
     lag_late <= late_c;
   end
-  assign q_pop  = (st_q == S_IDLE) && (settle_q == 3'd0) && !stop_ok && take_q;
+  assign q_pop  = (st_q == S_IDLE) && (settle_q == 4'd0) && !stop_ok && take_q;
   // engine headroom, for the benches (read through the hierarchy, no port): the largest
   // tick_i - cur_tick_q in any clock of engine work since the start, i.e. how late the engine
   // ever was with the work of a logical tick (a trigger is late beyond LEAD; overrun_o rises
@@ -441,7 +453,7 @@ module ms_scheduler #(
   // (docs/synthesis.md) is read off this.
   logic        eng_busy;
   logic [31:0] lag_now, lag_max_q;
-  assign eng_busy = started_q && !(st_q inside {S_OFF, S_VREAD, S_VCHECK, S_STOP, S_COPY, S_START, S_INIT,
+  assign eng_busy = started_q && !(st_q inside {S_OFF, S_VREAD, S_VCHECK, S_STOP, S_LOAD, S_COPY, S_START, S_INIT,
                                                  S_SETTLE, S_IDLE});
   assign lag_now  = tick_i - cur_tick_q;
   always_ff @(posedge clk_i) begin
@@ -491,7 +503,7 @@ module ms_scheduler #(
     tu_e       <= tu_ok_q[ei_q] ? tu_m[ei_q] : bu_start_q;
     hd_vld_e   <= hd_vld_q[ei_q];
     hd_slot_e  <= hd_slot_m[ei_q];
-    hd_close_e <= hd_close_q[ei_q];
+    hd_close_e <= hd_close_m[ei_q];  // distributed RAM: no 24:1 multiplexer of the flops
     rel_tx_e   <= s_tx_q[rel_q];  // receiver / element rel of sensor s_q (CAND, CONF, IEL)
     rel_xt_e   <= s_xt_q[rel_q];
     rel_act_e  <= cand_act_q[rel_q];
@@ -556,7 +568,7 @@ module ms_scheduler #(
   always_ff @(posedge clk_i) begin
     h_s_q    <= h_s;
     h_wh_q   <= wh_e[fslot_q];
-    h_vmax_q <= sh_vmax_q[h_s_q];
+    h_vmax_q <= sh_vmax_m[h_s_q];
     h_ep_q   <= hw.epoch == epoch_q[h_s_q];
     h_gap_q  <= hw.seq - hrx.seq;
     h_rej_q  <= (sh_gate_q != 16'd0) && !hw.init && hrx.trk && hrx.vel && (h_abs > {9'd0, sh_gate_q});
@@ -588,12 +600,12 @@ module ms_scheduler #(
     c_s_q     <= c_s;
     c_open_q   <= init_open_q[c_s_q];
     c_last_q   <= init_open_q[c_s_q] == 6'd1;
-    c_trk_nx_q <= sh_track_q[c_s_q] && any_trk_q[c_s_q];
+    c_trk_nx_q <= sh_track_m[c_s_q] && any_trk_q[c_s_q];
     c_wv_q    <= wv_e[c_slot];
     c_empty_q <= !wh_e[c_slot] || wr_e[c_slot];  // a miss: no echo, or the first one failed the miss gate
     c_eq_q    <= w_close_c_q == cur_tick_q;
     c_ep_q    <= cw.epoch == epoch_q[c_s_q];
-    c_kmiss_q <= c_miss >= sh_k_q[c_s_q];
+    c_kmiss_q <= c_miss >= sh_k_m[c_s_q];
     c_trk_q   <= tracking_q[c_s_q];
   end
   assign c_valid = c_wv_q && c_eq_q;
@@ -605,7 +617,7 @@ module ms_scheduler #(
   logic c_safety, c_safety_q;
   always_ff @(posedge clk_i)
     c_safety_q <= wv_e[c_slot] && w_close_c_q == cur_tick_q && (!wh_e[c_slot] || wr_e[c_slot])
-                  && !win_rd.init && cw.epoch == epoch_q[c_s_q] && c_miss >= sh_k_q[c_s_q] && tracking_q[c_s_q];
+                  && !win_rd.init && cw.epoch == epoch_q[c_s_q] && c_miss >= sh_k_m[c_s_q] && tracking_q[c_s_q];
   assign c_safety = c_safety_q;
 `ifndef SYNTHESIS
   always_ff @(posedge clk_i)
@@ -662,20 +674,20 @@ module ms_scheduler #(
   logic              s_ep_q;
   always_ff @(posedge clk_i) begin
     s_trk_q   <= tracking_q[s_q];
-    s_rx_q    <= sh_rx_q[s_q];
-    s_tx_q    <= sh_tx_q[s_q];
-    s_xt_q    <= sh_xt_q[s_q];
-    s_tv_q    <= sh_tv_q[s_q];
-    s_tn_q    <= sh_tn_q[s_q];
-    s_dbl_q   <= sh_dbl_q[s_q];
-    s_phase_q <= sh_phase_q[s_q];
+    s_rx_q    <= sh_rx_m[s_q];
+    s_tx_q    <= sh_tx_m[s_q];
+    s_xt_q    <= sh_xt_m[s_q];
+    s_tv_q    <= sh_tv_m[s_q];
+    s_tn_q    <= sh_tn_m[s_q];
+    s_dbl_q   <= sh_dbl_m[s_q];
+    s_phase_q <= sh_phase_m[s_q];
     s_tvd_q   <= 24'(s_tv_q) + s_dbl_q;
     s_rmd_q   <= 32'(s_rmax_q) - 32'(s_dbl_q);
     s_nrx_q   <= popcount(s_rx_q);
-    s_all_q   <= sh_tx_q[s_q] | sh_xt_q[s_q] | sh_rx_q[s_q];
-    s_order_q <= sh_order_q[s_q];
-    s_rmax_q  <= sh_rmax_q[s_q];
-    s_burst_q <= sh_burst_q[s_q];
+    s_all_q   <= sh_use_m[s_q];
+    s_order_q <= sh_order_m[s_q];
+    s_rmax_q  <= sh_rmax_m[s_q];
+    s_burst_q <= sh_burst_m[s_q];
     s_seq_q   <= seq_q[s_q];
     s_tpc_q   <= trk_pulses_q[s_q];
     s_ep_q    <= epoch_q[s_q];
@@ -848,6 +860,9 @@ module ms_scheduler #(
   logic [15:0]        v0_tv_q, v0_tn_q;
   logic [19:0]        v0_dead_q, v0_xt_q;
   logic [23:0]        v0_tmax_q;
+  logic [15:0]        v0_vmax_q;   // not checked: for S_LOAD
+  logic [23:0]        v0_phase_q;  // not checked: for S_LOAD
+  logic [1:0]         v0_nb_q;     // not checked: for S_LOAD
   logic               v_any_q;
   always_ff @(posedge clk_i) begin
     v0_mode_q   <= vs_mode_i[vs];
@@ -861,6 +876,9 @@ module ms_scheduler #(
     v0_dead_q   <= vs_t_dead_i[vs];
     v0_xt_q     <= vs_t_xtalk_i[vs];
     v0_tmax_q   <= vs_max_tof_i[vs];
+    v0_vmax_q   <= vs_vmax_i[vs];
+    v0_phase_q  <= vs_phase_i[vs];
+    v0_nb_q     <= vs_xtalk_nb_i[vs];
     v_any_q     <= v_any;
     v_burst_ticks <= 26'(v0_burst_q) * 26'({burst_half_period_i, 1'b0});
     // V1
@@ -913,7 +931,6 @@ module ms_scheduler #(
   logic [VW-1:0]     cs;
   logic [RW-1:0]     ce, cj;
   logic signed [6:0] cj_raw;
-  logic [NUM_CH-1:0] c_xt;
   logic [2:0]        c_dist;
   logic              c_use;  // the delay read in this step belongs to element ce's blank interval
   assign cs     = vc_q[RW+VW-1:RW];
@@ -921,10 +938,20 @@ module ms_scheduler #(
   assign cj_raw = $signed({2'b0, ce}) + $signed({4'b0, ck_q}) - 7'sd3;
   assign cj     = (cj_raw < 0) ? RW'(cj_raw + 7'(NUM_CH))
                 : (cj_raw >= 7'(NUM_CH)) ? RW'(cj_raw - 7'(NUM_CH)) : RW'(cj_raw);
-  assign c_xt   = xt_of(vs_tx_mask_i[cs], vs_xtalk_nb_i[cs]);
+  // Sensor cs's tx row, crosstalk mask and reach, registered from the latched table: bit
+  // selects of one row instead of the whole table (NUM_VS * NUM_CH : 1). They follow cs a clock
+  // late, so S_COPY waits a clock (c_wait_q) at its start and at every new sensor.
+  logic [NUM_CH-1:0] crow_tx_q, crow_xt_q;
+  logic [1:0]        crow_nb_q;
+  logic              c_wait_q, c_tx_q, c_tx2_q;  // c_tx*: element ce is a tx element (BLK's b)
+  always_ff @(posedge clk_i) begin
+    crow_tx_q <= sh_tx_m[cs];
+    crow_xt_q <= sh_xt_m[cs];
+    crow_nb_q <= sh_nb_m[cs];
+  end
   assign c_dist = (ck_q >= 3'd3) ? ck_q - 3'd3 : 3'd3 - ck_q;
-  assign c_use  = sh_tx_q[cs][cj] && ((ck_q == 3'd3) ? sh_tx_q[cs][ce]
-                                          : (c_xt[ce] && c_dist <= {1'b0, vs_xtalk_nb_i[cs]}));
+  assign c_use  = crow_tx_q[cj] && ((ck_q == 3'd3) ? crow_tx_q[ce]
+                                                   : (crow_xt_q[ce] && c_dist <= {1'b0, crow_nb_q}));
   logic [DELAY_W-1:0] c_first, c_last;
   // The delay is registered before its compares (c_rd_q; the step's flags follow in *2_q):
   // the CSR's delay RAM sits across the chip, and its output, two compares and the BLK adder
@@ -939,21 +966,15 @@ module ms_scheduler #(
   logic [5:0]        sp_m;
   logic [NUM_CH-1:0] sp_ua, sp_ub;
   assign sp_m  = 6'(sp_q - 7'd8);
-  assign sp_ua = sh_tx_q[sp_m[5:3]] | sh_rx_q[sp_m[5:3]] | sh_xt_q[sp_m[5:3]];
-  assign sp_ub = sh_tx_q[sp_m[2:0]] | sh_rx_q[sp_m[2:0]] | sh_xt_q[sp_m[2:0]];
+  assign sp_ua = sh_use_m[sp_m[5:3]];
+  assign sp_ub = sh_use_m[sp_m[2:0]];
   // registered, the OR and the sh_share_q write one clock later (the FSM's else branch)
-  logic              sp_v_q, stop_ld_q, xt_we_q;
-  logic [2:0]        xt_s_q;
+  logic              sp_v_q, stop_ld_q;
   logic [5:0]        sp_mq;
   logic [NUM_CH-1:0] sp_and_q;
   always_ff @(posedge clk_i) begin
     sp_v_q    <= !rst_i && st_q == S_COPY && go && sp_q >= 7'd8 && sp_q < 7'd72;
     sp_mq     <= sp_m;
-    // S_COPY's crosstalk masks: sensor sp_q (< 8) written from registered strobes a clock
-    // after its FSM clock (mask k is read first by the pair step at sp_q = 8 + k >= 9)
-    xt_we_q   <= !rst_i && st_q == S_COPY && go && sp_q < 7'd8;
-    xt_s_q    <= sp_q[2:0];
-    if (xt_we_q) sh_xt_q[xt_s_q] <= xt_of(sh_tx_q[xt_s_q], sh_nb_q[xt_s_q]);
     sp_and_q  <= sp_ua & sp_ub;
     stop_ld_q <= !rst_i && st_q == S_STOP && ph_q == 3'd0;  // S_STOP's go is its second clock
   end
@@ -1006,7 +1027,7 @@ module ms_scheduler #(
   logic signed [8:0]  p_gap;
   logic [VW-1:0]      p_s, p_s_q;
   logic               c_due_lt_q;
-  logic [31:0]        c_due_q, eng_mlead_q;  // due_q[c_s_q]; eng_tick_q - P
+  logic [31:0]        c_due_q, eng_mlead_q;  // due_m[c_s_q]; eng_tick_q - P
   logic [23:0]        p_te, p_wso, p_weo;
   assign p_gap = (st_q == S_EDGE) ? 9'(g_gap) : $signed({1'b0, i_gap});
   assign p_s   = (st_q == S_EDGE) ? g_s : s_q;
@@ -1025,19 +1046,19 @@ module ms_scheduler #(
   assign p_wso = !s_trk_q ? s_dbl_q : p_te - 24'(s_tv_q);
   assign p_weo = !s_trk_q ? s_rmax_q : p_te + 24'(s_tn_q);
   always_ff @(posedge clk_i) begin
-    due_s_q     <= due_q[s_q];
-    nxt_s_q     <= nxt_q[s_q];
-    quiet_s_q   <= quiet_q[s_q];
-    due_o_q     <= due_q[o_q];
-    quiet_o_q   <= quiet_q[o_q];
+    due_s_q     <= due_m[s_q];
+    nxt_s_q     <= nxt_m[s_q];
+    quiet_s_q   <= quiet_m[s_q];
+    due_o_q     <= due_m[o_q];
+    quiet_o_q   <= quiet_m[o_q];
     w_start_c_q <= win_rd.t0 + 32'(win_rd.ws);
     w_end_c_q   <= win_rd.t0 + 32'(win_rd.we);
     w_close_c_q <= win_rd.t0 + (32'(win_rd.we) + 32'(latm1_q));
     gap_c_q     <= p_gap;
     p_s_q       <= p_s;  // (stage B) the sensor's clamp bounds one clock later
-    lo_c_q      <= sh_dbl_q[p_s_q] + 24'(sh_tv_q[p_s_q]);
-    hi_c_q      <= sh_rmax_q[p_s_q] - 24'(sh_tn_q[p_s_q]);
-    c_due_q     <= due_q[c_s_q];
+    lo_c_q      <= sh_lo_m[p_s_q];
+    hi_c_q      <= sh_hi_m[p_s_q];
+    c_due_q     <= due_m[c_s_q];
     c_due_lt_q  <= $signed(cur_tick_q - c_due_q) < 0;  // CLOSE: a safety moves due earlier
     h_tof_c_q   <= 24'(n_edge - win_rd.t0);
     c_wso_c_q   <= p_wso;
@@ -1080,8 +1101,8 @@ module ms_scheduler #(
     eng_mlead_q  <= eng_tick_q - LEAD32;
     due_ini_q    <= eng_tick_q + 32'(s_phase_q);   // (S_INIT waits two clocks for these)
     nxt_ini_q    <= eng_mlead_q + 32'(s_phase_q);
-    nxt_early_q  <= due_s_q - LEAD32;    // due_q[s_q] - P
-    nxt_quiet_q  <= quiet_s_q - LEAD32;  // quiet_q[s_q] - P
+    nxt_early_q  <= due_s_q - LEAD32;    // due_m[s_q] - P
+    nxt_quiet_q  <= quiet_s_q - LEAD32;  // quiet_m[s_q] - P
     nxt_retry_q  <= retry_q - LEAD32;
   end
 
@@ -1090,42 +1111,97 @@ module ms_scheduler #(
   // The table latch, in S_STOP's go clock (its second): a registered enable straight to the
   // CE pins, not the state decode and no reset term, since it reaches about 1,000 flops (a stop
   // in S_STOP's first clock only leaves the latched table unused until the next apply).
-  // dbl_pre_q is the sensor's blanking max(T_dead, T_xtalk) + vdmax computed a clock ahead, so
-  // no compare and adder sit in front of the latch; the table and vdmax_q do not change in
-  // S_STOP's first clock (a CSR write racing an apply is undefined anyway; checked below).
-  logic [NUM_VS-1:0][23:0] dbl_pre_q;
+  // vdbl_q is each sensor's blanking max(T_dead, T_xtalk) + max delay as validation computed it
+  // (v3_dbl_q, kept in S_VCHECK's go clock for the sensor checked), so the latch needs no compare
+  // or adder of its own per sensor: one serial stage instead of NUM_VS parallel ones. The table
+  // does not change between validation and latch (a CSR write racing an apply is undefined
+  // anyway; checked below).
+  logic [NUM_VS-1:0][23:0] vdbl_q;
   always_ff @(posedge clk_i) begin
-    for (int s = 0; s < NUM_VS; s++)
-      dbl_pre_q[s] <= 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
-                      + 24'(vdmax_q[s]);
+    if (st_q == S_VCHECK && go) vdbl_q[vs] <= v3_dbl_q;
     if (stop_ld_q) begin
-      sh_gate_q <= miss_gate_i;
-      for (int s = 0; s < NUM_VS; s++) begin
-        sh_tx_q[s]     <= vs_tx_mask_i[s];
-        sh_rx_q[s]     <= vs_rx_mask_i[s];
-        sh_nb_q[s]     <= vs_xtalk_nb_i[s];  // sh_xt_q, sh_share_q: built in S_COPY
-        sh_track_q[s]  <= vs_mode_i[s] == 2'd1;
-        sh_order_q[s]  <= vs_order_i[s];
-        sh_k_q[s]      <= vs_miss_limit_i[s];
-        sh_tv_q[s]     <= vs_t_v_i[s];
-        sh_tn_q[s]     <= vs_t_n_i[s];
-        sh_vmax_q[s]   <= vs_vmax_i[s];
-        sh_rmax_q[s]   <= vs_max_tof_i[s];
-        sh_phase_q[s]  <= vs_phase_i[s];
-        sh_burst_q[s]  <= vs_burst_cycles_i[s];
-        sh_reinit_q[s] <= vs_reinit_every_i[s];
-        sh_dbl_q[s]    <= dbl_pre_q[s];
-      end
+      sh_gate_q   <= miss_gate_i;
+      sh_reinit_q <= vs_reinit_every_i;  // compared for every sensor at once (reinit_due_q)
+    end
+  end
+  // S_LOAD: the rest of the table into the per-sensor RAMs, one sensor per clock: entry
+  // vs = vc_q[2:0] through the validation's V0 registers (the same 8:1 multiplexers of the
+  // register block's flops), then the derived fields (ld_*_q), written two clocks after vs.
+  logic              ld_v1_q, ld_v2_q;
+  logic [VW-1:0]     ld_s1_q, ld_s2_q;
+  logic [NUM_CH-1:0] ld_tx_q, ld_rx_q, ld_xt_q;
+  logic              ld_act_q, ld_track_q;
+  logic [2:0]        ld_order_q;
+  logic [3:0]        ld_k_q;
+  logic [15:0]       ld_tv_q, ld_tn_q, ld_vmax_q;
+  logic [23:0]       ld_rmax_q, ld_phase_q, ld_dbl_q, ld_lo_q, ld_hi_q;
+  logic [7:0]        ld_burst_q;
+  logic [1:0]        ld_nb_q;
+  always_ff @(posedge clk_i) begin
+    ld_v1_q    <= !rst_i && st_q == S_LOAD && vc_q < 9'(NUM_VS);
+    ld_s1_q    <= vs;
+    ld_v2_q    <= !rst_i && ld_v1_q;
+    ld_s2_q    <= ld_s1_q;
+    ld_tx_q    <= v0_tx_q;
+    ld_rx_q    <= v0_rx_q;
+    ld_xt_q    <= xt_of(v0_tx_q, v0_nb_q);
+    ld_act_q   <= v0_mode_q != 2'd0;
+    ld_track_q <= v0_mode_q == 2'd1;
+    ld_order_q <= v0_order_q;
+    ld_k_q     <= v0_k_q;
+    ld_tv_q    <= v0_tv_q;
+    ld_tn_q    <= v0_tn_q;
+    ld_vmax_q  <= v0_vmax_q;
+    ld_rmax_q  <= v0_tmax_q;
+    ld_phase_q <= v0_phase_q;
+    ld_dbl_q   <= vdbl_q[ld_s1_q];
+    ld_lo_q    <= vdbl_q[ld_s1_q] + 24'(v0_tv_q);
+    ld_hi_q    <= v0_tmax_q - 24'(v0_tn_q);
+    ld_burst_q <= v0_burst_q;
+    ld_nb_q    <= v0_nb_q;
+    if (ld_v2_q) begin
+      sh_tx_m[ld_s2_q]    <= ld_tx_q;
+      sh_rx_m[ld_s2_q]    <= ld_rx_q;
+      sh_xt_m[ld_s2_q]    <= ld_xt_q;
+      sh_use_m[ld_s2_q]   <= ld_tx_q | ld_rx_q | ld_xt_q;
+      sh_track_m[ld_s2_q] <= ld_track_q;
+      sh_order_m[ld_s2_q] <= ld_order_q;
+      sh_k_m[ld_s2_q]     <= ld_k_q;
+      sh_tv_m[ld_s2_q]    <= ld_tv_q;
+      sh_tn_m[ld_s2_q]    <= ld_tn_q;
+      sh_vmax_m[ld_s2_q]  <= ld_vmax_q;
+      sh_rmax_m[ld_s2_q]  <= ld_rmax_q;
+      sh_phase_m[ld_s2_q] <= ld_phase_q;
+      sh_dbl_m[ld_s2_q]   <= ld_dbl_q;
+      sh_lo_m[ld_s2_q]    <= ld_lo_q;
+      sh_hi_m[ld_s2_q]    <= ld_hi_q;
+      sh_burst_m[ld_s2_q] <= ld_burst_q;
+      sh_nb_m[ld_s2_q]    <= ld_nb_q;
+      sh_rxany_q <= ((ld_s2_q == '0) ? '0 : sh_rxany_q) | (ld_act_q ? ld_rx_q : '0);
     end
   end
 `ifndef SYNTHESIS
-  // the latched blanking equals the one computed from the table in the latch clock itself
+  // in S_COPY's first clock every sensor's RAM words equal its table entry (as latched)
+  always_ff @(posedge clk_i)
+    if (!rst_i && st_q == S_COPY && sp_q == 7'd0)
+      for (int s = 0; s < NUM_VS; s++)
+        if (sh_tx_m[s] != vs_tx_mask_i[s] || sh_rx_m[s] != vs_rx_mask_i[s] || sh_nb_m[s] != vs_xtalk_nb_i[s]
+            || sh_xt_m[s] != xt_of(vs_tx_mask_i[s], vs_xtalk_nb_i[s]) || sh_track_m[s] != (vs_mode_i[s] == 2'd1)
+            || sh_order_m[s] != vs_order_i[s] || sh_k_m[s] != vs_miss_limit_i[s] || sh_tv_m[s] != vs_t_v_i[s]
+            || sh_tn_m[s] != vs_t_n_i[s] || sh_vmax_m[s] != vs_vmax_i[s] || sh_rmax_m[s] != vs_max_tof_i[s]
+            || sh_phase_m[s] != vs_phase_i[s] || sh_burst_m[s] != vs_burst_cycles_i[s] || sh_dbl_m[s] != vdbl_q[s]
+            || sh_lo_m[s] != vdbl_q[s] + 24'(vs_t_v_i[s]) || sh_hi_m[s] != vs_max_tof_i[s] - 24'(vs_t_n_i[s])
+            || sh_act_q[s] != (vs_mode_i[s] != 2'd0))
+          $error("ms_scheduler: sensor %0d's per-sensor RAM words differ from its table entry after S_LOAD", s);
+`endif
+`ifndef SYNTHESIS
+  // the latched blanking equals the one computed from the table in the latch clock
   always_ff @(posedge clk_i)
     if (!rst_i && stop_ld_q)
       for (int s = 0; s < NUM_VS; s++)
-        if (dbl_pre_q[s] != 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
-                            + 24'(vdmax_q[s]))
-          $error("ms_scheduler: sensor %0d's table or vdmax changed in S_STOP's first clock", s);
+        if (vdbl_q[s] != 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
+                         + 24'(vdmax_q[s]))
+          $error("ms_scheduler: sensor %0d's table or vdmax changed between validation and latch", s);
 `endif
 
   always_ff @(posedge clk_i) begin
@@ -1219,27 +1295,37 @@ module ms_scheduler #(
               vc_q <= vc_q + 9'd1;
             end
           end
-          S_STOP: begin  // latch the table (stop_ld_q above), then build the BLK RAM
+          S_STOP: begin  // latch the table (stop_ld_q above), then load the per-sensor RAMs
             started_q  <= 1'b0;
             stop_req_q <= 1'b0;
-            vc_q     <= '0;
-            ck_q     <= '0;
-            sp_q     <= '0;
-            cv_q     <= 1'b0;
-            c_use_q  <= 1'b0;
-            cv2_q    <= 1'b0;
-            c_use2_q <= 1'b0;
-            cany_q   <= 1'b0;
-            c_done_q <= 1'b0;
-            st_q     <= S_COPY;
+            vc_q       <= '0;
+            st_q       <= S_LOAD;
+          end
+          S_LOAD: begin  // sensor vc_q into the per-sensor RAMs (written two clocks later), then the BLK RAM
+            vc_q <= vc_q + 9'd1;
+            if (vc_q == 9'(NUM_VS + 1)) begin  // the last sensor's write is in this clock
+              vc_q     <= '0;
+              ck_q     <= '0;
+              sp_q     <= '0;
+              cv_q     <= 1'b0;
+              c_use_q  <= 1'b0;
+              cv2_q    <= 1'b0;
+              c_use2_q <= 1'b0;
+              cany_q   <= 1'b0;
+              c_done_q <= 1'b0;
+              c_wait_q <= 1'b1;  // the first rows (crow_*_q) come a clock into S_COPY
+              st_q     <= S_COPY;
+            end
           end
           S_COPY: begin  // per (sensor, element): offsets -3..3 read in turn, data two clocks later (c_rd_q)
-            // meanwhile (the copy takes NUM_VS * NUM_CH * 7 > 72 clocks): crosstalk masks, then
-            // which sensors share an element, from the latched table, one per clock
+            // meanwhile (the copy takes NUM_VS * NUM_CH * 7 > 72 clocks): which sensors share an
+            // element (sp_q 8..71), from the per-sensor RAMs, one pair per clock
             if (sp_q != 7'd72) sp_q <= sp_q + 7'd1;
-            // sp_q < 8: sensor sp_q's crosstalk mask, written a clock later (xt_we_q below)
-            cv_q    <= !c_done_q;
-            c_use_q <= c_use && !c_done_q;
+            cv_q     <= !c_done_q && !c_wait_q;
+            c_use_q  <= c_use && !c_done_q && !c_wait_q;
+            c_wait_q <= 1'b0;
+            c_tx_q   <= crow_tx_q[ce];
+            c_tx2_q  <= c_tx_q;
             ce_q    <= ce;
             cs_q    <= cs;
             ck_d_q  <= ck_q;
@@ -1248,12 +1334,16 @@ module ms_scheduler #(
             ce2_q    <= ce_q;
             cs2_q    <= cs_q;
             ck_d2_q  <= ck_d_q;
-            if (!c_done_q) begin
+            if (!c_done_q && !c_wait_q) begin
               if (ck_q == 3'd6) begin
                 ck_q <= '0;
                 if (ce == RW'(NUM_CH - 1)) begin
-                  if (cs == VW'(NUM_VS - 1)) c_done_q <= 1'b1;
-                  else                       vc_q     <= {vc_q[8:RW] + 1'b1, {RW{1'b0}}};
+                  if (cs == VW'(NUM_VS - 1)) begin
+                    c_done_q <= 1'b1;
+                  end else begin
+                    vc_q     <= {vc_q[8:RW] + 1'b1, {RW{1'b0}}};
+                    c_wait_q <= 1'b1;  // the new sensor's rows, a clock later
+                  end
                 end else begin
                   vc_q <= vc_q + 9'd1;
                 end
@@ -1268,7 +1358,7 @@ module ms_scheduler #(
               if (ck_d2_q == 3'd6) begin
                 blk_q[int'(cs2_q) * 32 + int'(ce2_q)] <= '{
                     a: c_first,
-                    b: sh_tx_q[cs2_q][ce2_q] ? BW'(c_first) + BW'(vs_t_dead_i[cs2_q])
+                    b: c_tx2_q ? BW'(c_first) + BW'(vs_t_dead_i[cs2_q])
                                                   : BW'(c_last) + BW'(vs_t_xtalk_i[cs2_q])};
                 cany_q <= 1'b0;
               end
@@ -1289,8 +1379,8 @@ module ms_scheduler #(
             if (s_q == VW'(NUM_VS - 1)) st_q <= S_SETTLE;
           end
           // ------------------------------------------------ engine
-          S_SETTLE: begin  // td_q follows the state changed before, four clocks later
-            settle_q <= 3'd4;
+          S_SETTLE: begin  // td_q follows the state changed before, TD_SETTLE clocks later
+            settle_q <= TD_SETTLE;
             st_q     <= S_IDLE;
             if (apply_pend_q && !stop_req_q) begin
               apply_pend_q <= 1'b0;
@@ -1300,8 +1390,8 @@ module ms_scheduler #(
             end
           end
           S_IDLE: begin
-            if (settle_q != 3'd0) begin
-              settle_q <= settle_q - 3'd1;
+            if (settle_q != 4'd0) begin
+              settle_q <= settle_q - 4'd1;
             end else if (stop_ok) begin
               st_q <= S_STOP;
             end else if (take_q || sched_go) begin
@@ -1556,42 +1646,51 @@ module ms_scheduler #(
     if (run_ok && rxs_we) rxs_q[rxs_ra] <= rxs_wd;
   end
 
-  // ---- per-sensor due and next-evaluation ticks (written as tick - P, precomputed in stage D):
-  // one sensor per clock, in the go clocks of S_INIT, S_CLOSE, S_SCHED, S_CONF and S_ISSUE, with
-  // the registered state strobes of the per-sensor writes below (s_q is stable through these
-  // states; S_CLOSE's sensor c_s_q is decoded in its go clock)
-  // The states' go strobes are exclusive (each decodes st_q, and one s_q), so the value written
-  // to nxt_q is one shared multiplexer selected by registered state flags, not eight per-sensor
-  // priority chains; each sensor's enable is its own strobes.
-  logic        isu_any_q, cnf_any_q, sch_any_q;
-  logic [31:0] nxt_wd;
+  // ---- per-sensor due, next-evaluation (written as tick - P, precomputed in stage D) and quiet
+  // ticks: one sensor per clock, in the go clocks of S_INIT, S_CLOSE, S_SCHED, S_CONF and
+  // S_ISSUE, with registered state strobes (*_any_q, like the per-sensor strobes below). s_q is
+  // stable through these states; S_CLOSE writes sensor c_s_q. The strobes are exclusive (each
+  // decodes st_q; checked below), so each array has one write port: one address, one data
+  // multiplexer selected by the strobes, one enable.
+  logic        isu_any_q, cnf_any_q, sch_any_q, ini_any_q;
+  logic        due_we, nxt_we;
+  logic [VW-1:0] due_wa;
+  logic [31:0] due_wd, nxt_wd;
   always_ff @(posedge clk_i) begin
     isu_any_q <= !rst_i && nx_go && st_q == S_ISSUE;
     cnf_any_q <= !rst_i && nx_go && st_q == S_CONF;
     sch_any_q <= !rst_i && nx_go && st_q == S_SCHED;
+    ini_any_q <= !rst_i && nx_go && st_q == S_INIT;
   end
   always_comb begin
     if (isu_any_q)      nxt_wd = nxt_isu_q;    // t0 + period
     else if (cnf_any_q) nxt_wd = nxt_retry_q;
     else if (sch_any_q) nxt_wd = s_early ? nxt_early_q : nxt_quiet_q;
     else                nxt_wd = nxt_ini_q;    // start tick + phase
+    nxt_we = ps_live && (ini_any_q || (sch_any_q && (s_early || s_quiet)) || (cnf_any_q && rem_q == '0 && retry_vld_q)
+                         || isu_any_q);
+    if (ini_any_q)      due_wd = due_ini_q;
+    else if (isu_any_q) due_wd = due_isu_q;
+    else                due_wd = cur_tick_q;  // S_CLOSE: a safety cancel, due = min(due, now)
+    due_wa = cls_go_q ? c_s_q : s_q;
+    due_we = ps_live && (ini_any_q || isu_any_q || (cls_go_q && c_safety && c_due_lt_q));
   end
   always_ff @(posedge clk_i) begin
-    for (int s = 0; s < NUM_VS; s++) begin
-      if (ps_live) begin
-        if (ini_go_q[s]) due_q[s] <= due_ini_q;
-        if (cls_go_q && c_s_q == VW'(s) && c_safety && c_due_lt_q) due_q[s] <= cur_tick_q;  // due = min(due, now)
-        if (isu_go_q[s]) due_q[s] <= due_isu_q;
-        if (ini_go_q[s] || (sch_go_q[s] && (s_early || s_quiet)) || (cnf_go_q[s] && rem_q == '0 && retry_vld_q)
-            || isu_go_q[s])
-          nxt_q[s] <= nxt_wd;
-      end
-    end
+    if (due_we) due_m[due_wa] <= due_wd;
+    if (nxt_we) nxt_m[s_q] <= nxt_wd;
+    if (ps_live && isu_any_q) quiet_m[s_q] <= quiet_isu_q;  // t0 + max ToF - D
   end
 `ifndef SYNTHESIS
-  always_ff @(posedge clk_i)
+  always_ff @(posedge clk_i) begin
     if (!rst_i && !$onehot0({isu_go_q, cnf_go_q, sch_go_q, ini_go_q}))
       $error("ms_scheduler: go strobes of two sensor states in one clock: %b", {isu_go_q, cnf_go_q, sch_go_q, ini_go_q});
+    if (!rst_i && !$onehot0({isu_any_q, cnf_any_q, sch_any_q, ini_any_q, cls_go_q}))
+      $error("ms_scheduler: two writers of the per-sensor ticks in one clock");
+    // the shared strobes name the sensor of the per-sensor ones (s_q unchanged since)
+    if (!rst_i && ({isu_any_q, cnf_any_q, sch_any_q, ini_any_q} != {|isu_go_q, |cnf_go_q, |sch_go_q, |ini_go_q}
+                   || ((|{isu_go_q, cnf_go_q, sch_go_q, ini_go_q}) && !(isu_go_q[s_q] || cnf_go_q[s_q] || sch_go_q[s_q] || ini_go_q[s_q]))))
+      $error("ms_scheduler: per-sensor write strobes disagree with s_q");
+  end
 `endif
 
   // ---- per-sensor state (seq, quiet, wake, hold, tracking, ...): written in the go clocks of
@@ -1663,7 +1762,6 @@ module ms_scheduler #(
         if (edf_go_q[s] && eo_share_q && o_elig && o_first) hold_q[s] <= 1'b1;  // S_EDF: deferred
         if (isu_go_q[s]) begin  // S_ISSUE: the pulse goes
           seq_q[s]        <= s_seq_q + 8'd1;
-          quiet_q[s]      <= quiet_isu_q;  // t0 + max ToF - D
           quiet_vld_q[s]  <= 1'b1;
           trk_pulses_q[s] <= !s_trk_q ? 8'd0 : s_tpc_q + 8'(s_tpc_q != 8'hFF);
           if (!s_trk_q) begin  // init ping: new epoch, every receiver untracked
@@ -1705,6 +1803,7 @@ module ms_scheduler #(
   // one clock early is what c_wv_q / c_eq_q register at the go edge.
   logic              hd_we_nx, hdv_we_nx, wv_we_nx;
   logic [NUM_CH-1:0] hdw_q, hdvw_q, wvw_q;
+  logic              hdw_any_q;  // some hdw_q[e]: the hd_close_m write
   always_comb begin
     hd_we_nx  = 1'b0;
     hdv_we_nx = 1'b0;
@@ -1733,6 +1832,7 @@ module ms_scheduler #(
       hdvw_q[e] <= nx_go && ei_q == RW'(e) && hdv_we_nx;
       wvw_q[e]  <= nx_go && ei_q == RW'(e) && wv_we_nx;
     end
+  always_ff @(posedge clk_i) hdw_any_q <= nx_go && hd_we_nx;
 `ifndef SYNTHESIS
   // simulation checks (the scoreboards run with them): the early enables are the go clock's,
   // and a head is written with a close tick in the future and never over one closing now
@@ -1744,6 +1844,10 @@ module ms_scheduler #(
     if (!rst_i && wvw_q != (ew_q & {NUM_CH{wv_we}}))
       $error("ms_scheduler: early slot-valid write enables %h, go clock's %h (state %0d)",
              wvw_q, ew_q & {NUM_CH{wv_we}}, st_q);
+    if (!rst_i && hdw_any_q != (|hdw_q))
+      $error("ms_scheduler: head RAM write %b, head flop writes %h", hdw_any_q, hdw_q);
+    if (!rst_i && hd_vld_q[ei_q] && hd_close_m[ei_q] != hd_close_q[ei_q])
+      $error("ms_scheduler: element %0d's head RAM %0d, flops %0d", ei_q, hd_close_m[ei_q], hd_close_q[ei_q]);
     for (int e = 0; e < NUM_CH; e++)
       if (!rst_i && ps_live && hdw_q[e]
           && ($signed(hd_close_wd - tick_i) <= 0 || (hd_vld_q[e] && hd_close_q[e] == tick_i)))
@@ -1841,6 +1945,7 @@ module ms_scheduler #(
     if (run_ok && bu_we)   bu_m[ei_q]      <= bu_wd;
     if (run_ok && tu_we)   tu_m[ei_q]      <= bu_wd;
     if (run_ok && hd_we)   hd_slot_m[ei_q] <= hd_slot_wd;
+    if (ps_live && hdw_any_q) hd_close_m[ei_q] <= hd_close_wd;  // as hd_close_q[ei_q] (hdw_q)
   end
 
   // ---- outputs
