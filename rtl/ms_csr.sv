@@ -3,8 +3,10 @@
 // Wraps the PeakRDL-generated register block (rtl/regs/sonar_regs.rdl -> build/gen/sv) so
 // the rest of the RTL never touches its hwif structs, holds the phasing-delay table in
 // block RAM (the regblock treats it as external memory) and the virtual-sensor table VS[8]
-// (an external regfile of the regblock: flip-flops written per byte lane, read back through
-// one indexed multiplexer instead of the regblock's per-register readback chain).
+// (an external regfile of the regblock) in distributed RAM: 72 words written per byte lane,
+// read by the bus and, through a second read port, by the scheduler one word per clock.
+// After a reset the table is refilled with its reset values, one word per clock (VS_WORDS
+// clocks); the bus is stalled meanwhile.
 //
 // Bus: PeakRDL "passthrough" protocol. A request is accepted on a clock with req high and
 // no stall; rd_ack / wr_ack answer three or more clocks later (the request and the answer
@@ -49,21 +51,10 @@ module ms_csr
   output logic [7:0]                    burst_cycles_o,
   output logic [7:0]                    glitch_min_o,
   output logic [15:0]                   miss_gate_o,       // RX_FILTER.miss_gate, ticks (0 off)
-  output logic [NUM_VS-1:0][NUM_CH-1:0] vs_tx_mask_o,
-  output logic [NUM_VS-1:0][NUM_CH-1:0] vs_rx_mask_o,
-  output logic [NUM_VS-1:0][1:0]        vs_mode_o,
-  output logic [NUM_VS-1:0][2:0]        vs_order_o,
-  output logic [NUM_VS-1:0][3:0]        vs_miss_limit_o,
-  output logic [NUM_VS-1:0][7:0]        vs_reinit_every_o,
-  output logic [NUM_VS-1:0][15:0]       vs_t_v_o,
-  output logic [NUM_VS-1:0][15:0]       vs_t_n_o,
-  output logic [NUM_VS-1:0][19:0]       vs_t_dead_o,
-  output logic [NUM_VS-1:0][23:0]       vs_max_tof_o,
-  output logic [NUM_VS-1:0][19:0]       vs_t_xtalk_o,
-  output logic [NUM_VS-1:0][1:0]        vs_xtalk_nb_o,
-  output logic [NUM_VS-1:0][15:0]       vs_vmax_o,
-  output logic [NUM_VS-1:0][7:0]        vs_burst_cycles_o,
-  output logic [NUM_VS-1:0][23:0]       vs_phase_o,
+  // virtual-sensor table read port for the core: word entry * 9 + register (TX_MASK 0 ..
+  // PHASE 8, the register map's layout and field positions), data one clock later
+  input  logic [6:0]                    vs_raddr_i,
+  output logic [31:0]                   vs_rdata_o,
   // phasing-delay table read port for the core: entry vs*32 + element, data one clock later
   input  logic [7:0]                    delay_raddr_i,
   output logic [DELAY_W-1:0]            delay_rdata_o,
@@ -99,7 +90,8 @@ module ms_csr
   logic              rs_rd_ack_q, rs_rd_err_q, rs_wr_ack_q, rs_wr_err_q;
   logic [31:0]       rs_rd_data_q;
 
-  assign rq_held = rq_valid_q && (rq_is_wr_q ? rb_stall_wr : rb_stall_rd);
+  logic vs_init_busy;  // the VS table is being refilled after a reset (below): every request waits
+  assign rq_held = rq_valid_q && (vs_init_busy || (rq_is_wr_q ? rb_stall_wr : rb_stall_rd));
   always_ff @(posedge clk_i) begin
     if (rst_i) rq_valid_q <= 1'b0;
     else if (!rq_held) rq_valid_q <= bus_req_i;
@@ -137,7 +129,7 @@ module ms_csr
   sonar_regs u_regs (
     .clk                  (clk_i),
     .rst                  (rst_i),
-    .s_cpuif_req          (rq_valid_q),
+    .s_cpuif_req          (rq_valid_q && !vs_init_busy),
     .s_cpuif_req_is_wr    (rq_is_wr_q),
     .s_cpuif_addr         (rq_addr_q),
     .s_cpuif_wr_data      (rq_wr_data_q),
@@ -270,7 +262,10 @@ module ms_csr
     endcase
   endfunction
 
-  logic [NUM_VS-1:0][VS_REGS-1:0][31:0] vs_q;  // packed: flip-flops, not a memory
+  localparam int VS_WORDS = int'(NUM_VS) * VS_REGS;
+  // distributed RAM (72 words: block RAM would take three DP16KD for two read ports), word
+  // entry * VS_REGS + register
+  (* ram_style = "distributed" *) logic [31:0] vs_m [VS_WORDS];
   logic [3:0]  vs_reg;   // register within the entry: byte offset / 4
   logic [2:0]  vs_sel;   // entry of the held request
   logic        vs_wr;    // the regblock accepts a write to the VS table in this clock
@@ -287,28 +282,50 @@ module ms_csr
   end
   assign vs_reg = rq_addr_q[5:2];
   assign vs_sel = {rq_addr_q[9], rq_addr_q[7:6]};
-  assign vs_wr  = rq_valid_q && rq_is_wr_q && !rb_stall_wr && rq_vs_q;
+  assign vs_wr  = rq_valid_q && rq_is_wr_q && !rb_stall_wr && rq_vs_q && !vs_init_busy;
+  // offsets 0x24..0x3F of an entry are outside the table (the regblock answers rd_err and
+  // ignores the data), so they may address register 8
+  logic [3:0] vs_reg_c;
+  logic [6:0] vs_word;
+  assign vs_reg_c = vs_reg[3] ? 4'(VS_REGS - 1) : vs_reg;
+  assign vs_word  = {1'b0, vs_sel, 3'b0} + 7'(vs_sel) + 7'(vs_reg_c);  // entry * 9 + register
+  // After a reset: every word back to its register's reset value, one per clock (vs_init_q
+  // counts the words, vs_ir_q the register of the word), the bus stalled until done.
+  logic [6:0] vs_init_q;
+  logic [3:0] vs_ir_q;
+  assign vs_init_busy = vs_init_q != 7'(VS_WORDS);
   always_ff @(posedge clk_i) begin
-    for (int v = 0; v < int'(NUM_VS); v++) begin
-      for (int r = 0; r < VS_REGS; r++) begin
-        for (int b = 0; b < 4; b++) begin
-          if (rst_i) begin
-            vs_q[v][r][8*b +: 8] <= vs_reset(r)[8*b +: 8];
-          end else if (vs_wr && vs_sel == 3'(v) && vs_reg == 4'(r) && rq_wr_biten_q[8*b]) begin
-            vs_q[v][r][8*b +: 8] <= rq_wr_data_q[8*b +: 8] & vs_fields(r)[8*b +: 8];
-          end
-        end
-      end
+    if (rst_i) begin
+      vs_init_q <= '0;
+      vs_ir_q   <= '0;
+    end else if (vs_init_busy) begin
+      vs_init_q <= vs_init_q + 7'd1;
+      vs_ir_q   <= (vs_ir_q == 4'(VS_REGS - 1)) ? 4'd0 : vs_ir_q + 4'd1;
     end
   end
-  // Reads take two register stages (the 72 registers are spread over the chip next to the
-  // scheduler that uses them; a 72:1 multiplexer in one clock was the slowest CSR path):
-  // the request clock selects the register in every entry (vs_row_q), the next one the entry
-  // (vs_rdata_q); the answer (vs_rd_ack_q) comes with it, two clocks after the request.
-  // Both stages sample every clock: the held request's address is stable in the first one,
-  // and vs_sel_q keeps its entry for the second.
-  logic [NUM_VS-1:0][31:0] vs_row_q;
-  logic [2:0]              vs_sel_q;
+  logic [31:0] vs_reset_w;  // the reset value of register vs_ir_q
+  always_comb begin
+    vs_reset_w = '0;
+    for (int r = 0; r < VS_REGS; r++) if (vs_ir_q == 4'(r)) vs_reset_w = vs_reset(r);
+  end
+  logic [31:0] vs_fields_w;  // the implemented bits of the written register
+  always_comb begin
+    vs_fields_w = '0;
+    for (int r = 0; r < VS_REGS; r++) if (vs_reg_c == 4'(r)) vs_fields_w = vs_fields(r);
+  end
+  always_ff @(posedge clk_i) begin
+    if (!rst_i && vs_init_busy) begin
+      vs_m[vs_init_q] <= vs_reset_w;
+    end else if (!rst_i && vs_wr) begin
+      for (int b = 0; b < 4; b++)
+        if (rq_wr_biten_q[8*b]) vs_m[vs_word][8*b +: 8] <= rq_wr_data_q[8*b +: 8] & vs_fields_w[8*b +: 8];
+    end
+  end
+  // The core's read port: one word per clock, registered.
+  always_ff @(posedge clk_i) vs_rdata_o <= vs_m[vs_raddr_i];
+  // Bus reads take two register stages like before the RAM (the word address, then the RAM
+  // read): the answer (vs_rd_ack_q) comes two clocks after the request.
+  logic [6:0]              vs_word_q;
   logic [NUM_VS-1:0]       vs_rd_req_q;
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
@@ -322,31 +339,8 @@ module ms_csr
       end
       vs_rd_ack_q <= vs_rd_req_q;
     end
-    for (int v = 0; v < int'(NUM_VS); v++)
-      // offsets 0x24..0x3F of an entry are outside the table (the regblock answers rd_err and
-      // ignores the data), so they may read register 8: a clamped index, not a zeroing sync
-      // reset of all 256 flops decoded from the address
-      vs_row_q[v] <= vs_q[v][vs_reg[3] ? 4'(VS_REGS - 1) : vs_reg];
-    vs_sel_q   <= vs_sel;
-    vs_rdata_q <= vs_row_q[vs_sel_q];
-  end
-
-  for (genvar v = 0; v < NUM_VS; v++) begin : g_vs
-    assign vs_tx_mask_o[v]      = vs_q[v][0][NUM_CH-1:0];
-    assign vs_rx_mask_o[v]      = vs_q[v][1][NUM_CH-1:0];
-    assign vs_mode_o[v]         = vs_q[v][2][1:0];
-    assign vs_order_o[v]        = vs_q[v][2][6:4];
-    assign vs_miss_limit_o[v]   = vs_q[v][2][11:8];
-    assign vs_reinit_every_o[v] = vs_q[v][2][19:12];
-    assign vs_t_v_o[v]          = vs_q[v][3][15:0];
-    assign vs_t_n_o[v]          = vs_q[v][3][31:16];
-    assign vs_t_dead_o[v]       = vs_q[v][4][19:0];
-    assign vs_max_tof_o[v]      = vs_q[v][5][23:0];
-    assign vs_t_xtalk_o[v]      = vs_q[v][6][19:0];
-    assign vs_xtalk_nb_o[v]     = vs_q[v][6][21:20];
-    assign vs_vmax_o[v]         = vs_q[v][7][15:0];
-    assign vs_burst_cycles_o[v] = vs_q[v][7][23:16];
-    assign vs_phase_o[v]        = vs_q[v][8][23:0];
+    vs_word_q  <= vs_word;
+    vs_rdata_q <= vs_m[vs_word_q];
   end
 
   // ---- phasing-delay table: external memory of the regblock, kept in block RAM.

@@ -47,15 +47,8 @@ module ms_sonar_core #(
   logic [15:0]                   burst_half_period;
   logic [7:0]                    unused_burst_cycles, glitch_min;
   logic [15:0]                   miss_gate;
-  logic [NUM_VS-1:0][NUM_CH-1:0] vs_tx_mask, vs_rx_mask;
-  logic [NUM_VS-1:0][1:0]        vs_mode, vs_xtalk_nb;
-  logic [NUM_VS-1:0][2:0]        vs_order;
-  logic [NUM_VS-1:0][3:0]        vs_miss_limit;
-  logic [NUM_VS-1:0][7:0]        vs_reinit_every;
-  logic [NUM_VS-1:0][15:0]       vs_t_v, vs_t_n, vs_vmax;
-  logic [NUM_VS-1:0][19:0]       vs_t_dead, vs_t_xtalk;
-  logic [NUM_VS-1:0][23:0]       vs_max_tof, vs_phase;
-  logic [NUM_VS-1:0][7:0]        vs_burst_cycles;
+  logic [6:0]                    vs_raddr;
+  logic [31:0]                   vs_rdata;
   logic [7:0]                    delay_raddr;
   logic [DELAY_W-1:0]            delay_rdata;
   logic                          fifo_rvalid, fifo_pop, fifo_overflow;
@@ -74,11 +67,7 @@ module ms_sonar_core #(
     .enable_o (enable), .apply_o (apply), .clear_counters_o (unused_clear_counters),
     .burst_half_period_o (burst_half_period), .burst_cycles_o (unused_burst_cycles),
     .glitch_min_o (glitch_min), .miss_gate_o (miss_gate),
-    .vs_tx_mask_o (vs_tx_mask), .vs_rx_mask_o (vs_rx_mask), .vs_mode_o (vs_mode),
-    .vs_order_o (vs_order), .vs_miss_limit_o (vs_miss_limit), .vs_reinit_every_o (vs_reinit_every), .vs_t_v_o (vs_t_v),
-    .vs_t_n_o (vs_t_n), .vs_t_dead_o (vs_t_dead), .vs_max_tof_o (vs_max_tof),
-    .vs_t_xtalk_o (vs_t_xtalk), .vs_xtalk_nb_o (vs_xtalk_nb), .vs_vmax_o (vs_vmax),
-    .vs_burst_cycles_o (vs_burst_cycles), .vs_phase_o (vs_phase),
+    .vs_raddr_i (vs_raddr), .vs_rdata_o (vs_rdata),
     .delay_raddr_i (delay_raddr), .delay_rdata_o (delay_rdata),
     .evt_rvalid_i (fifo_rvalid), .evt_rdata_i (fifo_rdata), .evt_pop_o (fifo_pop),
     .running_i (running), .sched_overrun_i (overrun), .tx_collision_i (tx_collision),
@@ -102,20 +91,17 @@ module ms_sonar_core #(
   logic [DELAY_W:0]          trig_delay;
   logic [7:0]                trig_burst, pulse_seq;
   logic [2:0]                pulse_vs;
+  logic [NUM_CH-1:0]         unused_pulse_tx;  // for testbenches (through the hierarchy)
   logic [31:0]               pulse_t0;
 
   ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W), .LEAD(LEAD)) u_sched (
     .clk_i, .rst_i, .tick_i (tick_q), .enable_i (enable), .apply_i (apply),
-    .vs_tx_mask_i (vs_tx_mask), .vs_rx_mask_i (vs_rx_mask), .vs_mode_i (vs_mode),
-    .vs_order_i (vs_order), .vs_miss_limit_i (vs_miss_limit), .vs_reinit_every_i (vs_reinit_every), .vs_t_v_i (vs_t_v),
-    .vs_t_n_i (vs_t_n), .vs_t_dead_i (vs_t_dead), .vs_max_tof_i (vs_max_tof),
-    .vs_t_xtalk_i (vs_t_xtalk), .vs_xtalk_nb_i (vs_xtalk_nb), .vs_vmax_i (vs_vmax),
-    .vs_burst_cycles_i (vs_burst_cycles), .vs_phase_i (vs_phase),
+    .vs_raddr_o (vs_raddr), .vs_rdata_i (vs_rdata),
     .burst_half_period_i (burst_half_period), .glitch_min_i (glitch_min), .miss_gate_i (miss_gate),
     .delay_raddr_o (delay_raddr), .delay_rdata_i (delay_rdata), .rise_i (rise),
     .trig_valid_o (trig_valid), .trig_el_o (trig_el), .trig_delay_o (trig_delay),
     .trig_burst_o (trig_burst),
-    .pulse_o (pulse), .pulse_vs_o (pulse_vs), .pulse_seq_o (pulse_seq), .pulse_t0_o (pulse_t0),
+    .pulse_o (pulse), .pulse_vs_o (pulse_vs), .pulse_tx_o (unused_pulse_tx), .pulse_seq_o (pulse_seq), .pulse_t0_o (pulse_t0),
     .pulse_init_o (pulse_init),
     .evt_valid_o (evt_valid), .evt_data_o (evt_data),
     .running_o (running), .cfg_error_o (cfg_error),

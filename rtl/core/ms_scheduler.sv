@@ -68,21 +68,11 @@ module ms_scheduler #(
   input  logic [31:0]                    tick_i,
   input  logic                           enable_i,
   input  logic                           apply_i,
-  input  logic [NUM_VS-1:0][NUM_CH-1:0]  vs_tx_mask_i,
-  input  logic [NUM_VS-1:0][NUM_CH-1:0]  vs_rx_mask_i,
-  input  logic [NUM_VS-1:0][1:0]         vs_mode_i,
-  input  logic [NUM_VS-1:0][2:0]         vs_order_i,
-  input  logic [NUM_VS-1:0][3:0]         vs_miss_limit_i,
-  input  logic [NUM_VS-1:0][7:0]         vs_reinit_every_i,  // MODE.reinit_every M, pulses (0 off)
-  input  logic [NUM_VS-1:0][15:0]        vs_t_v_i,
-  input  logic [NUM_VS-1:0][15:0]        vs_t_n_i,
-  input  logic [NUM_VS-1:0][19:0]        vs_t_dead_i,
-  input  logic [NUM_VS-1:0][23:0]        vs_max_tof_i,
-  input  logic [NUM_VS-1:0][19:0]        vs_t_xtalk_i,
-  input  logic [NUM_VS-1:0][1:0]         vs_xtalk_nb_i,
-  input  logic [NUM_VS-1:0][15:0]        vs_vmax_i,
-  input  logic [NUM_VS-1:0][7:0]         vs_burst_cycles_i,
-  input  logic [NUM_VS-1:0][23:0]        vs_phase_i,
+  // the CSR's virtual-sensor table: word entry * 9 + register (TX_MASK 0, RX_MASK 1, MODE 2,
+  // WINDOW 3, T_DEAD 4, MAX_TOF 5, XTALK 6, TRACK 7, PHASE 8; sonar_regs.rdl's field
+  // positions), read data one clock after the address
+  output logic [6:0]                     vs_raddr_o,
+  input  logic [31:0]                    vs_rdata_i,
   input  logic [15:0]                    burst_half_period_i,
   input  logic [7:0]                     glitch_min_i,
   input  logic [15:0]                    miss_gate_i,     // RX_FILTER.miss_gate, ticks (0 off), latched at apply
@@ -95,6 +85,7 @@ module ms_scheduler #(
   output logic [7:0]                     trig_burst_o,
   output logic                           pulse_o,
   output logic [2:0]                     pulse_vs_o,
+  output logic [NUM_CH-1:0]              pulse_tx_o,     // the sensor's tx elements (for testbenches; unused by the core)
   output logic [7:0]                     pulse_seq_o,
   output logic [31:0]                    pulse_t0_o,
   output logic                           pulse_init_o,
@@ -183,6 +174,8 @@ module ms_scheduler #(
   logic [23:0]       sh_hi_m    [NUM_VS];  // ... and max ToF - T_N
   logic [7:0]        sh_burst_m [NUM_VS];
   logic [1:0]        sh_nb_m    [NUM_VS];
+  logic [19:0]       sh_dead_m  [NUM_VS];  // T_dead and T_xtalk: the BLK RAM's blank ends (S_COPY)
+  logic [19:0]       sh_xtk_m   [NUM_VS];
   logic [NUM_VS-1:0]             sh_act_q;  // mode != off
   logic [NUM_CH-1:0]             sh_rxany_q;  // receivers of the active sensors
   logic [NUM_VS-1:0][NUM_VS-1:0] sh_share_q;
@@ -260,7 +253,7 @@ module ms_scheduler #(
 
   // ------------------------------------------------------------------ engine
   typedef enum logic [4:0] {
-    S_OFF, S_VREAD, S_VCHECK, S_STOP, S_LOAD, S_COPY, S_START, S_SETTLE, S_IDLE, S_DISP,
+    S_OFF, S_VREAD, S_GATHER, S_VCHECK, S_STOP, S_LOAD, S_COPY, S_START, S_SETTLE, S_IDLE, S_DISP,
     S_EDGE, S_HIT, S_CLOSE, S_HEAD, S_SCHED, S_NEXT, S_EDF, S_CAND, S_ORDER, S_CONF, S_CSLOT,
     S_ISSUE, S_IEL, S_SAFE, S_INIT
   } state_t;
@@ -278,7 +271,8 @@ module ms_scheduler #(
   always_comb begin
     unique case (st_q)
       S_ISSUE:                                need = 3'd1;  // per-sensor words
-      S_STOP:                                 need = 3'd1;  // the table latch's registered enable
+      S_STOP:                                 need = 3'd1;  // the miss gate latch's registered enable
+      S_LOAD:                                 need = 3'd2;  // ld_*_q from the gathered entry, then the write
       S_INIT:                                 need = 3'd2;  // the sensor's phase, then start + phase
       S_SCHED, S_EDF:                         need = 3'd2;  // per-sensor words, then their compares
       S_DISP, S_SAFE:                         need = 3'd2;  // stage A; two registered steps of arithmetic
@@ -304,6 +298,7 @@ module ms_scheduler #(
   logic [DELAY_W:0]  trig_delay_q;
   logic [7:0]        trig_burst_q, pulse_seq_q;
   logic [VW-1:0]     pulse_vs_q;
+  logic [NUM_CH-1:0] pulse_tx_q;
   logic [31:0]       pulse_t0_q;
   logic [NUM_CH-1:0] edges_q, closes_q, rem_q;
   logic [WSLOTS-1:0] srem_q;
@@ -453,7 +448,7 @@ module ms_scheduler #(
   // (docs/synthesis.md) is read off this.
   logic        eng_busy;
   logic [31:0] lag_now, lag_max_q;
-  assign eng_busy = started_q && !(st_q inside {S_OFF, S_VREAD, S_VCHECK, S_STOP, S_LOAD, S_COPY, S_START, S_INIT,
+  assign eng_busy = started_q && !(st_q inside {S_OFF, S_VREAD, S_GATHER, S_VCHECK, S_STOP, S_LOAD, S_COPY, S_START, S_INIT,
                                                  S_SETTLE, S_IDLE});
   assign lag_now  = tick_i - cur_tick_q;
   always_ff @(posedge clk_i) begin
@@ -832,7 +827,7 @@ module ms_scheduler #(
       v0_ok_q <= st_q == S_VREAD && vc_q != 9'd0 && vc_q <= 9'(NUM_VS * 32) && v_pa[RW-1:0] < RW'(NUM_CH);
       v_ok_q  <= v0_ok_q && v0_row_q[v0_e_q];
     end
-    v0_row_q <= vs_tx_mask_i[v_pa[RW+VW-1:RW]];
+    v0_row_q <= vs_rdata_i[NUM_CH-1:0];  // TX_MASK of v_pa's sensor (vs_raddr_o in S_VREAD)
     v0_e_q   <= v_pa[RW-1:0];
     v0_s_q   <= v_pa[RW+VW-1:RW];
     v0_d_q   <= delay_rdata_i;
@@ -863,23 +858,40 @@ module ms_scheduler #(
   logic [15:0]        v0_vmax_q;   // not checked: for S_LOAD
   logic [23:0]        v0_phase_q;  // not checked: for S_LOAD
   logic [1:0]         v0_nb_q;     // not checked: for S_LOAD
-  logic               v_any_q;
+  logic [7:0]         v0_reinit_q; // not checked: for S_LOAD
+  logic               v_any_q;     // some entry is enabled (accumulated by S_GATHER in validation)
+  // S_GATHER: the entry's 9 words through the table read port (vs_raddr_o), one per clock
+  logic [3:0]         gr_q, gr_d_q;
+  logic               gv_q, g_load_q;  // a word is on vs_rdata_i; return to S_LOAD (else S_VCHECK)
   always_ff @(posedge clk_i) begin
-    v0_mode_q   <= vs_mode_i[vs];
-    v0_tx_q     <= vs_tx_mask_i[vs];
-    v0_rx_q     <= vs_rx_mask_i[vs];
-    v0_order_q  <= vs_order_i[vs];
-    v0_k_q      <= vs_miss_limit_i[vs];
-    v0_burst_q  <= vs_burst_cycles_i[vs];
-    v0_tv_q     <= vs_t_v_i[vs];
-    v0_tn_q     <= vs_t_n_i[vs];
-    v0_dead_q   <= vs_t_dead_i[vs];
-    v0_xt_q     <= vs_t_xtalk_i[vs];
-    v0_tmax_q   <= vs_max_tof_i[vs];
-    v0_vmax_q   <= vs_vmax_i[vs];
-    v0_phase_q  <= vs_phase_i[vs];
-    v0_nb_q     <= vs_xtalk_nb_i[vs];
-    v_any_q     <= v_any;
+    gv_q   <= !rst_i && st_q == S_GATHER && gr_q < 4'd9;
+    gr_d_q <= gr_q;
+  end
+  // word entry * 9 + register: TX_MASK of the sensor S_VREAD reads delays of, else word gr_q of vs
+  logic [VW-1:0] vs_ent;
+  assign vs_ent     = (st_q == S_VREAD) ? vc_q[RW+VW-1:RW] : vs;
+  assign vs_raddr_o = {1'b0, vs_ent, 3'b0} + 7'(vs_ent) + ((st_q == S_VREAD) ? 7'd0 : 7'(gr_q));
+  always_ff @(posedge clk_i) begin
+    // S_GATHER: word gr_d_q of entry vs, one clock after its address
+    if (gv_q) begin
+      unique case (gr_d_q)
+        4'd0: v0_tx_q <= vs_rdata_i[NUM_CH-1:0];
+        4'd1: v0_rx_q <= vs_rdata_i[NUM_CH-1:0];
+        4'd2: begin
+          v0_mode_q   <= vs_rdata_i[1:0];
+          v0_order_q  <= vs_rdata_i[6:4];
+          v0_k_q      <= vs_rdata_i[11:8];
+          v0_reinit_q <= vs_rdata_i[19:12];
+          v_any_q     <= (vs != '0 && v_any_q) || vs_rdata_i[1:0] != 2'd0;  // over entries 0..vs
+        end
+        4'd3: {v0_tn_q, v0_tv_q} <= vs_rdata_i;
+        4'd4: v0_dead_q <= vs_rdata_i[19:0];
+        4'd5: v0_tmax_q <= vs_rdata_i[23:0];
+        4'd6: {v0_nb_q, v0_xt_q} <= vs_rdata_i[21:0];
+        4'd7: {v0_burst_q, v0_vmax_q} <= vs_rdata_i[23:0];
+        default: v0_phase_q <= vs_rdata_i[23:0];
+      endcase
+    end
     v_burst_ticks <= 26'(v0_burst_q) * 26'({burst_half_period_i, 1'b0});
     // V1
     v1_mode_q   <= v0_mode_q;
@@ -905,11 +917,6 @@ module ms_scheduler #(
     v4_tof_q    <= 26'(v1_tmax_q) < 26'(v3_dbl_q) + 26'(v1_tvn_q);
     v4_lead_q   <= v3_dbl_q <= 24'(LEAD);
     v_err_q     <= v_err;
-  end
-  logic v_any;  // some entry is enabled
-  always_comb begin
-    v_any = 1'b0;
-    for (int s = 0; s < NUM_VS; s++) v_any = v_any | (vs_mode_i[s] != 2'd0);
   end
   always_comb begin
     v_err = 4'd0;
@@ -1108,100 +1115,81 @@ module ms_scheduler #(
 
   // ------------------------------------------------------------------ main FSM
   logic cand_clr_q;  // S_EDF moved to S_CAND in the last clock
-  // The table latch, in S_STOP's go clock (its second): a registered enable straight to the
-  // CE pins, not the state decode and no reset term, since it reaches about 1,000 flops (a stop
-  // in S_STOP's first clock only leaves the latched table unused until the next apply).
   // vdbl_q is each sensor's blanking max(T_dead, T_xtalk) + max delay as validation computed it
-  // (v3_dbl_q, kept in S_VCHECK's go clock for the sensor checked), so the latch needs no compare
-  // or adder of its own per sensor: one serial stage instead of NUM_VS parallel ones. The table
-  // does not change between validation and latch (a CSR write racing an apply is undefined
-  // anyway; checked below).
+  // (v3_dbl_q, kept in S_VCHECK's go clock for the sensor checked), so S_LOAD needs no compare
+  // or adder of its own for it. The table does not change between validation and S_LOAD (a
+  // CSR write racing an apply is undefined anyway). The miss gate (not in the VS table) is
+  // latched in S_STOP's go clock (stop_ld_q).
   logic [NUM_VS-1:0][23:0] vdbl_q;
+  logic                    ld_we;  // S_LOAD's go clock: entry vs into the per-sensor state
+  logic [7:0]              ld_reinit_q;
   always_ff @(posedge clk_i) begin
     if (st_q == S_VCHECK && go) vdbl_q[vs] <= v3_dbl_q;
-    if (stop_ld_q) begin
-      sh_gate_q   <= miss_gate_i;
-      sh_reinit_q <= vs_reinit_every_i;  // compared for every sensor at once (reinit_due_q)
-    end
+    if (stop_ld_q) sh_gate_q <= miss_gate_i;
+    if (ld_we) sh_reinit_q[vs] <= ld_reinit_q;  // flops: compared for every sensor at once (reinit_due_q)
   end
-  // S_LOAD: the rest of the table into the per-sensor RAMs, one sensor per clock: entry
-  // vs = vc_q[2:0] through the validation's V0 registers (the same 8:1 multiplexers of the
-  // register block's flops), then the derived fields (ld_*_q), written two clocks after vs.
-  logic              ld_v1_q, ld_v2_q;
-  logic [VW-1:0]     ld_s1_q, ld_s2_q;
+  // S_LOAD: entry vs (gathered into the V0 registers by S_GATHER) into the per-sensor RAMs:
+  // the derived fields (ld_*_q) are registered from V0 in S_LOAD's first clock and written in
+  // its go clock (need 2).
   logic [NUM_CH-1:0] ld_tx_q, ld_rx_q, ld_xt_q;
   logic              ld_act_q, ld_track_q;
   logic [2:0]        ld_order_q;
   logic [3:0]        ld_k_q;
   logic [15:0]       ld_tv_q, ld_tn_q, ld_vmax_q;
   logic [23:0]       ld_rmax_q, ld_phase_q, ld_dbl_q, ld_lo_q, ld_hi_q;
+  logic [19:0]       ld_dead_q, ld_xtk_q;
   logic [7:0]        ld_burst_q;
   logic [1:0]        ld_nb_q;
+  assign ld_we = !rst_i && st_q == S_LOAD && go;
   always_ff @(posedge clk_i) begin
-    ld_v1_q    <= !rst_i && st_q == S_LOAD && vc_q < 9'(NUM_VS);
-    ld_s1_q    <= vs;
-    ld_v2_q    <= !rst_i && ld_v1_q;
-    ld_s2_q    <= ld_s1_q;
-    ld_tx_q    <= v0_tx_q;
-    ld_rx_q    <= v0_rx_q;
-    ld_xt_q    <= xt_of(v0_tx_q, v0_nb_q);
-    ld_act_q   <= v0_mode_q != 2'd0;
-    ld_track_q <= v0_mode_q == 2'd1;
-    ld_order_q <= v0_order_q;
-    ld_k_q     <= v0_k_q;
-    ld_tv_q    <= v0_tv_q;
-    ld_tn_q    <= v0_tn_q;
-    ld_vmax_q  <= v0_vmax_q;
-    ld_rmax_q  <= v0_tmax_q;
-    ld_phase_q <= v0_phase_q;
-    ld_dbl_q   <= vdbl_q[ld_s1_q];
-    ld_lo_q    <= vdbl_q[ld_s1_q] + 24'(v0_tv_q);
-    ld_hi_q    <= v0_tmax_q - 24'(v0_tn_q);
-    ld_burst_q <= v0_burst_q;
-    ld_nb_q    <= v0_nb_q;
-    if (ld_v2_q) begin
-      sh_tx_m[ld_s2_q]    <= ld_tx_q;
-      sh_rx_m[ld_s2_q]    <= ld_rx_q;
-      sh_xt_m[ld_s2_q]    <= ld_xt_q;
-      sh_use_m[ld_s2_q]   <= ld_tx_q | ld_rx_q | ld_xt_q;
-      sh_track_m[ld_s2_q] <= ld_track_q;
-      sh_order_m[ld_s2_q] <= ld_order_q;
-      sh_k_m[ld_s2_q]     <= ld_k_q;
-      sh_tv_m[ld_s2_q]    <= ld_tv_q;
-      sh_tn_m[ld_s2_q]    <= ld_tn_q;
-      sh_vmax_m[ld_s2_q]  <= ld_vmax_q;
-      sh_rmax_m[ld_s2_q]  <= ld_rmax_q;
-      sh_phase_m[ld_s2_q] <= ld_phase_q;
-      sh_dbl_m[ld_s2_q]   <= ld_dbl_q;
-      sh_lo_m[ld_s2_q]    <= ld_lo_q;
-      sh_hi_m[ld_s2_q]    <= ld_hi_q;
-      sh_burst_m[ld_s2_q] <= ld_burst_q;
-      sh_nb_m[ld_s2_q]    <= ld_nb_q;
-      sh_rxany_q <= ((ld_s2_q == '0) ? '0 : sh_rxany_q) | (ld_act_q ? ld_rx_q : '0);
+    ld_tx_q     <= v0_tx_q;
+    ld_rx_q     <= v0_rx_q;
+    ld_xt_q     <= xt_of(v0_tx_q, v0_nb_q);
+    ld_act_q    <= v0_mode_q != 2'd0;
+    ld_track_q  <= v0_mode_q == 2'd1;
+    ld_order_q  <= v0_order_q;
+    ld_k_q      <= v0_k_q;
+    ld_reinit_q <= v0_reinit_q;
+    ld_tv_q     <= v0_tv_q;
+    ld_tn_q     <= v0_tn_q;
+    ld_vmax_q   <= v0_vmax_q;
+    ld_rmax_q   <= v0_tmax_q;
+    ld_phase_q  <= v0_phase_q;
+    ld_dead_q   <= v0_dead_q;
+    ld_xtk_q    <= v0_xt_q;
+    ld_dbl_q    <= vdbl_q[vs];
+    ld_lo_q     <= vdbl_q[vs] + 24'(v0_tv_q);
+    ld_hi_q     <= v0_tmax_q - 24'(v0_tn_q);
+    ld_burst_q  <= v0_burst_q;
+    ld_nb_q     <= v0_nb_q;
+    if (ld_we) begin
+      sh_tx_m[vs]    <= ld_tx_q;
+      sh_rx_m[vs]    <= ld_rx_q;
+      sh_xt_m[vs]    <= ld_xt_q;
+      sh_use_m[vs]   <= ld_tx_q | ld_rx_q | ld_xt_q;
+      sh_track_m[vs] <= ld_track_q;
+      sh_order_m[vs] <= ld_order_q;
+      sh_k_m[vs]     <= ld_k_q;
+      sh_tv_m[vs]    <= ld_tv_q;
+      sh_tn_m[vs]    <= ld_tn_q;
+      sh_vmax_m[vs]  <= ld_vmax_q;
+      sh_rmax_m[vs]  <= ld_rmax_q;
+      sh_phase_m[vs] <= ld_phase_q;
+      sh_dbl_m[vs]   <= ld_dbl_q;
+      sh_lo_m[vs]    <= ld_lo_q;
+      sh_hi_m[vs]    <= ld_hi_q;
+      sh_burst_m[vs] <= ld_burst_q;
+      sh_nb_m[vs]    <= ld_nb_q;
+      sh_dead_m[vs]  <= ld_dead_q;
+      sh_xtk_m[vs]   <= ld_xtk_q;
+      sh_rxany_q <= ((vs == '0) ? '0 : sh_rxany_q) | (ld_act_q ? ld_rx_q : '0);
     end
   end
 `ifndef SYNTHESIS
-  // in S_COPY's first clock every sensor's RAM words equal its table entry (as latched)
-  always_ff @(posedge clk_i)
-    if (!rst_i && st_q == S_COPY && sp_q == 7'd0)
-      for (int s = 0; s < NUM_VS; s++)
-        if (sh_tx_m[s] != vs_tx_mask_i[s] || sh_rx_m[s] != vs_rx_mask_i[s] || sh_nb_m[s] != vs_xtalk_nb_i[s]
-            || sh_xt_m[s] != xt_of(vs_tx_mask_i[s], vs_xtalk_nb_i[s]) || sh_track_m[s] != (vs_mode_i[s] == 2'd1)
-            || sh_order_m[s] != vs_order_i[s] || sh_k_m[s] != vs_miss_limit_i[s] || sh_tv_m[s] != vs_t_v_i[s]
-            || sh_tn_m[s] != vs_t_n_i[s] || sh_vmax_m[s] != vs_vmax_i[s] || sh_rmax_m[s] != vs_max_tof_i[s]
-            || sh_phase_m[s] != vs_phase_i[s] || sh_burst_m[s] != vs_burst_cycles_i[s] || sh_dbl_m[s] != vdbl_q[s]
-            || sh_lo_m[s] != vdbl_q[s] + 24'(vs_t_v_i[s]) || sh_hi_m[s] != vs_max_tof_i[s] - 24'(vs_t_n_i[s])
-            || sh_act_q[s] != (vs_mode_i[s] != 2'd0))
-          $error("ms_scheduler: sensor %0d's per-sensor RAM words differ from its table entry after S_LOAD", s);
-`endif
-`ifndef SYNTHESIS
-  // the latched blanking equals the one computed from the table in the latch clock
-  always_ff @(posedge clk_i)
-    if (!rst_i && stop_ld_q)
-      for (int s = 0; s < NUM_VS; s++)
-        if (vdbl_q[s] != 24'((vs_t_dead_i[s] > vs_t_xtalk_i[s]) ? vs_t_dead_i[s] : vs_t_xtalk_i[s])
-                         + 24'(vdmax_q[s]))
-          $error("ms_scheduler: sensor %0d's table or vdmax changed between validation and latch", s);
+  // for the testbench's check of the per-sensor state against the table (ms_scheduler_tb.sv):
+  // S_COPY's first clock, every sensor loaded
+  logic dbg_loaded;
+  assign dbg_loaded = !rst_i && st_q == S_COPY && sp_q == 7'd0;
 `endif
 
   always_ff @(posedge clk_i) begin
@@ -1243,7 +1231,7 @@ module ms_scheduler #(
       end
       if (v_ok_q && v_d_q > vdmax_q[v_s_q]) vdmax_q[v_s_q] <= v_d_q;  // S_VREAD (S_OFF / S_SETTLE clear it)
       // S_STOP's go clock (its second): the table latch above; sh_act_q alone has a reset
-      if (stop_ld_q) for (int s = 0; s < NUM_VS; s++) sh_act_q[s] <= vs_mode_i[s] != 2'd0;
+      if (ld_we) sh_act_q[vs] <= ld_act_q;  // S_LOAD
       if (sp_v_q) sh_share_q[sp_mq[5:3]][sp_mq[2:0]] <= |sp_and_q;  // S_COPY pair step, a clock later
 
       if (!en_q && started_q) begin  // stop: windows dropped, armed triggers still fire
@@ -1268,8 +1256,17 @@ module ms_scheduler #(
           S_VREAD: begin  // max phasing delay of every sensor's tx group (data one clock later,
             vc_q <= vc_q + 9'd1;  // its maximum two more clocks later: v0_ok_q, v_ok_q above)
             if (vc_q == 9'(NUM_VS * 32 + 2)) begin
-              vc_q <= '0;
-              st_q <= S_VCHECK;
+              vc_q     <= '0;
+              gr_q     <= '0;
+              g_load_q <= 1'b0;
+              st_q     <= S_GATHER;
+            end
+          end
+          S_GATHER: begin  // entry vs's words 0..8 (data one clock after gr_q), then check or load it
+            gr_q <= gr_q + 4'd1;
+            if (gr_q == 4'd9) begin  // the last word is registered in this clock
+              gr_q <= '0;
+              st_q <= g_load_q ? S_LOAD : S_VCHECK;
             end
           end
           S_VCHECK: begin  // first refusal wins; a refused table changes nothing
@@ -1293,17 +1290,22 @@ module ms_scheduler #(
               end
             end else begin
               vc_q <= vc_q + 9'd1;
+              st_q <= S_GATHER;  // the next entry (g_load_q is 0)
             end
           end
-          S_STOP: begin  // latch the table (stop_ld_q above), then load the per-sensor RAMs
+          S_STOP: begin  // latch the miss gate (stop_ld_q above), then load the per-sensor state
             started_q  <= 1'b0;
             stop_req_q <= 1'b0;
             vc_q       <= '0;
-            st_q       <= S_LOAD;
+            gr_q       <= '0;
+            g_load_q   <= 1'b1;
+            st_q       <= S_GATHER;
           end
-          S_LOAD: begin  // sensor vc_q into the per-sensor RAMs (written two clocks later), then the BLK RAM
-            vc_q <= vc_q + 9'd1;
-            if (vc_q == 9'(NUM_VS + 1)) begin  // the last sensor's write is in this clock
+          S_LOAD: begin  // entry vs into the per-sensor state (ld_we above), then the next one or the BLK RAM
+            if (vs != VW'(NUM_VS - 1)) begin
+              vc_q <= vc_q + 9'd1;
+              st_q <= S_GATHER;
+            end else begin
               vc_q     <= '0;
               ck_q     <= '0;
               sp_q     <= '0;
@@ -1358,8 +1360,8 @@ module ms_scheduler #(
               if (ck_d2_q == 3'd6) begin
                 blk_q[int'(cs2_q) * 32 + int'(ce2_q)] <= '{
                     a: c_first,
-                    b: c_tx2_q ? BW'(c_first) + BW'(vs_t_dead_i[cs2_q])
-                                                  : BW'(c_last) + BW'(vs_t_xtalk_i[cs2_q])};
+                    b: c_tx2_q ? BW'(c_first) + BW'(sh_dead_m[cs2_q])
+                                                  : BW'(c_last) + BW'(sh_xtk_m[cs2_q])};
                 cany_q <= 1'b0;
               end
             end
@@ -1573,6 +1575,7 @@ module ms_scheduler #(
             // seq, quiet, epoch, ... and due, nxt: per-sensor writes
             pulse_q      <= 1'b1;
             pulse_vs_q   <= s_q;
+            pulse_tx_q   <= s_tx_q;
             pulse_seq_q  <= s_seq_q;
             pulse_t0_q   <= t_q;
             pulse_init_q <= !s_trk_q;
@@ -1955,6 +1958,7 @@ module ms_scheduler #(
   assign trig_burst_o   = trig_burst_q;
   assign pulse_o        = pulse_q;
   assign pulse_vs_o     = pulse_vs_q;
+  assign pulse_tx_o     = pulse_tx_q;
   assign pulse_seq_o    = pulse_seq_q;
   assign pulse_t0_o     = pulse_t0_q;
   assign pulse_init_o   = pulse_init_q;

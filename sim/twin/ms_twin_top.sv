@@ -55,7 +55,7 @@ module ms_twin_top #(
   assign pulse_o         = u_dev.u_sys.u_sonar.u_sched.pulse_o;
   assign pulse_vs_o      = u_dev.u_sys.u_sonar.u_sched.pulse_vs_o;
   assign pulse_t0_o      = u_dev.u_sys.u_sonar.u_sched.pulse_t0_o;
-  assign pulse_tx_mask_o = u_dev.u_sys.u_sonar.u_sched.sh_tx_q[pulse_vs_o];
+  assign pulse_tx_mask_o = u_dev.u_sys.u_sonar.u_sched.pulse_tx_o;
   assign running_o       = u_dev.u_sys.u_sonar.u_sched.running_o;
   assign trig_valid_o    = u_dev.u_sys.u_sonar.u_sched.trig_valid_o;
   assign trig_el_o       = u_dev.u_sys.u_sonar.u_sched.trig_el_o;

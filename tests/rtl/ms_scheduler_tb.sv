@@ -104,6 +104,60 @@ module ms_scheduler_tb #(
   assign vs_dead = t_dead_i;  assign vs_xt = t_xtalk_i;      assign vs_rmax = max_tof_i;
   assign vs_phase = phase_i;  assign vs_burst = burst_cycles_i;
 
+  // The CSR's VS table read port (ms_csr): word entry * 9 + register, the register map's field
+  // positions, data one clock after the address.
+  logic [6:0]  vs_raddr;
+  logic [31:0] vs_rdata;
+  function automatic logic [31:0] vs_word(input int a);
+    int e, r;
+    e = a / 9;
+    r = a % 9;
+    vs_word = '0;
+    if (e < NUM_VS)
+      unique case (r)
+        0:       vs_word = 32'(vs_tx[e]);
+        1:       vs_word = 32'(vs_rx[e]);
+        2:       vs_word = {12'd0, vs_reinit[e], vs_k[e], 1'b0, vs_order[e], 2'b0, vs_mode[e]};
+        3:       vs_word = {vs_tn[e], vs_tv[e]};
+        4:       vs_word = 32'(vs_dead[e]);
+        5:       vs_word = 32'(vs_rmax[e]);
+        6:       vs_word = {10'd0, vs_nb[e], vs_xt[e]};
+        7:       vs_word = {8'd0, vs_burst[e], vs_vmax[e]};
+        default: vs_word = 32'(vs_phase[e]);
+      endcase
+  endfunction
+  always_ff @(posedge clk_i) vs_rdata <= vs_word(int'(vs_raddr));
+
+  // After the scheduler loaded a table (S_COPY's first clock), its per-sensor state equals
+  // the table: the fields, the crosstalk neighbours (within nb of a tx element, not tx), the
+  // blanking max(T_dead, T_xtalk) + the largest tx delay (vdmax_q, measured by S_VREAD), the
+  // prediction clamp bounds.
+  function automatic logic [NUM_CH-1:0] xt_expect(input logic [NUM_CH-1:0] tx, input logic [1:0] nb);
+    logic [NUM_CH-1:0] m;
+    m = '0;
+    for (int k = 1; k <= int'(nb); k++)
+      m = m | ((tx << k) | (tx >> (NUM_CH - k))) | ((tx >> k) | (tx << (NUM_CH - k)));
+    xt_expect = m & ~tx;
+  endfunction
+  always_ff @(posedge clk_i)
+    if (u_sched.dbg_loaded)
+      for (int s = 0; s < NUM_VS; s++) begin
+        automatic logic [23:0] dbl = 24'((vs_dead[s] > vs_xt[s]) ? vs_dead[s] : vs_xt[s]) + 24'(u_sched.vdmax_q[s]);
+        if (u_sched.sh_tx_m[s] != vs_tx[s] || u_sched.sh_rx_m[s] != vs_rx[s] || u_sched.sh_nb_m[s] != vs_nb[s]
+            || u_sched.sh_xt_m[s] != xt_expect(vs_tx[s], vs_nb[s])
+            || u_sched.sh_use_m[s] != (vs_tx[s] | vs_rx[s] | xt_expect(vs_tx[s], vs_nb[s]))
+            || u_sched.sh_track_m[s] != (vs_mode[s] == 2'd1) || u_sched.sh_act_q[s] != (vs_mode[s] != 2'd0)
+            || u_sched.sh_order_m[s] != vs_order[s] || u_sched.sh_k_m[s] != vs_k[s]
+            || u_sched.sh_reinit_q[s] != vs_reinit[s]
+            || u_sched.sh_tv_m[s] != vs_tv[s] || u_sched.sh_tn_m[s] != vs_tn[s]
+            || u_sched.sh_vmax_m[s] != vs_vmax[s] || u_sched.sh_rmax_m[s] != vs_rmax[s]
+            || u_sched.sh_phase_m[s] != vs_phase[s] || u_sched.sh_burst_m[s] != vs_burst[s]
+            || u_sched.sh_dead_m[s] != vs_dead[s] || u_sched.sh_xtk_m[s] != vs_xt[s]
+            || u_sched.sh_dbl_m[s] != dbl || u_sched.sh_lo_m[s] != dbl + 24'(vs_tv[s])
+            || u_sched.sh_hi_m[s] != vs_rmax[s] - 24'(vs_tn[s]))
+          $error("ms_scheduler_tb: sensor %0d's per-sensor state differs from its table entry after S_LOAD", s);
+      end
+
   logic             trig_valid;
   logic [4:0]       trig_el;
   logic [16:0]      trig_delay;
@@ -117,21 +171,8 @@ module ms_scheduler_tb #(
     .tick_i             (tick_q),
     .enable_i           (enable_i),
     .apply_i            (apply_i),
-    .vs_tx_mask_i       (vs_tx),
-    .vs_rx_mask_i       (vs_rx),
-    .vs_mode_i          (vs_mode),
-    .vs_order_i         (vs_order),
-    .vs_miss_limit_i    (vs_k),
-    .vs_reinit_every_i  (vs_reinit),
-    .vs_t_v_i           (vs_tv),
-    .vs_t_n_i           (vs_tn),
-    .vs_t_dead_i        (vs_dead),
-    .vs_max_tof_i       (vs_rmax),
-    .vs_t_xtalk_i       (vs_xt),
-    .vs_xtalk_nb_i      (vs_nb),
-    .vs_vmax_i          (vs_vmax),
-    .vs_burst_cycles_i  (vs_burst),
-    .vs_phase_i         (vs_phase),
+    .vs_raddr_o         (vs_raddr),
+    .vs_rdata_i         (vs_rdata),
     .burst_half_period_i(burst_half_period_i),
     .glitch_min_i       (glitch_min_i),
     .miss_gate_i        (miss_gate_i),
@@ -144,6 +185,7 @@ module ms_scheduler_tb #(
     .trig_burst_o       (trig_burst),
     .pulse_o            (pulse_o),
     .pulse_vs_o         (pulse_vs_o),
+    .pulse_tx_o         (),
     .pulse_seq_o        (pulse_seq_o),
     .pulse_t0_o         (pulse_t0_o),
     .pulse_init_o       (pulse_init_o),

@@ -22,7 +22,9 @@ class Response:
 
 
 class PassthroughMaster:
-    def __init__(self, dut, clk, prefix: str = "bus_", timeout_cycles: int = 64) -> None:
+    # timeout_cycles guards against a hang only: ms_csr holds a request for up to 72 clocks after
+    # a reset while it refills its VS table
+    def __init__(self, dut, clk, prefix: str = "bus_", timeout_cycles: int = 128) -> None:
         self.dut, self.clk, self.p, self.timeout = dut, clk, prefix, timeout_cycles
         self._sig("req_i").value = 0
 

@@ -452,17 +452,17 @@ async def read_table(b: Bench) -> dict[int, int]:
 
 
 async def hw_table(dut) -> dict[int, int]:
-    """The table as the sonar core holds it (ms_csr flip-flops, delay RAM, regblock outputs):
+    """The table as the sonar core holds it (ms_csr's VS RAM, delay RAM, regblock outputs):
     ground truth for 'configuration intact', independent of the firmware's READ_REGS."""
     await ReadOnly()
     csr = dut.u_sys.u_sonar.u_csr
-    vs = int(csr.vs_q.value)
+    vs_mem = csr.vs_m  # word entry * 9 + register
     out = {}
     names = ["VS_TX_MASK", "VS_RX_MASK", "VS_MODE", "VS_WINDOW", "VS_T_DEAD", "VS_MAX_TOF", "VS_XTALK", "VS_TRACK",
              "VS_PHASE"]
     for v in range(8):
         for r, n in enumerate(names):
-            out[R.REGISTERS[n].addr(v)] = (vs >> (32 * (9 * v + r))) & 0xFFFFFFFF
+            out[R.REGISTERS[n].addr(v)] = int(vs_mem[9 * v + r].value)
     mem = csr.u_delay_ram.mem_q
     for i in range(R.MEMORIES["DELAY"].entries):
         out[R.MEMORIES["DELAY"].address + 4 * i] = int(mem[i].value)

@@ -22,11 +22,26 @@ async def setup(dut) -> PassthroughMaster:
     start_clock(dut.clk_i)
     for name in ("running_i", "cfg_error_i", "cfg_error_vs_i", "fifo_level_i", "event_i",
                  "overflow_i", "pulse_i", "delay_raddr_i", "evt_rvalid_i", "evt_rdata_i", "sched_overrun_i",
-                 "tx_collision_i"):
+                 "tx_collision_i", "vs_raddr_i"):
         getattr(dut, name).value = 0
     bus = PassthroughMaster(dut, dut.clk_i)
     await reset(dut.clk_i, dut.rst_i)
+    await ClockCycles(dut.clk_i, VS_WORDS + 2)  # the VS table's refill after reset (bus stalled)
     return bus
+
+
+VS_REGS = ["VS_TX_MASK", "VS_RX_MASK", "VS_MODE", "VS_WINDOW", "VS_T_DEAD", "VS_MAX_TOF", "VS_XTALK",
+           "VS_TRACK", "VS_PHASE"]  # the core's read port: word entry * 9 + index here
+VS_WORDS = 8 * len(VS_REGS)
+
+
+async def core_port_word(dut, entry: int, reg: str) -> int:
+    """Word of the VS table as the core reads it (vs_raddr_i, data one clock later)."""
+    await FallingEdge(dut.clk_i)
+    dut.vs_raddr_i.value = entry * len(VS_REGS) + VS_REGS.index(reg)
+    await ClockCycles(dut.clk_i, 1)
+    await FallingEdge(dut.clk_i)
+    return int(dut.vs_rdata_o.value)
 
 
 def all_addresses(reg: R.Register):
@@ -64,7 +79,7 @@ def writable_mask(reg: R.Register) -> int:
 @cocotb.test()
 async def read_write_fields_and_outputs(dut):
     """Random values written to every read/write register read back masked to its fields and
-    appear on the flat outputs the core uses."""
+    appear on the outputs the core uses (the VS table through its read port)."""
     bus = await setup(dut)
     rng = random.Random(1)
     written: dict[tuple[str, tuple[int, ...]], int] = {}
@@ -82,24 +97,16 @@ async def read_write_fields_and_outputs(dut):
         reg = R.REGISTERS[name]
         got = await bus.read(reg.addr(*idx))
         assert got == expect, f"{name}{list(idx)}: read 0x{got:X}, expected 0x{expect:X}"
-    await FallingEdge(dut.clk_i)
     n_ch = R.VS_TX_MASK_MASK_WIDTH
-    per_vs = {
-        "vs_tx_mask_o": ("VS_TX_MASK", "MASK"), "vs_rx_mask_o": ("VS_RX_MASK", "MASK"),
-        "vs_mode_o": ("VS_MODE", "MODE"), "vs_order_o": ("VS_MODE", "ORDER"),
-        "vs_miss_limit_o": ("VS_MODE", "MISS_LIMIT"), "vs_t_v_o": ("VS_WINDOW", "T_V"),
-        "vs_t_n_o": ("VS_WINDOW", "T_N"), "vs_t_dead_o": ("VS_T_DEAD", "TICKS"),
-        "vs_max_tof_o": ("VS_MAX_TOF", "TICKS"), "vs_t_xtalk_o": ("VS_XTALK", "T_XTALK"),
-        "vs_xtalk_nb_o": ("VS_XTALK", "NB"), "vs_vmax_o": ("VS_TRACK", "VMAX"),
-        "vs_burst_cycles_o": ("VS_TRACK", "BURST_CYCLES"), "vs_phase_o": ("VS_PHASE", "TICKS"),
-    }
-    for port, (rname, fname) in per_vs.items():
-        field = R.REGISTERS[rname].fields[fname]
-        flat = int(getattr(dut, port).value)
-        for v in range(R.REGISTERS[rname].dims[0]):
-            got = (flat >> (v * field.width)) & ((1 << field.width) - 1)
-            assert got == field.get(written[(rname, (v,))]), f"{port}[{v}] = {got:#x}"
-    assert field.width and n_ch == load_layout().n
+    assert n_ch == load_layout().n
+    assert [r for r in R.REGISTERS if r.startswith("VS_")] == VS_REGS, "the core port's word order"
+    for rname in VS_REGS:
+        reg = R.REGISTERS[rname]
+        for v in range(reg.dims[0]):
+            got = await core_port_word(dut, v, rname)
+            for fname, field in reg.fields.items():
+                assert field.get(got) == field.get(written[(rname, (v,))]), f"{rname}[{v}].{fname} = {field.get(got):#x}"
+            assert got & ~writable_mask(reg) == 0, f"{rname}[{v}]: unimplemented bits set on the core port: {got:#x}"
     burst = written[("BURST", ())]
     assert int(dut.burst_half_period_o.value) == R.REGISTERS["BURST"].fields["HALF_PERIOD"].get(burst)
     assert int(dut.burst_cycles_o.value) == R.REGISTERS["BURST"].fields["CYCLES"].get(burst)
@@ -342,3 +349,20 @@ async def back_to_back_requests_keep_order(dut):
     assert collector.done(), f"answers {acks} of {len(reqs)} requests"
     assert acks == [("r", old), ("w", 0), ("r", new)], acks
     assert stalled >= 1, "the write after a read should have been stalled once"
+
+
+@cocotb.test()
+async def vs_table_refilled_after_reset(dut):
+    """A reset refills the VS table with its reset values, one word per clock, with the bus
+    stalled meanwhile: a value written before the reset is gone from the bus and the core port,
+    also for the last word refilled (a read issued right after the reset waits for it)."""
+    bus = await setup(dut)
+    reg = R.REGISTERS["VS_PHASE"]
+    last = reg.dims[0] - 1  # entry 7's PHASE: word 71, the last one refilled
+    await bus.write(reg.addr(last), 0x123456)
+    assert await bus.read(reg.addr(last)) == 0x123456
+    assert await core_port_word(dut, last, "VS_PHASE") == 0x123456
+    await reset(dut.clk_i, dut.rst_i)
+    patient = PassthroughMaster(dut, dut.clk_i, timeout_cycles=2 * VS_WORDS)
+    assert await patient.read(reg.addr(last)) == reg.reset
+    assert await core_port_word(dut, last, "VS_PHASE") == reg.reset

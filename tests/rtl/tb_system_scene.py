@@ -166,7 +166,7 @@ class Bench:
             await RisingEdge(self.sched.pulse_o)
             await ReadOnly()
             t0, vs = int(self.sched.pulse_t0_o.value), int(self.sched.pulse_vs_o.value)
-            mask = (int(self.sched.sh_tx_q.value) >> (24 * vs)) & 0xFFFFFF
+            mask = int(self.sched.pulse_tx_o.value)
             tx = [e for e in range(LAYOUT.n) if mask >> e & 1]
             assert len(tx) == 1, "the scene's sensors fire one element (zero phasing delay)"
             self.fires.append((t0, vs, tx[0]))

@@ -107,7 +107,7 @@ class Echoes:
             await RisingEdge(self.sched.pulse_o)
             await ReadOnly()
             t0, vs = int(self.sched.pulse_t0_o.value), int(self.sched.pulse_vs_o.value)
-            mask = (int(self.sched.sh_tx_q.value) >> (24 * vs)) & 0xFFFFFF
+            mask = int(self.sched.pulse_tx_o.value)
             tx = [e for e in range(LAYOUT.n) if mask >> e & 1]
             for rx, st, w in _rows(self.src.fire(t0, np.array(tx), np.zeros(len(tx), np.int64))):
                 self.echo.drive(int(rx), int(st), int(w))
