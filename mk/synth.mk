@@ -13,7 +13,7 @@
 #                             (out of context) for its routed Fmax
 # Options: SYNTH_APP (firmware in the RAM image; default sonar_app, the application the host
 # driver talks to, on the ECP5, and system_smoke on the iCE40's 4 KiB RAM), ECP5_DEVICE (25k,
-# 45k, 85k; default 85k: the board top needs about 33.0k TRELLIS_COMB, 136 % of the 25k, and
+# 45k, 85k; default 85k: the board top needs about 24.9k TRELLIS_COMB, 102.5 % of the 25k, and
 # 64 DP16KD, 114 % of the 25k; docs/synthesis.md),
 # ICE40_NUM_CH (channels on the iCE40, default 8), SYNTH_SEED (nextpnr seed), SYNTH_PLACER
 # (ECP5 nextpnr placer: static, the default, or heap), SYNTH_DETAIL=1

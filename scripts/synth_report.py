@@ -8,6 +8,7 @@
 
     .venv/bin/python scripts/synth_report.py blocks build/synth/blocks/ms_scheduler.json ...
     .venv/bin/python scripts/synth_report.py late build/synth/ecp5/pnr.json --mhz 62.4
+    .venv/bin/python scripts/synth_report.py area build/synth/blocks/ms_scheduler.net.json
 
 `make` writes the report (yosys `stat -json` cell counts + nextpnr `--report` JSON) and exits
 non-zero when a clock misses --require-mhz. `compare` checks a fresh report against the
@@ -18,6 +19,10 @@ table of the yosys cells of blocks synthesised alone (`make synth-blocks`): wher
 SYNTH_DETAIL=1`) and lists the register inputs whose routed arrival time misses a clock of
 --mhz, grouped by block and by register: where the long paths of the whole design are (nextpnr
 itself prints only the single worst path per clock).
+`area` reads a mapped ECP5 netlist (Yosys `write_json` after synth_ecp5, e.g. `make
+synth-blocks` writes build/synth/blocks/BLOCK.net.json) and charges every LUT4 (1) and CCU2C (2)
+to the registers and RAM ports its output reaches through other logic, split evenly among them:
+which register's input logic costs the area.
 """
 
 from __future__ import annotations
@@ -299,6 +304,88 @@ def late_tables(pnr: dict, mhz: float, depth: int = 4, rows: int = 40) -> list[s
     return lines
 
 
+_COMB_COST = {"LUT4": 1.0, "CCU2C": 2.0, "PFUMX": 0.0, "L6MUX21": 0.0}  # TRELLIS_COMB per cell
+
+
+def area_by_register(netlist: dict, module: str | None = None) -> tuple[float, dict[str, float], dict[str, int]]:
+    """(total LUT4 + 2 CCU2C, cost per sink, flip-flops per register) of a mapped ECP5 netlist.
+    A sink is a register (named by its output net, bit index dropped) or `TYPE:PORT` of a RAM /
+    DSP input; logic that reaches no sink is charged to `<none>`."""
+    mods = netlist.get("modules", {})
+    if module is None:
+        tops = [m for m, v in mods.items() if str(v.get("attributes", {}).get("top", "0")).strip("0") != ""]
+        if len(tops) != 1:
+            raise SynthReportError(f"netlist has {len(tops)} top modules; name one of {sorted(mods)[:8]}")
+        module = tops[0]
+    if module not in mods:
+        raise SynthReportError(f"module {module!r} is not in the netlist")
+    mod = mods[module]
+    net_name: dict[int, str] = {}
+    for name, v in mod.get("netnames", {}).items():
+        base = name if name.startswith("$") else name.split("[")[0]
+        for b in v["bits"]:
+            if isinstance(b, int) and (b not in net_name or (net_name[b].startswith("$") and not base.startswith("$"))):
+                net_name[b] = base
+    cells = mod.get("cells", {})
+    readers: dict[int, list[tuple[str, str]]] = {}
+    for cname, c in cells.items():
+        dirs = c.get("port_directions", {})
+        for port, bits in c.get("connections", {}).items():
+            if dirs.get(port) != "output":
+                for b in bits:
+                    if isinstance(b, int):
+                        readers.setdefault(b, []).append((cname, port))
+    memo: dict[str, frozenset[str]] = {}
+
+    def sinks(cname: str) -> frozenset[str]:  # iterative depth-first walk over combinational cells
+        stack, order = [cname], []
+        while stack:
+            n = stack.pop()
+            if n in memo:
+                continue
+            memo[n] = frozenset()  # placeholder: cuts combinational loops
+            order.append(n)
+            c = cells[n]
+            for port, bits in c["connections"].items():
+                if c.get("port_directions", {}).get(port) == "output":
+                    for b in bits:
+                        for r, _ in readers.get(b, []) if isinstance(b, int) else []:
+                            if cells[r]["type"] in _COMB_COST and r not in memo:
+                                stack.append(r)
+        for n in reversed(order):
+            c, out = cells[n], set()
+            for port, bits in c["connections"].items():
+                if c.get("port_directions", {}).get(port) != "output":
+                    continue
+                for b in bits:
+                    for r, rp in readers.get(b, []) if isinstance(b, int) else []:
+                        rc = cells[r]
+                        if rc["type"] in _COMB_COST:
+                            out |= memo[r]
+                        elif rc["type"] == "TRELLIS_FF":
+                            out.add(net_name.get(rc["connections"]["Q"][0], r))
+                        else:
+                            out.add(f"{rc['type']}:{rp[:2]}")
+            memo[n] = frozenset(out)
+        return memo[cname]
+
+    total, cost = 0.0, {}
+    for cname, c in cells.items():
+        w = _COMB_COST.get(c["type"], 0.0)
+        if not w:
+            continue
+        total += w
+        s = sinks(cname) or frozenset({"<none>"})
+        for x in s:
+            cost[x] = cost.get(x, 0.0) + w / len(s)
+    ffs: dict[str, int] = {}
+    for c in cells.values():
+        if c["type"] == "TRELLIS_FF":
+            q = net_name.get(c["connections"]["Q"][0], "?")
+            ffs[q] = ffs.get(q, 0) + 1
+    return total, cost, ffs
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -324,12 +411,23 @@ def main() -> int:
     lp.add_argument("--rows", type=int, default=40, help="registers listed, latest first")
     lp.add_argument("--sources", action="store_true",
                     help="also list where the late paths start (cells with the most late endpoints behind them)")
+    ar = sub.add_parser("area", help="logic area charged to the registers it feeds, from a mapped ECP5 netlist")
+    ar.add_argument("netlist", type=Path, help="Yosys write_json output after synth_ecp5")
+    ar.add_argument("--module", help="module to read (default: the netlist's top)")
+    ar.add_argument("--rows", type=int, default=40, help="registers listed, costliest first")
     args = ap.parse_args()
     try:
         if args.cmd == "make":
             return make_report(args)
         if args.cmd == "blocks":
             print("\n".join(blocks_table(args.stats)))
+            return 0
+        if args.cmd == "area":
+            total, cost, ffs = area_by_register(_load_json(args.netlist, "netlist"), args.module)
+            print(f"{total:.0f} TRELLIS_COMB of logic (LUT4 + 2 CCU2C) in {args.netlist}\n")
+            print("| register / RAM port fed | TRELLIS_COMB | its flip-flops |\n|---|---:|---:|")
+            for name, v in sorted(cost.items(), key=lambda kv: -kv[1])[:args.rows]:
+                print(f"| {name} | {v:.0f} | {ffs.get(name, 0)} |")
             return 0
         if args.cmd == "late":
             pnr = _load_json(args.pnr, "nextpnr report")

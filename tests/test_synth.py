@@ -150,3 +150,33 @@ def test_late_sources_trace_back_to_the_fanout():
             ep("top.y_q_TRELLIS_FF_Q", "CE", 12.0)]},                      # in time: not traced
         {"net": "d", "driver": "top.ok_q_TRELLIS_FF_Q", "port": "Q", "endpoints": [ep("top.z_q_TRELLIS_FF_Q", "DI", 16.0)]}]}
     assert rep.late_sources(pnr, 62.4) == {"top.st_q_TRELLIS_FF_Q": 2, "top.ok_q_TRELLIS_FF_Q": 1}
+
+
+def test_area_charges_logic_to_the_registers_it_feeds():
+    """`synth_report.py area`: a LUT feeding two registers is split between them, a chain of
+    LUTs is charged to the register at its end, a carry cell counts 2 and reaches a RAM port."""
+    rep = _report_module()
+
+    def cell(t, **conns):
+        dirs = {p: ("output" if p in ("Z", "Q", "S0", "COUT", "DO0") else "input") for p in conns}
+        return {"type": t, "connections": {p: list(b) for p, b in conns.items()}, "port_directions": dirs}
+
+    netlist = {"modules": {"top": {
+        "attributes": {"top": "00000000000000000000000000000001"},
+        "netnames": {"a_q": {"bits": [10]}, "b_q[3]": {"bits": [11]}, "$auto$x": {"bits": [5]}},
+        "cells": {
+            "l1": cell("LUT4", A=[1], Z=[2]),
+            "l2": cell("LUT4", A=[2], Z=[3]),          # l1 -> l2 -> a_q
+            "l3": cell("LUT4", A=[1], Z=[4]),          # l3 -> a_q and b_q
+            "fa": cell("TRELLIS_FF", DI=[3], M=[4], Q=[10]),
+            "fb": cell("TRELLIS_FF", DI=[4], Q=[11]),
+            "c1": cell("CCU2C", A0=[1], S0=[5]),       # -> RAM data input
+            "ram": cell("TRELLIS_DPR16X4", DI=[5], DO0=[6]),
+            "l4": cell("LUT4", A=[6], Z=[7]),          # drives nothing we know
+        }}}}
+    total, cost, ffs = rep.area_by_register(netlist)
+    assert total == 6.0
+    assert cost == {"a_q": 2.5, "b_q": 0.5, "TRELLIS_DPR16X4:DI": 2.0, "<none>": 1.0}
+    assert ffs == {"a_q": 1, "b_q": 1}
+    with pytest.raises(rep.SynthReportError, match="not in the netlist"):
+        rep.area_by_register(netlist, "nope")
