@@ -210,11 +210,11 @@ def main() -> None:
         choice = fastest
         r = res[fastest]
         print(f"\nNo variant keeps up: the best worst case, {fastest}, takes {r['fix'][1]:,} cycles per fix "
-              f"({r['fix'][1] / budget:.0f}x the {budget:.0f}-cycle budget; {48e6 / r['fix'][1]:.0f} fixes/s "
+              f"({r['fix'][1] / budget:.2f}x the {budget:.0f}-cycle budget; {48e6 / r['fix'][1]:.0f} fixes/s "
               f"against the {tsg.FIX_RATE_MAX} needed, {tsg.FIX_RATE_MAX * tsg.HEADROOM:.0f} with headroom).")
         print(f"Default: {fastest} -- the lowest worst-case fix on the typical cases, within its stated error "
               f"bound{', integer-only (no soft-float / libm; bit-identical to its host build)' if fastest == 'q' else ''}. "
-              f"Meeting the rate needs the solver ~{r['fix'][1] / budget:.0f}x cheaper (firmware/README.md).")
+              f"Meeting the rate needs the solver ~{r['fix'][1] / budget:.2f}x cheaper (firmware/README.md).")
     if choice != tsg.DEFAULT_VARIANT and len(res) == len(VARIANTS) and a.cpu == tsg.DEFAULT_CPU:
         print(f"NOTE: tests/rtl/test_ms_soc_geometry.py DEFAULT_VARIANT is {tsg.DEFAULT_VARIANT!r}, "
               f"this table picks {choice!r}: update one of them.")
