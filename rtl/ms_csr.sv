@@ -263,9 +263,10 @@ module ms_csr
   endfunction
 
   localparam int VS_WORDS = int'(NUM_VS) * VS_REGS;
-  // distributed RAM (72 words: block RAM would take three DP16KD for two read ports), word
-  // entry * VS_REGS + register
-  (* ram_style = "distributed" *) logic [31:0] vs_m [VS_WORDS];
+  // word entry * VS_REGS + register. On the ECP5 the synthesis script asks for distributed RAM
+  // (mk/synth.mk: block RAM would take three DP16KD for the two read ports); no attribute here,
+  // since the iCE40 has no distributed RAM and Yosys stops on a style it cannot map.
+  logic [31:0] vs_m [VS_WORDS];
   logic [3:0]  vs_reg;   // register within the entry: byte offset / 4
   logic [2:0]  vs_sel;   // entry of the held request
   logic        vs_wr;    // the regblock accepts a write to the VS table in this clock
