@@ -335,10 +335,21 @@ def test_vex_icache_patch():
     def body(text: str) -> str:  # without the 3-line header
         return text.split("\n", 3)[3]
 
-    same4 = body(gvi.derive(src, 4)).replace("8'd1", "8'h01").replace("8'd0;", "8'h0;")
+    same4 = body(gvi.derive(src, 4, merge_dcache=False)).replace("8'd1", "8'h01").replace("8'd0;", "8'h0;")
     assert same4 == orig
     v16 = body(gvi.derive(src, 16))
-    assert v16[:ic] == orig[:ic]  # the core and its data cache untouched
+    dc = orig.index("module DataCache (")
+    dc_end = orig.index("endmodule", dc)
+    assert dc < ic and v16[:dc] == orig[:dc]  # the core untouched
+    # the data cache: only its byte-lane RAMs became one 32-bit RAM (2 DP16KD instead of 4)
+    v16_dc = v16[dc:v16.index("endmodule", dc)]
+    assert "reg [31:0] ways_0_data [0:1023];" in v16_dc and "ways_0_data_symbol" not in v16_dc
+    assert v16_dc.count("ways_0_data[dataWriteCmd_payload_address][") == 4
+    assert v16[dc + len(v16_dc):ic - len(orig[dc:dc_end]) + len(v16_dc)] == orig[dc_end:ic]
+    with pytest.raises(gvi.PatchError):
+        gvi.patch_dcache_data(orig[dc:dc_end].replace("ways_0_data_symbol3[dataWriteCmd", "ways_0_data_symbol2[dataWriteCmd"))
+    ic = ic - len(orig[dc:dc_end]) + len(v16_dc)
+    orig = orig[:dc] + v16_dc + orig[dc_end:]  # for the instruction-cache checks below
     assert "reg [31:0] banks_0 [0:4095];" in v16[ic:] and "reg [21:0] ways_0_tags [0:511];" in v16[ic:]
     assert "io_cpu_prefetch_pc[13 : 5]" in v16 and "io_cpu_prefetch_pc[11 : 5]" not in v16
     with pytest.raises(gvi.PatchError):
