@@ -19,17 +19,23 @@
 //
 // Implementation (sized for area: equality compares and constant loads instead of load
 // muxes and subtractors):
-//   - The delay counter is loaded with delay_i itself: a trigger is pending while it is
-//     non-zero and due when it is 1 (no delay_i - 1 subtractor, no pending flag).
+//   - The delay is not counted per element. The phaser's free-running tick counter (now_i,
+//     and now_nx_i = now_i + 1 one register ahead) is shared; a fire stores the trigger tick
+//     tgt_q = now_i + delay_i (mod 2^DELAY_W, reached exactly once since delay_i < 2^DELAY_W).
+//     The scheduler arms one element per clock with one delay bus, so after flattening Yosys
+//     merges the 24 adders (and the delay_i == 0 / == 1 tests) into one. due_q says "the
+//     pending trigger is due in the next cycle", registered from tgt_q == now_nx_i: the
+//     trigger comes from a flop, not from a compare against a counter across the chip.
 //   - The burst parameters of the pending trigger (p_*_q) stay untouched until the next
 //     fire, whose earliest write is the edge ending t+1. So the trigger edge t only sets
 //     drive_q and clears the half counter; the running burst's copies (a_half_q, cyc_q)
 //     are loaded from p_*_q one edge later (trig_q), without a mux on the fire inputs.
 //     In cycle t+1 the end-of-half test and run come from p_half_q / p_cyc_q instead.
-//   - The fire inputs go straight into flops (no logic before the latch): the phaser's
-//     channels sit by their pins, across the chip from the register block, so any gate on
-//     half_period_i would be shared by all channels (Yosys merges it) and add a second
-//     chip-long net to the path. H = 0 -> 1 is applied to the latched copy.
+//   - The fire inputs go straight into flops (no logic before the latch, apart from the
+//     shared adder): the phaser's channels sit by their pins, across the chip from the
+//     register block, so any gate on half_period_i would be shared by all channels (Yosys
+//     merges it) and add a second chip-long net to the path. H = 0 -> 1 is applied to the
+//     latched copy.
 //   - The half counter counts up from 1 and is cleared (flop sync reset) at the end of each
 //     half, found by comparing with a_half_q; one edge after a trigger it is loaded with 2.
 //   - cyc_q counts the periods left including the current one: running = cyc_q != 0.
@@ -40,6 +46,8 @@ module ms_tx_channel #(
 ) (
   input  logic               clk_i,
   input  logic               rst_i,
+  input  logic [DELAY_W-1:0] now_i,           // shared free-running tick counter
+  input  logic [DELAY_W-1:0] now_nx_i,        // now_i + 1, registered
   input  logic               fire_i,          // fire strobe for this element (fire & mask)
   input  logic [DELAY_W-1:0] delay_i,         // ticks from fire to trigger
   input  logic [CYC_W-1:0]   burst_cycles_i,  // periods per burst, 0 = no drive
@@ -49,7 +57,9 @@ module ms_tx_channel #(
   output logic               override_o       // this fire replaced a pending trigger
 );
   // pending trigger (from fire to trigger tick) and the burst parameters of the last fire
-  logic [DELAY_W-1:0] dcnt_q;     // ticks left until the trigger (1 = due now, 0 = none)
+  logic [DELAY_W-1:0] tgt_q;      // tick of the pending trigger (mod 2^DELAY_W)
+  logic               pend_q;     // a trigger is pending (due in this cycle or later)
+  logic               due_q;      // the pending trigger is due in this cycle
   logic [HALF_W-1:0]  p_half_q;   // half period as given (0 behaves as 1)
   logic [CYC_W-1:0]   p_cyc_q;
   logic               p_h1;       // p_half_q is 0 or 1: the first half ends after one tick
@@ -60,32 +70,40 @@ module ms_tx_channel #(
   logic [HALF_W-1:0]  a_half_q;   // half period of the running burst
   logic [CYC_W-1:0]   cyc_q;      // periods left including the current one
 
-  // pend: a trigger is pending; trig: trigger at this edge; trig_on: it starts a burst
-  // (cycles != 0); half_end: the current half ends at this edge; run: a burst is running
-  logic              dcnt_le1, pend, trig, trig_on, half_end, run;
+  // trig: trigger at this edge; trig_on: it starts a burst (cycles != 0); half_end: the
+  // current half ends at this edge; run: a burst is running
+  logic              trig, trig_on, half_end, run;
 
   assign p_h1     = (p_half_q[HALF_W-1:1] == '0);
   assign p_half   = {p_half_q[HALF_W-1:1], p_half_q[0] | p_h1};
-  assign dcnt_le1 = (dcnt_q[DELAY_W-1:1] == '0);
-  assign pend     = ~dcnt_le1 | dcnt_q[0];
-  assign trig     = fire_i ? (delay_i == '0) : (dcnt_le1 & dcnt_q[0]);
+  assign trig     = fire_i ? (delay_i == '0) : due_q;
   assign trig_on  = fire_i ? (burst_cycles_i != '0) : (p_cyc_q != '0);
   // cyc_q is stale in the cycle after a trigger: p_cyc_q still holds that burst's count
   assign run      = trig_q ? (p_cyc_q != '0) : (cyc_q != '0);
   assign half_end = trig_q ? p_h1 : (hcnt_q == a_half_q);
 
-  // delay counter and the latched parameters
+  // trigger tick and the latched parameters. A fire replaces a pending trigger, also one
+  // due in its own cycle (trig then comes from the fire: due_q is ignored).
+  always_ff @(posedge clk_i) begin
+    if (fire_i) begin
+      tgt_q <= now_i + delay_i;
+    end
+  end
+
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
-      dcnt_q   <= '0;
+      pend_q   <= 1'b0;
+      due_q    <= 1'b0;
       p_half_q <= '0;
       p_cyc_q  <= '0;
     end else if (fire_i) begin
-      dcnt_q   <= delay_i;
+      pend_q   <= (delay_i != '0);
+      due_q    <= (delay_i == DELAY_W'(1));
       p_half_q <= half_period_i;
       p_cyc_q  <= burst_cycles_i;
-    end else if (pend) begin
-      dcnt_q <= dcnt_q - DELAY_W'(1);
+    end else begin
+      pend_q <= pend_q & ~due_q;
+      due_q  <= pend_q & ~due_q & (tgt_q == now_nx_i);
     end
   end
 
@@ -137,6 +155,6 @@ module ms_tx_channel #(
   end
 
   assign drive_o    = drive_q;
-  assign busy_o     = pend | run;
-  assign override_o = fire_i & pend;
+  assign busy_o     = pend_q | run;
+  assign override_o = fire_i & pend_q;
 endmodule

@@ -1,5 +1,6 @@
 // ms_tx_phaser: per-element phasing delay and burst generator of the transmit ring
-// (docs/sonar_core.md). One ms_tx_channel per element; no shared state between elements.
+// (docs/sonar_core.md). One ms_tx_channel per element; the elements share only a
+// free-running tick counter, against which each stores the tick of its pending trigger.
 //
 // Timing contract (ticks of clk_i; "at tick T" = loaded at the edge that ends cycle T, so
 // visible from cycle T+1; checked tick-exactly in tests/rtl/test_ms_tx_phaser.py):
@@ -37,8 +38,19 @@ module ms_tx_phaser #(
   output logic [NUM_CH-1:0]              busy_o,          // pending trigger or running burst
   output logic                           collision_o      // one-clock strobe, cycle t0 + 1
 );
-  logic [NUM_CH-1:0] override;
-  logic              collision_q;
+  logic [NUM_CH-1:0]  override;
+  logic               collision_q;
+  logic [DELAY_W-1:0] now_q, now_nx_q;  // tick counter and its value in the next cycle
+
+  always_ff @(posedge clk_i) begin
+    if (rst_i) begin
+      now_q    <= '0;
+      now_nx_q <= DELAY_W'(1);
+    end else begin
+      now_q    <= now_nx_q;
+      now_nx_q <= now_nx_q + DELAY_W'(1);
+    end
+  end
 
   for (genvar i = 0; i < NUM_CH; i++) begin : g_ch
     ms_tx_channel #(
@@ -48,6 +60,8 @@ module ms_tx_phaser #(
     ) u_ch (
       .clk_i         (clk_i),
       .rst_i         (rst_i),
+      .now_i         (now_q),
+      .now_nx_i      (now_nx_q),
       .fire_i        (fire_i & mask_i[i]),
       .delay_i       (delay_i[i]),
       .burst_cycles_i(burst_cycles_i[i]),
