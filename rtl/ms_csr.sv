@@ -348,7 +348,9 @@ module ms_csr
   // The RAM stores DELAY_W bits per entry; the upper bits of a bus write are dropped (the
   // host validator refuses delays that do not fit) and read back as zero.
 
-  ms_ram_dp #(.WIDTH(DELAY_W), .DEPTH(256)) u_delay_ram (
+  // B_WRITE_FIRST: one DP16KD instead of two (ms_ram_dp); a core read of the entry the bus
+  // writes in the same clock sees the new delay, which is as good as the old one
+  ms_ram_dp #(.WIDTH(DELAY_W), .DEPTH(256), .B_WRITE_FIRST(1'b1)) u_delay_ram (
     .clk_i     (clk_i),
     .we_a_i    (hwif_out.DELAY.req & hwif_out.DELAY.req_is_wr),
     .addr_a_i  (hwif_out.DELAY.addr[9:2]),

@@ -3,11 +3,16 @@
 // Timing contract: both ports are synchronous. Port A writes wdata_a_i at addr_a_i on a
 // clock edge where we_a_i is high; rdata_a_o / rdata_b_o show the word at the address
 // presented on the previous edge (one clock of read latency, read-before-write on port A).
+// B_WRITE_FIRST = 1: a port B read of the word port A writes at the same edge returns the
+// new data. With both read ports in use, that lets Yosys map the memory to one ECP5 DP16KD
+// (a read-first port B made it keep a copy per read port, two DP16KD); the bypass costs a
+// comparator and a multiplexer.
 // Written in the plain style Yosys maps to ECP5 DP16KD / iCE40 SB_RAM40_4K.
 module ms_ram_dp #(
-  parameter int WIDTH = 32,
-  parameter int DEPTH = 256,
-  parameter int AW    = $clog2(DEPTH)
+  parameter int WIDTH         = 32,
+  parameter int DEPTH         = 256,
+  parameter int AW            = $clog2(DEPTH),
+  parameter bit B_WRITE_FIRST = 1'b0
 ) (
   input  logic             clk_i,
   input  logic             we_a_i,
@@ -25,6 +30,7 @@ module ms_ram_dp #(
   end
 
   always_ff @(posedge clk_i) begin
-    rdata_b_o <= mem_q[addr_b_i];
+    if (B_WRITE_FIRST && we_a_i && addr_a_i == addr_b_i) rdata_b_o <= wdata_a_i;
+    else                                                  rdata_b_o <= mem_q[addr_b_i];
   end
 endmodule

@@ -244,7 +244,14 @@ module ms_scheduler #(
   logic [31:0]                           bu_start_q;
   logic [NUM_CH-1:0]                     hd_vld_q;     // head: next window to close
   logic [KW-1:0]                         hd_slot_m [32];
-  logic [NUM_CH-1:0][31:0]               hd_close_q;
+  // Close tick of the element's head, low HCW bits (for close_eq_q only; the engine reads the
+  // full 32 bits from hd_close_m). A head is written with a close tick at most 2^24 (window
+  // end offset) + LEAD + the engine's lag after the write tick, so tick_i reaches it within
+  // 2^(HCW-1) ticks: the low bits match there first (checked in simulation below). A close
+  // lost to a work-queue overflow would match again after 2^HCW ticks (1.4 s) instead of 2^32;
+  // the overflow is reported as an overrun either way.
+  localparam int HCW = 26;
+  logic [NUM_CH-1:0][HCW-1:0]            hd_close_q;
   logic [31:0]                           hd_close_m [NUM_CH];  // copy of hd_close_q for the engine's reads at ei
 
   // candidate pulse: per receiver predicted T_E and whether it gets a window
@@ -359,7 +366,7 @@ module ms_scheduler #(
   // element), and the simulation check at the per-element writes below stops if one is not.
   logic [NUM_CH-1:0] close_eq_q;
   always_ff @(posedge clk_i)
-    for (int r = 0; r < NUM_CH; r++) close_eq_q[r] <= hd_close_q[r] == tick_i;
+    for (int r = 0; r < NUM_CH; r++) close_eq_q[r] <= hd_close_q[r] == tick_i[HCW-1:0];
   assign close_now = hd_vld_q & close_eq_q;
   assign edge_now = rise_i & rx_any;
   assign q_push   = running && ((|edge_now) || (|close_now));
@@ -1849,13 +1856,14 @@ module ms_scheduler #(
              wvw_q, ew_q & {NUM_CH{wv_we}}, st_q);
     if (!rst_i && hdw_any_q != (|hdw_q))
       $error("ms_scheduler: head RAM write %b, head flop writes %h", hdw_any_q, hdw_q);
-    if (!rst_i && hd_vld_q[ei_q] && hd_close_m[ei_q] != hd_close_q[ei_q])
+    if (!rst_i && hd_vld_q[ei_q] && hd_close_m[ei_q][HCW-1:0] != hd_close_q[ei_q])
       $error("ms_scheduler: element %0d's head RAM %0d, flops %0d", ei_q, hd_close_m[ei_q], hd_close_q[ei_q]);
     for (int e = 0; e < NUM_CH; e++)
       if (!rst_i && ps_live && hdw_q[e]
-          && ($signed(hd_close_wd - tick_i) <= 0 || (hd_vld_q[e] && hd_close_q[e] == tick_i)))
-        $error("ms_scheduler: element %0d's head written at tick %0d with close tick %0d over %0d",
-               e, tick_i, hd_close_wd, hd_close_q[e]);
+          && ($signed(hd_close_wd - tick_i) <= 0 || (hd_close_wd - tick_i) >= 32'(1) << (HCW - 1)
+              || (hd_vld_q[e] && hd_close_q[e] == tick_i[HCW-1:0])))
+        $error("ms_scheduler: element %0d's head written at tick %0d with close tick %0d over %0d (low %0d bits)",
+               e, tick_i, hd_close_wd, hd_close_q[e], HCW);
   end
 `endif
   always_comb begin
@@ -1933,7 +1941,7 @@ module ms_scheduler #(
       else if (ps_live && wvw_q[e])       wv_q[e] <= wv_wd;
       if (el_clr)                     hd_vld_q[e] <= 1'b0;
       else if (ps_live && hdvw_q[e])  hd_vld_q[e] <= hdv_wd;
-      if (ps_live && hdw_q[e])        hd_close_q[e] <= hd_close_wd;
+      if (ps_live && hdw_q[e])        hd_close_q[e] <= hd_close_wd[HCW-1:0];
       if (rst_i || (run_ok && st_q == S_START)) bu_ok_q[e] <= 1'b0;
       else if (ps_live && ew_q[e] && bu_we)     bu_ok_q[e] <= 1'b1;
       if (rst_i || (run_ok && st_q == S_START)) tu_ok_q[e] <= 1'b0;
