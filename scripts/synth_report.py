@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -386,6 +387,44 @@ def area_by_register(netlist: dict, module: str | None = None) -> tuple[float, d
     return total, cost, ffs
 
 
+def best_seed(runs: list[tuple[int, Path]]) -> tuple[int, list[str], list[str]]:
+    """The seed whose place and route reached the highest Fmax (its slowest clock).
+
+    runs: (seed, directory) with the directory holding `rc` (nextpnr's exit status; 124 =
+    stopped by the timeout), `pnr.json` and `nextpnr.log`. Returns the chosen seed, one
+    summary line per seed, and the problems of the seeds that failed. Raises when none
+    finished."""
+    results: dict[int, float] = {}
+    lines: list[str] = []
+    problems: list[str] = []
+    for seed, d in runs:
+        rc_file = d / "rc"
+        rc = int(rc_file.read_text().strip() or "1") if rc_file.exists() else 1
+        if rc == 124:
+            problems.append(f"seed {seed}: nextpnr did not finish in time (routing not converging?), "
+                            f"see {d / 'nextpnr.log'}")
+            lines.append(f"seed {seed}: timeout")
+            continue
+        pnr_file = d / "pnr.json"
+        if rc != 0 or not pnr_file.exists():
+            problems.append(f"seed {seed}: nextpnr failed (exit {rc}), see {d / 'nextpnr.log'}")
+            lines.append(f"seed {seed}: failed")
+            continue
+        fmax = [float(f["achieved"]) for f in _load_json(pnr_file, "nextpnr report").get("fmax", {}).values()]
+        if not fmax:
+            problems.append(f"seed {seed}: {pnr_file} has no 'fmax' entry")
+            lines.append(f"seed {seed}: no clock")
+            continue
+        results[seed] = min(fmax)
+        lines.append(f"seed {seed}: {min(fmax):.2f} MHz")
+    if not results:
+        raise SynthReportError("no seed was placed and routed:\n  " + "\n  ".join(problems))
+    # highest Fmax; among equal ones the seed listed first
+    order = [seed for seed, _ in runs]
+    chosen = max(results, key=lambda k: (results[k], -order.index(k)))
+    return chosen, lines, problems
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -411,6 +450,11 @@ def main() -> int:
     lp.add_argument("--rows", type=int, default=40, help="registers listed, latest first")
     lp.add_argument("--sources", action="store_true",
                     help="also list where the late paths start (cells with the most late endpoints behind them)")
+    bs = sub.add_parser("best", help="pick the seed with the highest Fmax among parallel place-and-route runs")
+    bs.add_argument("dir", type=Path, help="synthesis directory holding seed-N/ run directories")
+    bs.add_argument("seeds", type=int, nargs="+")
+    bs.add_argument("--files", nargs="+", default=["pnr.json", "nextpnr.log"],
+                    help="files copied from the chosen run into DIR")
     ar = sub.add_parser("area", help="logic area charged to the registers it feeds, from a mapped ECP5 netlist")
     ar.add_argument("netlist", type=Path, help="Yosys write_json output after synth_ecp5")
     ar.add_argument("--module", help="module to read (default: the netlist's top)")
@@ -421,6 +465,16 @@ def main() -> int:
             return make_report(args)
         if args.cmd == "blocks":
             print("\n".join(blocks_table(args.stats)))
+            return 0
+        if args.cmd == "best":
+            chosen, lines, problems = best_seed([(sd, args.dir / f"seed-{sd}") for sd in args.seeds])
+            for prob in problems:
+                print(f"synth: warning: {prob}", file=sys.stderr)
+            for name in args.files:
+                shutil.copyfile(args.dir / f"seed-{chosen}" / name, args.dir / name)
+            summary = f"{chosen} (best of {', '.join(lines)})" if len(lines) > 1 else str(chosen)
+            (args.dir / "seed.txt").write_text(summary + "\n")
+            print(f"synth: seed {summary}")
             return 0
         if args.cmd == "area":
             total, cost, ffs = area_by_register(_load_json(args.netlist, "netlist"), args.module)

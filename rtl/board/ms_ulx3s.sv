@@ -8,9 +8,11 @@
 // primitives (the slang frontend treats a 1'bz assignment as X, so no inferred tristates) and
 // switches the 1.5 kOhm D+ pull-up with usb_fpga_pu_dp; the D- pull switch and the
 // differential receiver pair (usb_fpga_dp/dn) are unused inputs.
+// SoC RAM: 60 KiB (RAM_WORDS 15360, four banks of block RAM, 30 DP16KD; ms_ram_sp_bytes) for
+// the firmware linked by the top Makefile; INIT_FILE.0 .. .3 hold the banks' images.
 module ms_ulx3s #(
   parameter int    NUM_CH    = 24,
-  parameter int    RAM_WORDS = 16384,
+  parameter int    RAM_WORDS = 15360,
   parameter string INIT_FILE = ""
 ) (
   input  logic              clk_25mhz,
