@@ -51,10 +51,10 @@ ifeq ($(TARGET),ecp5)
   SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\"
   SYNTH_CELLS  := ecp5/cells_bb.v
   SYNTH_YOSYS  := synth_ecp5 -top $(SYNTH_TOP)
-  # ms_csr's VS table (72 words, two read ports) in distributed RAM: as block RAM it takes three
-  # DP16KD, and the 25F has 56 (an attribute in the RTL would stop Yosys on the iCE40, which
-  # has no distributed RAM)
-  SYNTH_PREP   := setattr -set ram_style "distributed" m:*vs_m
+  # ms_csr's VS table (72 words, two read ports) and the USB IN endpoint's 128-byte buffer in
+  # distributed RAM: as block RAM they take three DP16KD and one, and the 25F has 56 (an
+  # attribute in the RTL would stop Yosys on the iCE40, which has no distributed RAM)
+  SYNTH_PREP   := setattr -set ram_style "distributed" m:*vs_m m:*u_ep_in.mem_q
   # router2: on the board top router1 had not converged after 50 min, router2 routes in 6
   # (docs/synthesis.md, "Scheduler at 62.4 MHz out of context"). The electrostatic placer
   # (--placer static) packs the design tighter than the default HeAP placer: same netlist,

@@ -244,15 +244,26 @@ module ms_scheduler #(
   logic [31:0]                           bu_start_q;
   logic [NUM_CH-1:0]                     hd_vld_q;     // head: next window to close
   logic [KW-1:0]                         hd_slot_m [32];
-  // Close tick of the element's head, low HCW bits (for close_eq_q only; the engine reads the
+  // Close tick of the element's head for close_eq_q: its low HCW bits (the engine reads the
   // full 32 bits from hd_close_m). A head is written with a close tick at most 2^24 (window
   // end offset) + LEAD + the engine's lag after the write tick, so tick_i reaches it within
   // 2^(HCW-1) ticks: the low bits match there first (checked in simulation below). A close
   // lost to a work-queue overflow would match again after 2^HCW ticks (1.4 s) instead of 2^32;
   // the overflow is reported as an overrun either way.
+  // The HCW bits are split at LB: time runs in blocks of 2^LB ticks (tick_i[HCW-1:LB] is the
+  // block). Each element keeps the low LB bits in flops (hd_lo_q) and two flags, "the head's
+  // block is the current block" (blk_cur_q) and "... the next block" (blk_nxt_q); the high
+  // bits are compared with one shared comparator, at the head write and by a scan that visits
+  // element L in the clock with tick_i[LB-1:0] == L (so 2^LB > NUM_CH). At the end of a block
+  // blk_cur_q takes blk_nxt_q. The per-clock compare per element is then LB bits and a flag
+  // instead of HCW bits (24 x 26-bit compares were ~630 TRELLIS_COMB).
   localparam int HCW = 26;
-  logic [NUM_CH-1:0][HCW-1:0]            hd_close_q;
-  logic [31:0]                           hd_close_m [NUM_CH];  // copy of hd_close_q for the engine's reads at ei
+  localparam int LB  = $clog2(NUM_CH + 1);
+  localparam int HBW = HCW - LB;
+  logic [NUM_CH-1:0][LB-1:0]             hd_lo_q;
+  logic [NUM_CH-1:0]                     blk_cur_q, blk_nxt_q;
+  logic [HBW-1:0]                        hd_hi_m [2**LB];      // close tick bits [HCW-1:LB], read by the scan
+  logic [31:0]                           hd_close_m [NUM_CH];  // the whole close tick, for the engine's reads at ei
 
   // candidate pulse: per receiver predicted T_E and whether it gets a window
   logic [23:0]       cand_te_q [NUM_CH];
@@ -357,8 +368,8 @@ module ms_scheduler #(
     rx_any = '0;
     rx_any = sh_rxany_q;
   end
-  // The 24 close-tick compares are registered per element: close_eq_q[r] is hd_close_q[r] ==
-  // tick_i of the clock before, i.e. == tick_prev now, on the head of the clock before (with
+  // The 24 close-tick compares are registered per element: close_eq_q[r] is "the head's close
+  // tick (low HCW bits) == tick_i" of the clock before, i.e. == tick_prev now, on the head of the clock before (with
   // tick_prev, fanned out to 768 compare inputs across the chip, they were the board top's
   // slowest path into q_push_q). The same as comparing the current head unless a head is
   // written in the clock before its close tick; every head is written long before it (a new
@@ -366,7 +377,7 @@ module ms_scheduler #(
   // element), and the simulation check at the per-element writes below stops if one is not.
   logic [NUM_CH-1:0] close_eq_q;
   always_ff @(posedge clk_i)
-    for (int r = 0; r < NUM_CH; r++) close_eq_q[r] <= hd_close_q[r] == tick_i[HCW-1:0];
+    for (int r = 0; r < NUM_CH; r++) close_eq_q[r] <= blk_cur_q[r] && hd_lo_q[r] == tick_i[LB-1:0];
   assign close_now = hd_vld_q & close_eq_q;
   assign edge_now = rise_i & rx_any;
   assign q_push   = running && ((|edge_now) || (|close_now));
@@ -1802,7 +1813,7 @@ module ms_scheduler #(
   logic [NUM_CH-1:0] ew_q;
   always_ff @(posedge clk_i)
     for (int e = 0; e < NUM_CH; e++) ew_q[e] <= nx_go && ei_q == RW'(e);
-  // The head's write enables (hd_close_q: 24 x 32 CE pins, hd_vld_q) are registered per
+  // The head's write enables (hd_lo_q and the block flags: 24 x 7 CE pins, hd_vld_q) are registered per
   // element in the clock before the go clock too, with their data conditions taken from
   // stage C (w_close_c_q, iw_close_c_q) and stage A, which hold their final values from that
   // clock: the same compares as sw_lt_hd_d_q / iw_first_d_q, one clock earlier. (From the
@@ -1856,14 +1867,19 @@ module ms_scheduler #(
              wvw_q, ew_q & {NUM_CH{wv_we}}, st_q);
     if (!rst_i && hdw_any_q != (|hdw_q))
       $error("ms_scheduler: head RAM write %b, head flop writes %h", hdw_any_q, hdw_q);
-    if (!rst_i && hd_vld_q[ei_q] && hd_close_m[ei_q][HCW-1:0] != hd_close_q[ei_q])
-      $error("ms_scheduler: element %0d's head RAM %0d, flops %0d", ei_q, hd_close_m[ei_q], hd_close_q[ei_q]);
+    if (!rst_i && hd_vld_q[ei_q] && hd_close_m[ei_q][LB-1:0] != hd_lo_q[ei_q])
+      $error("ms_scheduler: element %0d's head RAM %0d, flops %0d", ei_q, hd_close_m[ei_q], hd_lo_q[ei_q]);
+    // the block flags of every valid head say whether its close tick is in tick_i's block
+    for (int e = 0; e < NUM_CH; e++)
+      if (!rst_i && hd_vld_q[e] && blk_cur_q[e] != (hd_close_m[e][HCW-1:LB] == tick_i[HCW-1:LB]))
+        $error("ms_scheduler: element %0d's head closes at %0d, block flag %b at tick %0d",
+               e, hd_close_m[e], blk_cur_q[e], tick_i);
     for (int e = 0; e < NUM_CH; e++)
       if (!rst_i && ps_live && hdw_q[e]
           && ($signed(hd_close_wd - tick_i) <= 0 || (hd_close_wd - tick_i) >= 32'(1) << (HCW - 1)
-              || (hd_vld_q[e] && hd_close_q[e] == tick_i[HCW-1:0])))
+              || (hd_vld_q[e] && hd_close_m[e][HCW-1:0] == tick_i[HCW-1:0])))
         $error("ms_scheduler: element %0d's head written at tick %0d with close tick %0d over %0d (low %0d bits)",
-               e, tick_i, hd_close_wd, hd_close_q[e], HCW);
+               e, tick_i, hd_close_wd, hd_close_m[e], HCW);
   end
 `endif
   always_comb begin
@@ -1941,7 +1957,7 @@ module ms_scheduler #(
       else if (ps_live && wvw_q[e])       wv_q[e] <= wv_wd;
       if (el_clr)                     hd_vld_q[e] <= 1'b0;
       else if (ps_live && hdvw_q[e])  hd_vld_q[e] <= hdv_wd;
-      if (ps_live && hdw_q[e])        hd_close_q[e] <= hd_close_wd[HCW-1:0];
+      if (ps_live && hdw_q[e])        hd_lo_q[e] <= hd_close_wd[LB-1:0];
       if (rst_i || (run_ok && st_q == S_START)) bu_ok_q[e] <= 1'b0;
       else if (ps_live && ew_q[e] && bu_we)     bu_ok_q[e] <= 1'b1;
       if (rst_i || (run_ok && st_q == S_START)) tu_ok_q[e] <= 1'b0;
@@ -1956,7 +1972,41 @@ module ms_scheduler #(
     if (run_ok && bu_we)   bu_m[ei_q]      <= bu_wd;
     if (run_ok && tu_we)   tu_m[ei_q]      <= bu_wd;
     if (run_ok && hd_we)   hd_slot_m[ei_q] <= hd_slot_wd;
-    if (ps_live && hdw_any_q) hd_close_m[ei_q] <= hd_close_wd;  // as hd_close_q[ei_q] (hdw_q)
+    if (ps_live && hdw_any_q) hd_close_m[ei_q] <= hd_close_wd;  // as hd_lo_q[ei_q] (hdw_q)
+    if (ps_live && hdw_any_q) hd_hi_m[ei_q]    <= hd_close_wd[HCW-1:LB];
+  end
+
+  // Block flags of the heads' close ticks (see hd_lo_q). In the clock with tick_i = T:
+  // blk_cur_q[e] == (head e's close block == block(T)) for every head written since reset, and
+  // blk_nxt_q[e] == (... == block(T) + 1) once the scan has passed e in T's block (always by
+  // the block's last clock, where blk_cur_q takes it; NUM_CH < 2^LB). A head write sets both
+  // from the new tick against block(T+1) and block(T+1) + 1 (blk_c_q, blk_n_q: registered from
+  // tick_i + 2, as tick_i counts by one). The simulation check above compares blk_cur_q of
+  // every valid head with its close tick in every clock.
+  logic [HBW-1:0] blk_c_q, blk_n_q, hbw_t2;
+  logic [LB-1:0]  blk_pos;
+  logic           blk_end, blk_wc, blk_wn, blk_sn;
+  assign hbw_t2  = HBW'((tick_i[HCW-1:0] + HCW'(2)) >> LB);
+  assign blk_pos = tick_i[LB-1:0];
+  assign blk_end = (blk_pos == '1);
+  assign blk_wc  = (hd_close_wd[HCW-1:LB] == blk_c_q);
+  assign blk_wn  = (hd_close_wd[HCW-1:LB] == blk_n_q);
+  assign blk_sn  = (hd_hi_m[blk_pos] == blk_n_q);
+  always_ff @(posedge clk_i) begin
+    blk_c_q <= hbw_t2;
+    blk_n_q <= hbw_t2 + HBW'(1);
+    for (int e = 0; e < NUM_CH; e++) begin
+      if (rst_i) begin
+        blk_cur_q[e] <= 1'b0;
+        blk_nxt_q[e] <= 1'b0;
+      end else if (ps_live && hdw_q[e]) begin
+        blk_cur_q[e] <= blk_wc;
+        blk_nxt_q[e] <= blk_wn;
+      end else begin
+        if (blk_end)                blk_cur_q[e] <= blk_nxt_q[e];
+        if (blk_pos == LB'(e))      blk_nxt_q[e] <= blk_sn;
+      end
+    end
   end
 
   // ---- outputs

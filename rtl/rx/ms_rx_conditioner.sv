@@ -26,14 +26,16 @@ module ms_rx_conditioner #(
   logic             meta_q, sync_q;
   logic             level_q, rise_q;
   logic [CNT_W-1:0] run_q;  // consecutive clocks sync_q has differed from level_q, minus one
-  // glitch_min_i as of the last clock the level was settled: a change takes effect for the
-  // next pulse, never half-way through one. Taken straight into a flop: the conditioners sit
-  // by their pins, far from the register block, and a gate on glitch_min_i would be shared by
-  // all of them. 0 behaves as 1 without a gate: run_q + 1 >= max(g, 1) iff run_q + 1 >= g.
-  logic [CNT_W-1:0] gmin_q;
+  // max(glitch_min_i, 1) - 1 as of the last clock the level was settled: a change takes effect
+  // for the next pulse, never half-way through one. run_q counts up by one from 0, so the
+  // first clock with run_q + 1 >= max(g, 1) is the one with run_q == max(g, 1) - 1: an
+  // equality test (LUTs) instead of a magnitude compare (a second carry chain per channel,
+  // which nextpnr also pads with feed-in / feed-out cells). The subtraction depends on
+  // glitch_min_i only, so after flattening the 24 conditioners share one.
+  logic [CNT_W-1:0] gm1_q;
 
   always_ff @(posedge clk_i) begin
-    if (rst_i || sync_q == level_q) gmin_q <= glitch_min_i;
+    if (rst_i || sync_q == level_q) gm1_q <= glitch_min_i - CNT_W'(glitch_min_i != '0);
     if (rst_i) begin
       meta_q  <= 1'b0;
       sync_q  <= 1'b0;
@@ -46,7 +48,7 @@ module ms_rx_conditioner #(
       rise_q <= 1'b0;
       if (sync_q == level_q) begin
         run_q <= '0;
-      end else if (CNT_W'(run_q + CNT_W'(1)) >= gmin_q) begin
+      end else if (run_q == gm1_q) begin
         level_q <= sync_q;
         rise_q  <= sync_q;
         run_q   <= '0;
