@@ -38,7 +38,7 @@ MAX_ORDER: int = 4  #: highest order this build supports (CAPS.max_order)
 MISS_W: int = 4  #: MODE.miss_limit and the per-receiver miss counter (saturating)
 REINIT_W: int = 8  #: MODE.reinit_every (tracking-pulse counter saturates at 2**REINIT_W - 1)
 TV_W: int = 16  #: WINDOW.t_v, WINDOW.t_n
-DEAD_W: int = 20  #: T_DEAD, T_XTALK
+DEAD_W: int = 19  #: T_DEAD, T_XTALK (10.9 ms; 19 bits keep the scheduler's BLK words at 36 bits)
 TOF_W: int = 24  #: MAX_TOF, T_E, time of flight in events, pulse period, phase
 #: phasing delay per (sensor, element): the RTL keeps the low DELAY_W bits of each 32-bit word of
 #: the DELAY memory (rtl/ms_sonar_core.sv DELAY_W; the register map's memwidth is the bus word);

@@ -100,7 +100,8 @@ module ms_scheduler #(
   localparam int VW  = 3;                  // sensor index width (event field)
   localparam int KW  = $clog2(WSLOTS);     // slot index width
   localparam int QW  = 32 + 2 * NUM_CH;    // work-queue word {tick, edges, closes}
-  localparam int BW  = 21;                 // blank end offset width (delay + T_dead)
+  localparam int DW  = 19;                 // T_dead / T_xtalk (VS_T_DEAD.ticks, VS_XTALK.t_xtalk)
+  localparam int BW  = 20;                 // blank end offset width (delay + T_dead): BLK words of 36 bits, one DP16KD
   localparam logic [31:0] LEAD32 = 32'(LEAD);
 
   // cfg_error codes: docs/protocol.md section 5 (multisonar.protocol.CfgError), checked per
@@ -174,8 +175,8 @@ module ms_scheduler #(
   logic [23:0]       sh_hi_m    [NUM_VS];  // ... and max ToF - T_N
   logic [7:0]        sh_burst_m [NUM_VS];
   logic [1:0]        sh_nb_m    [NUM_VS];
-  logic [19:0]       sh_dead_m  [NUM_VS];  // T_dead and T_xtalk: the BLK RAM's blank ends (S_COPY)
-  logic [19:0]       sh_xtk_m   [NUM_VS];
+  logic [DW-1:0]     sh_dead_m  [NUM_VS];  // T_dead and T_xtalk: the BLK RAM's blank ends (S_COPY)
+  logic [DW-1:0]     sh_xtk_m   [NUM_VS];
   logic [NUM_VS-1:0]             sh_act_q;  // mode != off
   logic [NUM_CH-1:0]             sh_rxany_q;  // receivers of the active sensors
   logic [NUM_VS-1:0][NUM_VS-1:0] sh_share_q;
@@ -855,11 +856,11 @@ module ms_scheduler #(
   logic [1:0]         v1_mode_q;
   logic [NUM_CH-1:0]  v1_tx_q;
   logic               v1_rx0_q, v1_order_q, v1_k0_q, v1_b0_q, v1_w0_q;
-  logic [19:0]        v1_dead_q, v1_xt_q;
+  logic [DW-1:0]      v1_dead_q, v1_xt_q;
   logic [23:0]        v1_tmax_q;
   logic [16:0]        v1_tvn_q;
   logic [DELAY_W-1:0] v1_dmax_q;
-  logic [19:0]        v2_dx_q;
+  logic [DW-1:0]      v2_dx_q;
   logic               v2_txbad_q, v2_dshort_q, v2_wshort_q;
   logic [23:0]        v3_dbl_q;
   logic               v4_tof_q, v4_lead_q;
@@ -871,7 +872,7 @@ module ms_scheduler #(
   logic [3:0]         v0_k_q;
   logic [7:0]         v0_burst_q;
   logic [15:0]        v0_tv_q, v0_tn_q;
-  logic [19:0]        v0_dead_q, v0_xt_q;
+  logic [DW-1:0]      v0_dead_q, v0_xt_q;
   logic [23:0]        v0_tmax_q;
   logic [15:0]        v0_vmax_q;   // not checked: for S_LOAD
   logic [23:0]        v0_phase_q;  // not checked: for S_LOAD
@@ -903,9 +904,12 @@ module ms_scheduler #(
           v_any_q     <= (vs != '0 && v_any_q) || vs_rdata_i[1:0] != 2'd0;  // over entries 0..vs
         end
         4'd3: {v0_tn_q, v0_tv_q} <= vs_rdata_i;
-        4'd4: v0_dead_q <= vs_rdata_i[19:0];
+        4'd4: v0_dead_q <= vs_rdata_i[DW-1:0];
         4'd5: v0_tmax_q <= vs_rdata_i[23:0];
-        4'd6: {v0_nb_q, v0_xt_q} <= vs_rdata_i[21:0];
+        4'd6: begin
+          v0_nb_q <= vs_rdata_i[21:20];
+          v0_xt_q <= vs_rdata_i[DW-1:0];
+        end
         4'd7: {v0_burst_q, v0_vmax_q} <= vs_rdata_i[23:0];
         default: v0_phase_q <= vs_rdata_i[23:0];
       endcase
@@ -1155,7 +1159,7 @@ module ms_scheduler #(
   logic [3:0]        ld_k_q;
   logic [15:0]       ld_tv_q, ld_tn_q, ld_vmax_q;
   logic [23:0]       ld_rmax_q, ld_phase_q, ld_dbl_q, ld_lo_q, ld_hi_q;
-  logic [19:0]       ld_dead_q, ld_xtk_q;
+  logic [DW-1:0]     ld_dead_q, ld_xtk_q;
   logic [7:0]        ld_burst_q;
   logic [1:0]        ld_nb_q;
   assign ld_we = !rst_i && st_q == S_LOAD && go;

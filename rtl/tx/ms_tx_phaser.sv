@@ -1,6 +1,7 @@
 // ms_tx_phaser: per-element phasing delay and burst generator of the transmit ring
-// (docs/sonar_core.md). One ms_tx_channel per element; the elements share only a
-// free-running tick counter, against which each stores the tick of its pending trigger.
+// (docs/sonar_core.md). One ms_tx_channel per element; the elements share a free-running
+// tick counter, against which each stores the tick of its pending trigger, and a phase
+// counter modulo the half period, against which each times the halves of its burst.
 //
 // Timing contract (ticks of clk_i; "at tick T" = loaded at the edge that ends cycle T, so
 // visible from cycle T+1; checked tick-exactly in tests/rtl/test_ms_tx_phaser.py):
@@ -10,9 +11,14 @@
 //   - A trigger drives burst_cycles_i periods of 2 * half_period_i ticks, high first, 50 %
 //     duty, then drive_o[i] stays low. half_period_i = 0 behaves as 1; burst_cycles_i = 0
 //     drives nothing (and ends a burst still running at the trigger tick).
-//   - burst_cycles_i[i] (per element: fires of different sensors may share a tick) and
-//     half_period_i are latched per element at fire_i: a CSR change after
-//     the fire changes neither pending triggers nor running bursts.
+//   - burst_cycles_i[i] (per element: fires of different sensors may share a tick) is
+//     latched per element at fire_i: a change after the fire changes neither pending
+//     triggers nor running bursts.
+//   - half_period_i (one for all elements: the transducers' frequency, BURST.half_period) is
+//     sampled in every clock in which no element is busy, the clock of a fire included; a
+//     busy stretch (from such a fire until every element is idle again) uses the value of
+//     its first clock, and a change during it waits until all elements are idle. So every
+//     burst of a stretch has the same H, and the elements share one phase counter.
 //   - drive_o is a flop output per element: zero jitter, elements of one group (and of
 //     different groups) start exactly on their computed ticks.
 //   - Collision: a fire that hits an element whose previous trigger is still pending (due at
@@ -41,6 +47,19 @@ module ms_tx_phaser #(
   logic [NUM_CH-1:0]  override;
   logic               collision_q;
   logic [DELAY_W-1:0] now_q, now_nx_q;  // tick counter and its value in the next cycle
+  // Half periods: phase_q counts 0 .. H-1 round (H = max(half_period, 1), hm1_q = H - 1)
+  // while an element is busy, phase_nx_q is its value in the next cycle. One edge after its
+  // trigger an element stores the phase of that cycle and ends a half in every cycle whose
+  // next phase comes round to it, i.e. H, 2H, ... clocks after the trigger (in the cycle after
+  // the trigger from h1_q: H = 1). While all are idle hm1_q follows half_period_i and the
+  // count restarts from 0 in the next cycle, so a burst triggered in an idle cycle (a fire
+  // with delay 0) counts with the H of its own cycle.
+  logic [HALF_W-1:0]  phase_q, phase_nx_q, hm1_q, hm1_in;
+  logic               h1_q;
+  logic [NUM_CH-1:0]  busy;
+  logic               idle;
+  assign hm1_in = half_period_i - HALF_W'(half_period_i != '0);
+  assign idle   = (busy == '0);
 
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
@@ -49,6 +68,23 @@ module ms_tx_phaser #(
     end else begin
       now_q    <= now_nx_q;
       now_nx_q <= now_nx_q + DELAY_W'(1);
+    end
+  end
+
+  always_ff @(posedge clk_i) begin
+    if (rst_i) begin
+      hm1_q      <= '0;
+      h1_q       <= 1'b1;
+      phase_q    <= '0;
+      phase_nx_q <= '0;
+    end else if (idle) begin
+      hm1_q      <= hm1_in;
+      h1_q       <= (hm1_in == '0);
+      phase_q    <= '0;
+      phase_nx_q <= HALF_W'(hm1_in != '0);
+    end else begin
+      phase_q    <= phase_nx_q;
+      phase_nx_q <= (phase_nx_q == hm1_q) ? '0 : phase_nx_q + HALF_W'(1);
     end
   end
 
@@ -62,12 +98,14 @@ module ms_tx_phaser #(
       .rst_i         (rst_i),
       .now_i         (now_q),
       .now_nx_i      (now_nx_q),
+      .phase_i       (phase_q),
+      .phase_nx_i    (phase_nx_q),
+      .h1_i          (h1_q),
       .fire_i        (fire_i & mask_i[i]),
       .delay_i       (delay_i[i]),
       .burst_cycles_i(burst_cycles_i[i]),
-      .half_period_i (half_period_i),
       .drive_o       (drive_o[i]),
-      .busy_o        (busy_o[i]),
+      .busy_o        (busy[i]),
       .override_o    (override[i])
     );
   end
@@ -81,4 +119,5 @@ module ms_tx_phaser #(
   end
 
   assign collision_o = collision_q;
+  assign busy_o      = busy;
 endmodule

@@ -9,9 +9,13 @@ contract (rtl/tx/ms_tx_phaser.sv header):
   - fire in cycle t0: element i of the mask triggers at tick t = t0 + d_i, i.e. drive_o[i]
     changes at the clock edge that ends cycle t (first high in cycle t + 1);
   - a burst is `cycles` periods of 2*H ticks, high first (H = max(half_period, 1));
+  - half_period is sampled in every cycle in which no element is busy (busy_o all low), the
+    fire's own cycle included: a fire that finds all elements idle sets H for every burst
+    until they are all idle again, and the half_period of fires in between is ignored;
   - a fire replaces a trigger that is still pending (tick >= t0): collision; a trigger cuts
     a running burst and restarts it; cycles = 0 drives nothing from the trigger on;
-  - burst parameters are latched at fire (the testbench garbles the inputs after each fire);
+  - burst cycles are latched at fire (the testbench garbles the inputs after each fire; a
+    garbled half_period while all are idle is overwritten by the next fire's);
   - busy_o[i] is high from the fire tick while a trigger is pending and from the trigger
     tick while a burst runs (registered: changes at edges like drive_o).
 
@@ -67,6 +71,21 @@ def _merge(intervals: list[tuple[int, int]]) -> list[tuple[int, int]]:
     return [(x, lvl) for a, b in out for x, lvl in ((a, 1), (b, 0))]
 
 
+def _busy_in(triggers: list[list[tuple[int, int, int]]], pending: list[list[tuple[int, int]]], c: int) -> bool:
+    """Some element busy in cycle c (busy_o high in cycle c: an interval (a, b) of edge ticks
+    covers the cycles a + 1 .. b), from the triggers and pending spans known so far."""
+    for tr, pe in zip(triggers, pending):
+        if any(a < c <= b for a, b in pe):
+            return True
+        for k, (t, h, cyc) in enumerate(tr):
+            b = t + 2 * h * cyc
+            if k + 1 < len(tr):
+                b = min(b, tr[k + 1][0])
+            if t < c <= b:
+                return True
+    return False
+
+
 def model(fires: list[Fire], num_ch: int) -> Expect:
     """The contract as events: triggers per element, then bursts cut by the next trigger."""
     triggers: list[list[tuple[int, int, int]]] = [[] for _ in range(num_ch)]
@@ -74,14 +93,19 @@ def model(fires: list[Fire], num_ch: int) -> Expect:
     pending: list[list[tuple[int, int]]] = [[] for _ in range(num_ch)]
     collisions = 0
     end = 0
+    half = 1  # H of the current busy stretch
     for f in sorted(fires, key=lambda f: f.t0):
+        # fires come in time order and only shorten what is already known from f.t0 on, so
+        # whether cycle f.t0 is busy follows from the earlier fires
+        if not _busy_in(triggers, pending, f.t0):
+            half = max(f.half, 1)
         hit = False
         for e, d in f.delays.items():
             tr = triggers[e]
             while tr and tr[-1][0] >= f.t0:  # pending trigger: replaced
                 tr.pop()
                 hit = True
-            tr.append((f.t0 + d, max(f.half, 1), f.cycles))
+            tr.append((f.t0 + d, half, f.cycles))
             pe = pending[e]
             if pe and pe[-1][1] > f.t0:  # the element's previous pending trigger, replaced
                 pe[-1] = (pe[-1][0], f.t0)
