@@ -3,8 +3,10 @@
 // Wraps the PeakRDL-generated register block (rtl/regs/sonar_regs.rdl -> build/gen/sv) so
 // the rest of the RTL never touches its hwif structs, holds the phasing-delay table in
 // block RAM (the regblock treats it as external memory) and the virtual-sensor table VS[8]
-// (an external regfile of the regblock) in distributed RAM: 72 words written per byte lane,
+// (an external regfile of the regblock) in distributed RAM: 9 words per implemented entry
+// (NUM_VS of the map's 8; the others read as zero and ignore writes), written per byte lane,
 // read by the bus and, through a second read port, by the scheduler one word per clock.
+// CAPS reports the build's parameters (NUM_CH, NUM_VS, WSLOTS, EVT_DEPTH_W).
 // After a reset the table is refilled with its reset values, one word per clock (VS_WORDS
 // clocks); the bus is stalled meanwhile.
 //
@@ -25,8 +27,11 @@ module ms_csr
   parameter int NUM_CH  = ms_layout_pkg::NUM_CH,
   parameter int DELAY_W = 16,
   parameter int ADDR_W  = 11,
-  // fixed by the register map (regfile VS[8] in sonar_regs.rdl); CAPS.num_vs reports it
-  localparam int unsigned NUM_VS = 8
+  parameter int NUM_VS  = 8,   // VS entries the scheduler runs (1..VS_ENTRIES; CAPS.num_vs)
+  parameter int WSLOTS  = 16,  // the scheduler's window slots per element (CAPS.win_slots)
+  parameter int EVT_DEPTH_W = 9,  // log2 of the event FIFO depth (CAPS.fifo_depth_log2)
+  // fixed by the register map (regfile VS[8] in sonar_regs.rdl)
+  localparam int unsigned VS_ENTRIES = 8
 ) (
   input  logic                          clk_i,
   input  logic                          rst_i,
@@ -161,7 +166,7 @@ module ms_csr
   logic                 evt_head_valid;
   // VS table: NUM_VS entries of VS_REGS registers (TX_MASK .. PHASE at offsets 0x00 .. 0x20)
   localparam int VS_REGS = 9;
-  logic [NUM_VS-1:0]    vs_rd_ack_q, vs_wr_ack_q;
+  logic [VS_ENTRIES-1:0] vs_rd_ack_q, vs_wr_ack_q;
   logic [31:0]          vs_rdata_q;
 
   // ---- status, counters and the delay-table answers: one process drives all of hwif_in
@@ -188,7 +193,11 @@ module ms_csr
     hwif_in.EVT_HI.rd_ack            = evt_hi_ack_q;
     hwif_in.EVT_HI.rd_data.valid     = evt_hi_q[31];
     hwif_in.EVT_HI.rd_data.data      = evt_hi_q[30:0];
-    for (int v = 0; v < int'(NUM_VS); v++) begin
+    hwif_in.CAPS.num_ch.next          = 8'(NUM_CH);
+    hwif_in.CAPS.num_vs.next          = 8'(NUM_VS);
+    hwif_in.CAPS.fifo_depth_log2.next = 4'(EVT_DEPTH_W);
+    hwif_in.CAPS.win_slots.next       = 8'(WSLOTS);
+    for (int v = 0; v < int'(VS_ENTRIES); v++) begin
       hwif_in.VS[v].rd_ack  = vs_rd_ack_q[v];
       hwif_in.VS[v].rd_data = vs_rdata_q;
       hwif_in.VS[v].wr_ack  = vs_wr_ack_q[v];
@@ -263,6 +272,10 @@ module ms_csr
   endfunction
 
   localparam int VS_WORDS = int'(NUM_VS) * VS_REGS;
+  localparam int VS_AW    = $clog2(VS_WORDS);  // word address bits of the implemented entries
+  // word addresses are 7 bits (8 entries); a reduced build's table needs fewer, the top ones
+  // are zero whenever vs_m is accessed
+  logic unused_vs_hi;
   // word entry * VS_REGS + register. On the ECP5 the synthesis script asks for distributed RAM
   // (mk/synth.mk: block RAM would take three DP16KD for the two read ports); no attribute here,
   // since the iCE40 has no distributed RAM and Yosys stops on a style it cannot map.
@@ -283,7 +296,10 @@ module ms_csr
   end
   assign vs_reg = rq_addr_q[5:2];
   assign vs_sel = {rq_addr_q[9], rq_addr_q[7:6]};
-  assign vs_wr  = rq_valid_q && rq_is_wr_q && !rb_stall_wr && rq_vs_q && !vs_init_busy;
+  // the bus's write strobe into the table: the regblock still acknowledges writes to entries
+  // the build does not implement (vs_sel >= NUM_VS), which change nothing
+  assign vs_wr  = rq_valid_q && rq_is_wr_q && !rb_stall_wr && rq_vs_q && !vs_init_busy
+                  && 32'(vs_sel) < 32'(NUM_VS);
   // offsets 0x24..0x3F of an entry are outside the table (the regblock answers rd_err and
   // ignores the data), so they may address register 8
   logic [3:0] vs_reg_c;
@@ -316,32 +332,35 @@ module ms_csr
   end
   always_ff @(posedge clk_i) begin
     if (!rst_i && vs_init_busy) begin
-      vs_m[vs_init_q] <= vs_reset_w;
+      vs_m[VS_AW'(vs_init_q)] <= vs_reset_w;
     end else if (!rst_i && vs_wr) begin
       for (int b = 0; b < 4; b++)
-        if (rq_wr_biten_q[8*b]) vs_m[vs_word][8*b +: 8] <= rq_wr_data_q[8*b +: 8] & vs_fields_w[8*b +: 8];
+        if (rq_wr_biten_q[8*b]) vs_m[VS_AW'(vs_word)][8*b +: 8] <= rq_wr_data_q[8*b +: 8] & vs_fields_w[8*b +: 8];
     end
   end
   // The core's read port: one word per clock, registered.
-  always_ff @(posedge clk_i) vs_rdata_o <= vs_m[vs_raddr_i];
+  always_ff @(posedge clk_i) vs_rdata_o <= vs_m[VS_AW'(vs_raddr_i)];
   // Bus reads take two register stages like before the RAM (the word address, then the RAM
   // read): the answer (vs_rd_ack_q) comes two clocks after the request.
   logic [6:0]              vs_word_q;
-  logic [NUM_VS-1:0]       vs_rd_req_q;
+  logic                    vs_impl_q;  // the read's entry is implemented (< NUM_VS), else it reads 0
+  assign unused_vs_hi = ^{vs_raddr_i, vs_word_q};
+  logic [VS_ENTRIES-1:0]   vs_rd_req_q;
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
       vs_rd_req_q <= '0;
       vs_rd_ack_q <= '0;
       vs_wr_ack_q <= '0;
     end else begin
-      for (int v = 0; v < int'(NUM_VS); v++) begin
+      for (int v = 0; v < int'(VS_ENTRIES); v++) begin
         vs_rd_req_q[v] <= hwif_out.VS[v].req && !hwif_out.VS[v].req_is_wr;
         vs_wr_ack_q[v] <= hwif_out.VS[v].req && hwif_out.VS[v].req_is_wr;
       end
       vs_rd_ack_q <= vs_rd_req_q;
     end
     vs_word_q  <= vs_word;
-    vs_rdata_q <= vs_m[vs_word_q];
+    vs_impl_q  <= 32'(vs_sel) < 32'(NUM_VS);
+    vs_rdata_q <= vs_impl_q ? vs_m[VS_AW'(vs_word_q)] : 32'd0;
   end
 
   // ---- phasing-delay table: external memory of the regblock, kept in block RAM.

@@ -11,7 +11,11 @@ module ms_sonar_core #(
   parameter int          NUM_CH     = 24,
   parameter int unsigned TICK_START = 0,
   parameter int          LEAD       = 4096, // scheduler decision lead (docs/fast_firing.md 3.1)
-  parameter int          EVT_DEPTH_W = 9    // event FIFO depth 2^EVT_DEPTH_W words (block RAM)
+  parameter int          EVT_DEPTH_W = 9,   // event FIFO depth 2^EVT_DEPTH_W words (block RAM)
+  // scheduler size (reported in CAPS): virtual sensors run (1..8, the register map's table
+  // has 8 entries) and window slots per element; smaller values for small FPGAs (the 25F)
+  parameter int          NUM_VS      = 8,
+  parameter int          WSLOTS      = 16
 ) (
   input  logic              clk_i,
   input  logic              rst_i,
@@ -33,7 +37,6 @@ module ms_sonar_core #(
   output logic [NUM_CH-1:0] drive_o,  // burst drive, registered
   output logic              evt_available_o  // an event waits in the FIFO (interrupt)
 );
-  localparam int NUM_VS  = 8;
   localparam int DELAY_W = 16;
 
   logic [31:0] tick_q;
@@ -59,7 +62,8 @@ module ms_sonar_core #(
   logic                          evt_valid;
   logic [63:0]                   evt_data;
 
-  ms_csr #(.NUM_CH(NUM_CH), .DELAY_W(DELAY_W)) u_csr (
+  ms_csr #(.NUM_CH(NUM_CH), .DELAY_W(DELAY_W), .NUM_VS(NUM_VS), .WSLOTS(WSLOTS),
+           .EVT_DEPTH_W(EVT_DEPTH_W)) u_csr (
     .clk_i, .rst_i,
     .bus_req_i, .bus_req_is_wr_i, .bus_addr_i, .bus_wr_data_i, .bus_wr_biten_i,
     .bus_req_stall_wr_o, .bus_req_stall_rd_o, .bus_rd_ack_o, .bus_rd_err_o, .bus_rd_data_o,
@@ -94,7 +98,7 @@ module ms_sonar_core #(
   logic [NUM_CH-1:0]         unused_pulse_tx;  // for testbenches (through the hierarchy)
   logic [31:0]               pulse_t0;
 
-  ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W), .LEAD(LEAD)) u_sched (
+  ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W), .LEAD(LEAD), .WSLOTS(WSLOTS)) u_sched (
     .clk_i, .rst_i, .tick_i (tick_q), .enable_i (enable), .apply_i (apply),
     .vs_raddr_o (vs_raddr), .vs_rdata_i (vs_rdata),
     .burst_half_period_i (burst_half_period), .glitch_min_i (glitch_min), .miss_gate_i (miss_gate),

@@ -30,7 +30,9 @@ module ms_system #(
   parameter string INIT_FILE = "",     // firmware image, hex words for $readmemh
   parameter int    STRETCH_W = 22,     // LED pulse stretch: 2^STRETCH_W clocks
   parameter string CPU       = "vexriscv",  // soft-core: "vexriscv" or "picorv32" (ms_soc)
-  parameter int    FAST_MUL  = 1       // PicoRV32 only: single-cycle DSP multiplier (ms_soc)
+  parameter int    FAST_MUL  = 1,      // PicoRV32 only: single-cycle DSP multiplier (ms_soc)
+  parameter int    NUM_VS    = 8,      // scheduler: virtual sensors run (ms_sonar_core, CAPS.num_vs)
+  parameter int    WSLOTS    = 16      // scheduler: window slots per element (CAPS.win_slots)
 ) (
   input  logic              clk_i,
   input  logic              rst_i,
@@ -74,7 +76,7 @@ module ms_system #(
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o
   );
 
-  ms_sonar_core #(.NUM_CH(NUM_CH)) u_sonar (
+  ms_sonar_core #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .WSLOTS(WSLOTS)) u_sonar (
     .clk_i, .rst_i,
     .bus_req_i (req), .bus_req_is_wr_i (req_is_wr), .bus_addr_i (addr),
     .bus_wr_data_i (wr_data), .bus_wr_biten_i (wr_biten),

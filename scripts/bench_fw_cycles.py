@@ -26,6 +26,7 @@ does per event (reading the FIFO, converting ticks to paths, re-aiming) is not c
 
     .venv/bin/python scripts/bench_fw_cycles.py [--cpu picorv32|vexriscv] [--variants f64,f32,q]
                                                 [--max-cases N] [--reuse] [--icache-cold] [--plot FILE]
+                                                [--icache-kib 8 --sensors 4]   (the LFE5U-25F profile)
 
 Simulation is slow (~0.33 M cycles/s of the SoC). q: ~5 min for all cases (the extremes and
 the pillars take the general path, millions of cycles each). f64 / f32 take the general path
@@ -61,8 +62,8 @@ import test_ms_soc_geometry as tsg  # noqa: E402  (run_image, budget constants)
 VARIANTS = ("f64", "f32", "q")
 CPU_INFO = {
     "picorv32": "PicoRV32 (RV32IM, ENABLE_FAST_MUL, one RAM wait state)",
-    "vexriscv": "VexRiscv, pinned standard configuration (RV32IM, 5 stages, 16 KiB I cache "
-                "(scripts/gen_vex_icache.py) / 4 KiB D cache, 1-cycle MUL, RAM shared by both buses)",
+    "vexriscv": "VexRiscv, pinned standard configuration (RV32IM, 5 stages, I cache of --icache-kib KiB "
+                "(scripts/gen_vex_icache.py; 16 by default) / 4 KiB D cache, 1-cycle MUL, RAM shared by both buses)",
 }
 DEFAULT_MAX_CASES = {"f64": 4, "f32": 4, "q": 0}  # a soft-float case is ~20 M simulated cycles
 BENCH = ROOT / "build" / "bench"
@@ -79,8 +80,9 @@ def image_size(variant: str, cpu: str) -> tuple[int, int]:
 
 
 def measure(variant: str, reuse: bool, max_cases: int = 0, cpu: str = tsg.DEFAULT_CPU,
-            defines: tuple[str, ...] = ()) -> dict:
-    js = BENCH / f"fw_cycles_{variant}{'' if cpu == 'picorv32' else '_' + cpu}{'_cold' if defines else ''}.json"
+            defines: tuple[str, ...] = (), icache_kib: int = 16) -> dict:
+    js = BENCH / (f"fw_cycles_{variant}{'' if cpu == 'picorv32' else '_' + cpu}{'_cold' if defines else ''}"
+                  f"{'' if icache_kib == 16 or cpu != 'vexriscv' else f'_icache{icache_kib}k'}.json")
     hexfile = tsg.firmware_hex(f"bench_geom_{variant}", cpu, tsg.BENCH_DEFINES[cpu] + tuple(defines))
     if reuse and js.exists() and js.stat().st_mtime > hexfile.stat().st_mtime:
         raw = json.loads(js.read_text())
@@ -90,7 +92,7 @@ def measure(variant: str, reuse: bool, max_cases: int = 0, cpu: str = tsg.DEFAUL
             dec["cases"] = dec["cases"][:max_cases]
     else:
         print(f"simulating {variant} on {cpu} ...", file=sys.stderr, flush=True)
-        dec = tsg.run_image(variant, js, max_cases=max_cases, cpu=cpu, defines=defines)
+        dec = tsg.run_image(variant, js, max_cases=max_cases, cpu=cpu, defines=defines, icache_kib=icache_kib)
     return dec
 
 
@@ -147,6 +149,11 @@ def main() -> None:
     ap.add_argument("--icache-cold", action="store_true",
                     help="VexRiscv: empty the instruction cache (FENCE.I) before every timed ms_fix "
                          "(bench_geom.c -DBENCH_FIX_COLD): the worst case, every line of the fix refetched")
+    ap.add_argument("--icache-kib", type=int, default=16, choices=(4, 8, 16, 32),
+                    help="VexRiscv: instruction cache size (scripts/gen_vex_icache.py; 16 in every build "
+                         "but the LFE5U-25F profile's 8)")
+    ap.add_argument("--sensors", type=int, default=8,
+                    help="virtual sensors the budget assumes (8; the LFE5U-25F profile runs 4)")
     ap.add_argument("--plot", metavar="FILE", help="write a PNG of the cycles per call against the budget")
     a = ap.parse_args()
     variants = [v for v in a.variants.split(",") if v]
@@ -158,12 +165,14 @@ def main() -> None:
     res = {}
     for v in variants:
         dec = measure(v, a.reuse, DEFAULT_MAX_CASES[v] if a.max_cases is None else a.max_cases, a.cpu,
-                      ("BENCH_FIX_COLD",) if a.icache_cold else ())
+                      ("BENCH_FIX_COLD",) if a.icache_cold else (), a.icache_kib)
         res[v] = stats(dec, cs, ref)
         res[v]["size"], res[v]["table"] = image_size(v, a.cpu)
-    budget = tsg.CYCLE_BUDGET
+    budget = tsg.CYCLE_BUDGET * tsg.FIX_RATE_MAX / (a.sensors * 400)  # the same rule for a.sensors
     n_typ = sum(c.group == "typical" for c in cs)
     cold = ", instruction cache emptied before every timed fix (--icache-cold)" if a.icache_cold else ""
+    if a.cpu == "vexriscv" and a.icache_kib != 16:
+        cold += f", **{a.icache_kib} KiB instruction cache** (--icache-kib)"
     print(f"Geometry firmware on the SoC with {CPU_INFO[a.cpu]}{cold}, 48 MHz, "
           f"measured in Verilator: {len(cs)} cases ({n_typ} typical, {len(cs) - n_typ} extreme)\n")
 
@@ -195,8 +204,9 @@ def main() -> None:
           f"reason diffs on the pillars).\n"
           f"image: whole firmware image incl. picolibc, libgcc (soft-float for f32/f64) and the "
           f"{r0['table']:,} B case table.")
-    print(f"\nBudget: 8 virtual sensors x 400 pulses/s (interlace limit) = {tsg.FIX_RATE_MAX} fixes/s worst case, "
-          f"one ms_fix (point + wall + classification) per fix, 2x headroom -> {tsg.FIX_RATE_MAX * tsg.HEADROOM:.0f} fixes/s "
+    rate = a.sensors * 400
+    print(f"\nBudget: {a.sensors} virtual sensors x 400 pulses/s (interlace limit) = {rate} fixes/s worst case, "
+          f"one ms_fix (point + wall + classification) per fix, 2x headroom -> {rate * tsg.HEADROOM:.0f} fixes/s "
           f"-> at most {budget:.0f} cycles per fix at 48 MHz.")
     # the rule: variants that keep up (worst typical fix within the budget) -> the smallest
     # image; none -> the best worst case (what the rate requirement is about)

@@ -182,7 +182,7 @@ def compare(new_path: Path, ref_path: Path, min_mhz: float, max_lut_growth: floa
     failures = []
     if new.values.get("device") != ref.values.get("device"):
         failures.append(f"device changed: {ref.values.get('device')} -> {new.values.get('device')} "
-                        "(update synth/ecp5_report.txt with the new report if intended)")
+                        f"(update {ref_path} with the new report if intended)")
     fmax = new.number("fmax_mhz")
     if fmax < min_mhz:
         failures.append(f"Fmax {fmax:.2f} MHz is below {min_mhz:.2f} MHz ({min_mhz / 48.0:.2f}x the 48 MHz clock)")

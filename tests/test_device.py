@@ -218,6 +218,7 @@ def test_open_info_configure_stream(replay_sim):
     with Device.attach(sim) as dev:
         info = dev.info()
         assert (info.protocol_version, info.tick_hz, info.channels, info.max_vs) == (1, 48_000_000, 24, 8)
+        assert info.win_slots == 16  # CAPS of the full build (the simulated device's register file)
         assert dev._dev.product == "Multisonar (simulated)" and dev._dev.idVendor == 0x1209
         with pytest.raises(ScheduleError, match="'bad'.*not a run of adjacent"):
             dev.configure([VirtualSensor("bad", tx=[0, 2], rx=[1])])
@@ -466,3 +467,18 @@ def test_safety_rules_reach_the_device():
             dev.set_miss_gate(1 << 16)
         with pytest.raises(ScheduleError, match="reinit_every"):
             dev.configure([dataclasses.replace(SENSORS[0], reinit_every=256)])
+
+
+def test_reduced_device_refuses_more_sensors_than_caps(replay_sim):
+    """A device whose CAPS reports the LFE5U-25F profile (4 sensors, 8 window slots) refuses
+    the five-sensor demo table before anything is written, naming both numbers."""
+    sim = replay_sim()
+    f = R.REGISTERS["CAPS"].fields
+    caps = f["NUM_VS"].put(f["WIN_SLOTS"].put(sim.regs.get("CAPS"), 8), 4)
+    sim.regs.set_hw("CAPS", caps)
+    with Device.attach(sim) as dev:
+        assert (dev.info().max_vs, dev.info().win_slots) == (4, 8)
+        with pytest.raises(ScheduleError, match="5 virtual sensors, the device holds 4"):
+            dev.configure(SENSORS)
+        assert dev.counters()["bad_commands"] == 0
+        dev.configure(SENSORS[:4])

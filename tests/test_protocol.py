@@ -56,6 +56,8 @@ def test_payload_helpers_round_trip():
     info = P.DeviceInfo(1, 1024, 48_000_000, 24, 8, 4, 1, 0x20001, 0xCAFE, 0x940818)
     back = P.DeviceInfo.decode(info.encode())
     assert back == info and back.regmap_revision == 2 and back.gateware_version == "0.1" and back.simulated
+    # CAPS.win_slots (bits 31:24): the 25F profile's 8, 0 on gateware without the field = 16
+    assert back.win_slots == 16 and P.DeviceInfo(1, 1024, 48_000_000, 24, 4, 4, 0, 0x20001, 0, 0x08940418).win_slots == 8
     c = {k: i * 11 for i, k in enumerate(P.COUNTERS_FIELDS)}
     assert P.decode_counters(P.encode_counters(c)) == c
     with pytest.raises(P.BadLength, match="129 register writes"):

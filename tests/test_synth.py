@@ -205,3 +205,20 @@ def test_best_seed_keeps_the_fastest_finished_run(tmp_path):
     assert len(problems) == 2 and "did not finish" in problems[0] and "exit 1" in problems[1]
     with pytest.raises(rep.SynthReportError, match="no seed"):
         rep.best_seed([runs[2], runs[3]])
+
+
+def test_25k_profile_settings():
+    """make synth ECP5_DEVICE=25k builds the reduced profile the committed 25F report describes:
+    4 sensors and 8 window slots (passed to the board top, reported in CAPS), the 8 KiB I-cache
+    VexRiscv, the HeAP placer at seed 2, its own build directory; the 45F build is unchanged."""
+    def dry(*args: str) -> str:
+        return subprocess.run(["make", "-n", "-B", "synth", "TARGET=ecp5", *args], cwd=ROOT, capture_output=True,
+                              text=True, check=True).stdout
+    small, full = dry("ECP5_DEVICE=25k"), dry()
+    assert "-G NUM_VS=4 -G WSLOTS=8" in small and "NUM_VS" not in full
+    assert "--25k" in small and "--placer heap" in small and "--seed $s" in small and "ecp5-25k/sources.f" in small
+    assert "VexRiscv_icache8k.v" in small and "--45k" in full and "--placer static" in full
+    rep = _report_module().parse_report(ROOT / "synth/ecp5_25k_report.txt")
+    assert rep.values["device"] == "LFE5U-25F-CABGA381"
+    assert rep.number("fmax_mhz") >= 48.0 and rep.number("bram") <= 56
+    assert "25F profile: NUM_VS 4, WSLOTS 8" in (ROOT / "synth/ecp5_25k_report.txt").read_text()

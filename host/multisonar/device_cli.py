@@ -98,7 +98,8 @@ def cmd_info(args: argparse.Namespace) -> int:
         print(f"registers   map revision {i.regmap_revision}, gateware {i.gateware_version}, build 0x{i.build_id:08X}"
               + (" (simulated)" if i.simulated else ""))
         print(f"tick rate   {i.tick_hz} Hz")
-        print(f"channels    {i.channels}, virtual sensors {i.max_vs}, max order {i.max_order}")
+        print(f"channels    {i.channels}, virtual sensors {i.max_vs}, max order {i.max_order}, "
+              f"window slots per element {i.win_slots}")
         for k, v in dev.counters().items():
             if not k.startswith("host_"):
                 print(f"  {k:<16} {v}")

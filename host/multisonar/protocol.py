@@ -425,6 +425,13 @@ class DeviceInfo:
     def simulated(self) -> bool:
         return bool(self.flags & 1)
 
+    @property
+    def win_slots(self) -> int:
+        """Window-reservation slots per element (CAPS.win_slots: the scheduler's WSLOTS, what
+        :class:`multisonar.fastfiring.FastFiringModel` takes as ``win_slots``); gateware that
+        predates the field reads 0 there and has 16."""
+        return (self.caps_reg >> 24) & 0xFF or 16
+
     def encode(self) -> bytes:
         return INFO.pack(self.protocol_version, self.max_payload, self.tick_hz, self.channels, self.max_vs,
                          self.max_order, self.flags, self.version_reg, self.build_id, self.caps_reg)

@@ -13,7 +13,11 @@
 module ms_ulx3s #(
   parameter int    NUM_CH    = 24,
   parameter int    RAM_WORDS = 15360,
-  parameter string INIT_FILE = ""
+  parameter string INIT_FILE = "",
+  // scheduler size: the full 8 sensors / 16 slots on the 45F and 85F; make synth passes
+  // 4 / 8 for the 25F (mk/synth.mk, docs/synthesis.md), which CAPS then reports
+  parameter int    NUM_VS    = 8,
+  parameter int    WSLOTS    = 16
 ) (
   input  logic              clk_25mhz,
   input  logic              btn_fire1,    // reset, active high
@@ -45,7 +49,8 @@ module ms_ulx3s #(
   logic [31:0] unused_sim_out;
   assign unused_usb = ^{usb_fpga_dp, usb_fpga_dn, usb_fpga_pu_dn};
 
-  ms_system_usb #(.NUM_CH(NUM_CH), .RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE)) u_system (
+  ms_system_usb #(.NUM_CH(NUM_CH), .RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE), .NUM_VS(NUM_VS),
+                  .WSLOTS(WSLOTS)) u_system (
     .clk_i (clk), .rst_i (rst),
     .echo_i (ms_echo), .drive_o (ms_drive),
     .usb_dp_i (dp_in), .usb_dn_i (dn_in), .usb_dp_o (dp_out), .usb_dn_o (dn_out), .usb_oe_o (usb_oe),

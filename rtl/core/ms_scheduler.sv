@@ -103,6 +103,16 @@ module ms_scheduler #(
   localparam int DW  = 19;                 // T_dead / T_xtalk (VS_T_DEAD.ticks, VS_XTALK.t_xtalk)
   localparam int BW  = 20;                 // blank end offset width (delay + T_dead): BLK words of 36 bits, one DP16KD
   localparam logic [31:0] LEAD32 = 32'(LEAD);
+  // Sensor indices are VW bits wide everywhere (event fields, pulse_vs_o); the per-sensor
+  // storage has NUM_VS entries, addressed by the low SW bits (si): a reduced build (NUM_VS
+  // 4 on the 25F) only ever counts sensors up to NUM_VS - 1.
+  localparam int SW  = $clog2(NUM_VS);
+  if (NUM_VS < 2 || NUM_VS > 8) begin : g_bad_num_vs
+    $error("ms_scheduler: NUM_VS = %0d, supported 2..8 (3-bit sensor ids)", NUM_VS);
+  end
+  if (WSLOTS < 2 || WSLOTS > 16) begin : g_bad_wslots
+    $error("ms_scheduler: WSLOTS = %0d, supported 2..16", WSLOTS);
+  end
 
   // cfg_error codes: docs/protocol.md section 5 (multisonar.protocol.CfgError), checked per
   // enabled entry in this order, lowest entry first; EMPTY_TABLE after all entries
@@ -149,6 +159,11 @@ module ms_scheduler #(
   function automatic logic [5:0] popcount(input logic [NUM_CH-1:0] v);
     popcount = '0;
     for (int i = 0; i < NUM_CH; i++) popcount = popcount + 6'(v[i]);
+  endfunction
+  function automatic logic [SW-1:0] si(input logic [VW-1:0] s);  // storage index of sensor s
+    logic [VW-1:0] unused_s;  // the bits above SW are zero (sensors count to NUM_VS - 1)
+    unused_s = s;
+    si       = SW'(s);
   endfunction
   function automatic logic later(input logic [31:0] a, input logic [31:0] b);  // a > b mod 2^32
     later = $signed(a - b) > 0;
@@ -421,9 +436,9 @@ module ms_scheduler #(
     td_s_q      <= (st_q inside {S_SETTLE, S_IDLE}) && td_s_q != VW'(NUM_VS - 1) ? td_s_q + 1'b1
                  : (st_q inside {S_SETTLE, S_IDLE}) ? td_s_q : '0;
     // the sensor's words
-    td_on_q     <= sh_act_q[td_s_q] && !in_init_q[td_s_q] && (wake_q[td_s_q] || !hold_q[td_s_q]);
-    td_wake_q   <= wake_q[td_s_q];
-    td_nxt_q    <= nxt_m[td_s_q];
+    td_on_q     <= sh_act_q[si(td_s_q)] && !in_init_q[si(td_s_q)] && (wake_q[si(td_s_q)] || !hold_q[si(td_s_q)]);
+    td_wake_q   <= wake_q[si(td_s_q)];
+    td_nxt_q    <= nxt_m[si(td_s_q)];
     td_first_q  <= st_q == S_SETTLE;  // sensor 0 of a new scan
     // its offset
     td_off_q    <= !td_on_q ? 32'hFFFF_FFFF
@@ -582,8 +597,8 @@ module ms_scheduler #(
   always_ff @(posedge clk_i) begin
     h_s_q    <= h_s;
     h_wh_q   <= wh_e[fslot_q];
-    h_vmax_q <= sh_vmax_m[h_s_q];
-    h_ep_q   <= hw.epoch == epoch_q[h_s_q];
+    h_vmax_q <= sh_vmax_m[si(h_s_q)];
+    h_ep_q   <= hw.epoch == epoch_q[si(h_s_q)];
     h_gap_q  <= hw.seq - hrx.seq;
     h_rej_q  <= (sh_gate_q != 16'd0) && !hw.init && hrx.trk && hrx.vel && (h_abs > {9'd0, sh_gate_q});
     if (h_dv > $signed({9'd0, h_vmax_q}))       h_v_q <= $signed({1'b0, h_vmax_q});
@@ -607,20 +622,20 @@ module ms_scheduler #(
   // waits one clock more than its stage-C reads for them), so neither the slot multiplexers
   // nor the close-tick compare feed a write in the go clock.
   logic c_wv_q, c_eq_q, c_empty_q, c_ep_q, c_kmiss_q, c_trk_q;
-  logic [5:0] c_open_q;   // init_open_q[c_s_q]: windows of the init ping still open
+  logic [5:0] c_open_q;   // init_open_q[si(c_s_q)]: windows of the init ping still open
   logic       c_last_q;   // ... and this close is its last (c_open_q == 1)
   logic       c_trk_nx_q; // the tracking flag the sensor gets when its init ping completes
   always_ff @(posedge clk_i) begin
     c_s_q     <= c_s;
-    c_open_q   <= init_open_q[c_s_q];
-    c_last_q   <= init_open_q[c_s_q] == 6'd1;
-    c_trk_nx_q <= sh_track_m[c_s_q] && any_trk_q[c_s_q];
+    c_open_q   <= init_open_q[si(c_s_q)];
+    c_last_q   <= init_open_q[si(c_s_q)] == 6'd1;
+    c_trk_nx_q <= sh_track_m[si(c_s_q)] && any_trk_q[si(c_s_q)];
     c_wv_q    <= wv_e[c_slot];
     c_empty_q <= !wh_e[c_slot] || wr_e[c_slot];  // a miss: no echo, or the first one failed the miss gate
     c_eq_q    <= w_close_c_q == cur_tick_q;
-    c_ep_q    <= cw.epoch == epoch_q[c_s_q];
-    c_kmiss_q <= c_miss >= sh_k_m[c_s_q];
-    c_trk_q   <= tracking_q[c_s_q];
+    c_ep_q    <= cw.epoch == epoch_q[si(c_s_q)];
+    c_kmiss_q <= c_miss >= sh_k_m[si(c_s_q)];
+    c_trk_q   <= tracking_q[si(c_s_q)];
   end
   assign c_valid = c_wv_q && c_eq_q;
   logic c_empty;
@@ -631,7 +646,7 @@ module ms_scheduler #(
   logic c_safety, c_safety_q;
   always_ff @(posedge clk_i)
     c_safety_q <= wv_e[c_slot] && w_close_c_q == cur_tick_q && (!wh_e[c_slot] || wr_e[c_slot])
-                  && !win_rd.init && cw.epoch == epoch_q[c_s_q] && c_miss >= sh_k_m[c_s_q] && tracking_q[c_s_q];
+                  && !win_rd.init && cw.epoch == epoch_q[si(c_s_q)] && c_miss >= sh_k_m[si(c_s_q)] && tracking_q[si(c_s_q)];
   assign c_safety = c_safety_q;
 `ifndef SYNTHESIS
   always_ff @(posedge clk_i)
@@ -652,13 +667,13 @@ module ms_scheduler #(
   logic sc_act_q, sc_init_q, sc_wake_q, sc_hold_q, sc_trk_q, sc_qv_q, sc_reinit_q;
   logic sc_nxt_q, sc_early_q, sc_quiet_q;
   always_ff @(posedge clk_i) begin
-    sc_act_q    <= sh_act_q[s_q];
-    sc_init_q   <= in_init_q[s_q];
-    sc_wake_q   <= wake_q[s_q];
-    sc_hold_q   <= hold_q[s_q];
-    sc_trk_q    <= tracking_q[s_q];
-    sc_qv_q     <= quiet_vld_q[s_q];
-    sc_reinit_q <= reinit_due_q[s_q];
+    sc_act_q    <= sh_act_q[si(s_q)];
+    sc_init_q   <= in_init_q[si(s_q)];
+    sc_wake_q   <= wake_q[si(s_q)];
+    sc_hold_q   <= hold_q[si(s_q)];
+    sc_trk_q    <= tracking_q[si(s_q)];
+    sc_qv_q     <= quiet_vld_q[si(s_q)];
+    sc_reinit_q <= reinit_due_q[si(s_q)];
     sc_nxt_q    <= $signed(cur_tick_q - nxt_s_q) >= 0;  // nxt_s_q, due_s_q, quiet_s_q: one clock after s_q
     sc_early_q  <= $signed(t_cand - due_s_q) < 0;
     sc_quiet_q  <= $signed(t_cand - quiet_s_q) < 0;
@@ -687,24 +702,24 @@ module ms_scheduler #(
   logic [7:0]        s_burst_q, s_seq_q, s_tpc_q;
   logic              s_ep_q;
   always_ff @(posedge clk_i) begin
-    s_trk_q   <= tracking_q[s_q];
-    s_rx_q    <= sh_rx_m[s_q];
-    s_tx_q    <= sh_tx_m[s_q];
-    s_xt_q    <= sh_xt_m[s_q];
-    s_tv_q    <= sh_tv_m[s_q];
-    s_tn_q    <= sh_tn_m[s_q];
-    s_dbl_q   <= sh_dbl_m[s_q];
-    s_phase_q <= sh_phase_m[s_q];
+    s_trk_q   <= tracking_q[si(s_q)];
+    s_rx_q    <= sh_rx_m[si(s_q)];
+    s_tx_q    <= sh_tx_m[si(s_q)];
+    s_xt_q    <= sh_xt_m[si(s_q)];
+    s_tv_q    <= sh_tv_m[si(s_q)];
+    s_tn_q    <= sh_tn_m[si(s_q)];
+    s_dbl_q   <= sh_dbl_m[si(s_q)];
+    s_phase_q <= sh_phase_m[si(s_q)];
     s_tvd_q   <= 24'(s_tv_q) + s_dbl_q;
     s_rmd_q   <= 32'(s_rmax_q) - 32'(s_dbl_q);
     s_nrx_q   <= popcount(s_rx_q);
-    s_all_q   <= sh_use_m[s_q];
-    s_order_q <= sh_order_m[s_q];
-    s_rmax_q  <= sh_rmax_m[s_q];
-    s_burst_q <= sh_burst_m[s_q];
-    s_seq_q   <= seq_q[s_q];
-    s_tpc_q   <= trk_pulses_q[s_q];
-    s_ep_q    <= epoch_q[s_q];
+    s_all_q   <= sh_use_m[si(s_q)];
+    s_order_q <= sh_order_m[si(s_q)];
+    s_rmax_q  <= sh_rmax_m[si(s_q)];
+    s_burst_q <= sh_burst_m[si(s_q)];
+    s_seq_q   <= seq_q[si(s_q)];
+    s_tpc_q   <= trk_pulses_q[si(s_q)];
+    s_ep_q    <= epoch_q[si(s_q)];
   end
   logic s_early, s_quiet;  // not due yet / still quiet: wait (nxt = due - P / quiet - P)
   assign s_early = s_eval && sc_early_q;
@@ -715,11 +730,11 @@ module ms_scheduler #(
   logic o_elig, o_first;
   logic eo_share_q, eo_act_q, eo_init_q, eo_trk_q, eo_qv_q, eo_idlt_q, eo_due_q, eo_quiet_q, eo_lt_q, eo_eq_q;
   always_ff @(posedge clk_i) begin
-    eo_share_q <= o_q != s_q && sh_share_q[s_q][o_q];
-    eo_act_q   <= sh_act_q[o_q];
-    eo_init_q  <= in_init_q[o_q];
-    eo_trk_q   <= tracking_q[o_q];
-    eo_qv_q    <= quiet_vld_q[o_q];
+    eo_share_q <= o_q != s_q && sh_share_q[si(s_q)][si(o_q)];
+    eo_act_q   <= sh_act_q[si(o_q)];
+    eo_init_q  <= in_init_q[si(o_q)];
+    eo_trk_q   <= tracking_q[si(o_q)];
+    eo_qv_q    <= quiet_vld_q[si(o_q)];
     eo_idlt_q  <= o_q < s_q;
     eo_due_q   <= $signed(t_cand - due_o_q) >= 0;  // due_o_q, quiet_o_q: one clock after o_q
     eo_quiet_q <= $signed(t_cand - quiet_o_q) >= 0;
@@ -729,7 +744,7 @@ module ms_scheduler #(
   assign o_elig  = eo_act_q && !eo_init_q && eo_due_q && (eo_trk_q || !eo_qv_q || eo_quiet_q);
   assign o_first = eo_lt_q || (eo_eq_q && eo_idlt_q);
 
-  // CAND: prediction for receiver rel of sensor s_q's pulse seq_q[s_q]
+  // CAND: prediction for receiver rel of sensor s_q's pulse seq_q[si(s_q)]
   rxs_t        irx;
   logic [7:0]  i_gap;
   logic signed [26:0] i_pred;
@@ -745,10 +760,10 @@ module ms_scheduler #(
       default: win_ra = $bits(win_ra)'(int'(el_q) * WSLOTS + int'(sk));  // S_HEAD, S_CSLOT
     endcase
     unique case (st_q)
-      S_EDGE:  rxs_ra = {g_s, er};
-      S_HIT:   rxs_ra = {h_s, er};
-      S_CLOSE: rxs_ra = {c_s, clr};
-      default: rxs_ra = {s_q, rel};  // S_CAND, S_IEL
+      S_EDGE:  rxs_ra = {si(g_s), er};
+      S_HIT:   rxs_ra = {si(h_s), er};
+      S_CLOSE: rxs_ra = {si(c_s), clr};
+      default: rxs_ra = {si(s_q), rel};  // S_CAND, S_IEL
     endcase
   end
   // stage B: registered every clock, addressed by the state and the stage-A words; stage C
@@ -760,7 +775,7 @@ module ms_scheduler #(
     win_c_q <= win_rd;
     rxs_c_q <= rxs_rd;
   end
-  assign i_gap  = s_seq_q - irx.seq;  // seq_q[s_q]
+  assign i_gap  = s_seq_q - irx.seq;  // seq_q[si(s_q)]
   assign i_pred = pred_d_q;
   assign i_lo   = lo_c_q;
   assign i_hi   = hi_c_q;
@@ -927,7 +942,7 @@ module ms_scheduler #(
     v1_xt_q     <= v0_xt_q;
     v1_tmax_q   <= v0_tmax_q;
     v1_tvn_q    <= 17'(v0_tv_q) + 17'(v0_tn_q);
-    v1_dmax_q   <= vdmax_q[vs];
+    v1_dmax_q   <= vdmax_q[si(vs)];
     // V2
     v2_dx_q     <= (v1_dead_q > v1_xt_q) ? v1_dead_q : v1_xt_q;
     v2_txbad_q  <= v1_tx_q == '0 || (v1_tx_q != '1 && popcount(v1_tx_q & ~rotl(v1_tx_q, 1)) != 6'd1);
@@ -974,9 +989,9 @@ module ms_scheduler #(
   logic [1:0]        crow_nb_q;
   logic              c_wait_q, c_tx_q, c_tx2_q;  // c_tx*: element ce is a tx element (BLK's b)
   always_ff @(posedge clk_i) begin
-    crow_tx_q <= sh_tx_m[cs];
-    crow_xt_q <= sh_xt_m[cs];
-    crow_nb_q <= sh_nb_m[cs];
+    crow_tx_q <= sh_tx_m[si(cs)];
+    crow_xt_q <= sh_xt_m[si(cs)];
+    crow_nb_q <= sh_nb_m[si(cs)];
   end
   assign c_dist = (ck_q >= 3'd3) ? ck_q - 3'd3 : 3'd3 - ck_q;
   assign c_use  = crow_tx_q[cj] && ((ck_q == 3'd3) ? crow_tx_q[ce]
@@ -995,14 +1010,16 @@ module ms_scheduler #(
   logic [5:0]        sp_m;
   logic [NUM_CH-1:0] sp_ua, sp_ub;
   assign sp_m  = 6'(sp_q - 7'd8);
-  assign sp_ua = sh_use_m[sp_m[5:3]];
-  assign sp_ub = sh_use_m[sp_m[2:0]];
+  assign sp_ua = sh_use_m[si(sp_m[5:3])];
+  assign sp_ub = sh_use_m[si(sp_m[2:0])];
   // registered, the OR and the sh_share_q write one clock later (the FSM's else branch)
   logic              sp_v_q, stop_ld_q;
   logic [5:0]        sp_mq;
   logic [NUM_CH-1:0] sp_and_q;
   always_ff @(posedge clk_i) begin
-    sp_v_q    <= !rst_i && st_q == S_COPY && go && sp_q >= 7'd8 && sp_q < 7'd72;
+    // pairs of a sensor index >= NUM_VS (reduced builds) are skipped
+    sp_v_q    <= !rst_i && st_q == S_COPY && go && sp_q >= 7'd8 && sp_q < 7'd72
+                 && 32'(sp_m[5:3]) < 32'(NUM_VS) && 32'(sp_m[2:0]) < 32'(NUM_VS);
     sp_mq     <= sp_m;
     sp_and_q  <= sp_ua & sp_ub;
     stop_ld_q <= !rst_i && st_q == S_STOP && ph_q == 3'd0;  // S_STOP's go is its second clock
@@ -1056,7 +1073,7 @@ module ms_scheduler #(
   logic signed [8:0]  p_gap;
   logic [VW-1:0]      p_s, p_s_q;
   logic               c_due_lt_q;
-  logic [31:0]        c_due_q, eng_mlead_q;  // due_m[c_s_q]; eng_tick_q - P
+  logic [31:0]        c_due_q, eng_mlead_q;  // due_m[si(c_s_q)]; eng_tick_q - P
   logic [23:0]        p_te, p_wso, p_weo;
   assign p_gap = (st_q == S_EDGE) ? 9'(g_gap) : $signed({1'b0, i_gap});
   assign p_s   = (st_q == S_EDGE) ? g_s : s_q;
@@ -1075,19 +1092,19 @@ module ms_scheduler #(
   assign p_wso = !s_trk_q ? s_dbl_q : p_te - 24'(s_tv_q);
   assign p_weo = !s_trk_q ? s_rmax_q : p_te + 24'(s_tn_q);
   always_ff @(posedge clk_i) begin
-    due_s_q     <= due_m[s_q];
-    nxt_s_q     <= nxt_m[s_q];
-    quiet_s_q   <= quiet_m[s_q];
-    due_o_q     <= due_m[o_q];
-    quiet_o_q   <= quiet_m[o_q];
+    due_s_q     <= due_m[si(s_q)];
+    nxt_s_q     <= nxt_m[si(s_q)];
+    quiet_s_q   <= quiet_m[si(s_q)];
+    due_o_q     <= due_m[si(o_q)];
+    quiet_o_q   <= quiet_m[si(o_q)];
     w_start_c_q <= win_rd.t0 + 32'(win_rd.ws);
     w_end_c_q   <= win_rd.t0 + 32'(win_rd.we);
     w_close_c_q <= win_rd.t0 + (32'(win_rd.we) + 32'(latm1_q));
     gap_c_q     <= p_gap;
     p_s_q       <= p_s;  // (stage B) the sensor's clamp bounds one clock later
-    lo_c_q      <= sh_lo_m[p_s_q];
-    hi_c_q      <= sh_hi_m[p_s_q];
-    c_due_q     <= due_m[c_s_q];
+    lo_c_q      <= sh_lo_m[si(p_s_q)];
+    hi_c_q      <= sh_hi_m[si(p_s_q)];
+    c_due_q     <= due_m[si(c_s_q)];
     c_due_lt_q  <= $signed(cur_tick_q - c_due_q) < 0;  // CLOSE: a safety moves due earlier
     h_tof_c_q   <= 24'(n_edge - win_rd.t0);
     c_wso_c_q   <= p_wso;
@@ -1130,8 +1147,8 @@ module ms_scheduler #(
     eng_mlead_q  <= eng_tick_q - LEAD32;
     due_ini_q    <= eng_tick_q + 32'(s_phase_q);   // (S_INIT waits two clocks for these)
     nxt_ini_q    <= eng_mlead_q + 32'(s_phase_q);
-    nxt_early_q  <= due_s_q - LEAD32;    // due_m[s_q] - P
-    nxt_quiet_q  <= quiet_s_q - LEAD32;  // quiet_m[s_q] - P
+    nxt_early_q  <= due_s_q - LEAD32;    // due_m[si(s_q)] - P
+    nxt_quiet_q  <= quiet_s_q - LEAD32;  // quiet_m[si(s_q)] - P
     nxt_retry_q  <= retry_q - LEAD32;
   end
 
@@ -1146,9 +1163,9 @@ module ms_scheduler #(
   logic                    ld_we;  // S_LOAD's go clock: entry vs into the per-sensor state
   logic [7:0]              ld_reinit_q;
   always_ff @(posedge clk_i) begin
-    if (st_q == S_VCHECK && go) vdbl_q[vs] <= v3_dbl_q;
+    if (st_q == S_VCHECK && go) vdbl_q[si(vs)] <= v3_dbl_q;
     if (stop_ld_q) sh_gate_q <= miss_gate_i;
-    if (ld_we) sh_reinit_q[vs] <= ld_reinit_q;  // flops: compared for every sensor at once (reinit_due_q)
+    if (ld_we) sh_reinit_q[si(vs)] <= ld_reinit_q;  // flops: compared for every sensor at once (reinit_due_q)
   end
   // S_LOAD: entry vs (gathered into the V0 registers by S_GATHER) into the per-sensor RAMs:
   // the derived fields (ld_*_q) are registered from V0 in S_LOAD's first clock and written in
@@ -1179,31 +1196,31 @@ module ms_scheduler #(
     ld_phase_q  <= v0_phase_q;
     ld_dead_q   <= v0_dead_q;
     ld_xtk_q    <= v0_xt_q;
-    ld_dbl_q    <= vdbl_q[vs];
-    ld_lo_q     <= vdbl_q[vs] + 24'(v0_tv_q);
+    ld_dbl_q    <= vdbl_q[si(vs)];
+    ld_lo_q     <= vdbl_q[si(vs)] + 24'(v0_tv_q);
     ld_hi_q     <= v0_tmax_q - 24'(v0_tn_q);
     ld_burst_q  <= v0_burst_q;
     ld_nb_q     <= v0_nb_q;
     if (ld_we) begin
-      sh_tx_m[vs]    <= ld_tx_q;
-      sh_rx_m[vs]    <= ld_rx_q;
-      sh_xt_m[vs]    <= ld_xt_q;
-      sh_use_m[vs]   <= ld_tx_q | ld_rx_q | ld_xt_q;
-      sh_track_m[vs] <= ld_track_q;
-      sh_order_m[vs] <= ld_order_q;
-      sh_k_m[vs]     <= ld_k_q;
-      sh_tv_m[vs]    <= ld_tv_q;
-      sh_tn_m[vs]    <= ld_tn_q;
-      sh_vmax_m[vs]  <= ld_vmax_q;
-      sh_rmax_m[vs]  <= ld_rmax_q;
-      sh_phase_m[vs] <= ld_phase_q;
-      sh_dbl_m[vs]   <= ld_dbl_q;
-      sh_lo_m[vs]    <= ld_lo_q;
-      sh_hi_m[vs]    <= ld_hi_q;
-      sh_burst_m[vs] <= ld_burst_q;
-      sh_nb_m[vs]    <= ld_nb_q;
-      sh_dead_m[vs]  <= ld_dead_q;
-      sh_xtk_m[vs]   <= ld_xtk_q;
+      sh_tx_m[si(vs)]    <= ld_tx_q;
+      sh_rx_m[si(vs)]    <= ld_rx_q;
+      sh_xt_m[si(vs)]    <= ld_xt_q;
+      sh_use_m[si(vs)]   <= ld_tx_q | ld_rx_q | ld_xt_q;
+      sh_track_m[si(vs)] <= ld_track_q;
+      sh_order_m[si(vs)] <= ld_order_q;
+      sh_k_m[si(vs)]     <= ld_k_q;
+      sh_tv_m[si(vs)]    <= ld_tv_q;
+      sh_tn_m[si(vs)]    <= ld_tn_q;
+      sh_vmax_m[si(vs)]  <= ld_vmax_q;
+      sh_rmax_m[si(vs)]  <= ld_rmax_q;
+      sh_phase_m[si(vs)] <= ld_phase_q;
+      sh_dbl_m[si(vs)]   <= ld_dbl_q;
+      sh_lo_m[si(vs)]    <= ld_lo_q;
+      sh_hi_m[si(vs)]    <= ld_hi_q;
+      sh_burst_m[si(vs)] <= ld_burst_q;
+      sh_nb_m[si(vs)]    <= ld_nb_q;
+      sh_dead_m[si(vs)]  <= ld_dead_q;
+      sh_xtk_m[si(vs)]   <= ld_xtk_q;
       sh_rxany_q <= ((vs == '0) ? '0 : sh_rxany_q) | (ld_act_q ? ld_rx_q : '0);
     end
   end
@@ -1251,10 +1268,10 @@ module ms_scheduler #(
         retry_q     <= rn_new;
         retry_vld_q <= rv_new;
       end
-      if (v_ok_q && v_d_q > vdmax_q[v_s_q]) vdmax_q[v_s_q] <= v_d_q;  // S_VREAD (S_OFF / S_SETTLE clear it)
+      if (v_ok_q && v_d_q > vdmax_q[si(v_s_q)]) vdmax_q[si(v_s_q)] <= v_d_q;  // S_VREAD (S_OFF / S_SETTLE clear it)
       // S_STOP's go clock (its second): the table latch above; sh_act_q alone has a reset
-      if (ld_we) sh_act_q[vs] <= ld_act_q;  // S_LOAD
-      if (sp_v_q) sh_share_q[sp_mq[5:3]][sp_mq[2:0]] <= |sp_and_q;  // S_COPY pair step, a clock later
+      if (ld_we) sh_act_q[si(vs)] <= ld_act_q;  // S_LOAD
+      if (sp_v_q) sh_share_q[si(sp_mq[5:3])][si(sp_mq[2:0])] <= |sp_and_q;  // S_COPY pair step, a clock later
 
       if (!en_q && started_q) begin  // stop: windows dropped, armed triggers still fire
         st_q       <= S_OFF;
@@ -1382,8 +1399,8 @@ module ms_scheduler #(
               if (ck_d2_q == 3'd6) begin
                 blk_q[int'(cs2_q) * 32 + int'(ce2_q)] <= '{
                     a: c_first,
-                    b: c_tx2_q ? BW'(c_first) + BW'(sh_dead_m[cs2_q])
-                                                  : BW'(c_last) + BW'(sh_xtk_m[cs2_q])};
+                    b: c_tx2_q ? BW'(c_first) + BW'(sh_dead_m[si(cs2_q)])
+                                                  : BW'(c_last) + BW'(sh_xtk_m[si(cs2_q)])};
                 cany_q <= 1'b0;
               end
             end
@@ -1701,9 +1718,9 @@ module ms_scheduler #(
     due_we = ps_live && (ini_any_q || isu_any_q || (cls_go_q && c_safety && c_due_lt_q));
   end
   always_ff @(posedge clk_i) begin
-    if (due_we) due_m[due_wa] <= due_wd;
-    if (nxt_we) nxt_m[s_q] <= nxt_wd;
-    if (ps_live && isu_any_q) quiet_m[s_q] <= quiet_isu_q;  // t0 + max ToF - D
+    if (due_we) due_m[si(due_wa)] <= due_wd;
+    if (nxt_we) nxt_m[si(s_q)] <= nxt_wd;
+    if (ps_live && isu_any_q) quiet_m[si(s_q)] <= quiet_isu_q;  // t0 + max ToF - D
   end
 `ifndef SYNTHESIS
   always_ff @(posedge clk_i) begin
@@ -1713,7 +1730,7 @@ module ms_scheduler #(
       $error("ms_scheduler: two writers of the per-sensor ticks in one clock");
     // the shared strobes name the sensor of the per-sensor ones (s_q unchanged since)
     if (!rst_i && ({isu_any_q, cnf_any_q, sch_any_q, ini_any_q} != {|isu_go_q, |cnf_go_q, |sch_go_q, |ini_go_q}
-                   || ((|{isu_go_q, cnf_go_q, sch_go_q, ini_go_q}) && !(isu_go_q[s_q] || cnf_go_q[s_q] || sch_go_q[s_q] || ini_go_q[s_q]))))
+                   || ((|{isu_go_q, cnf_go_q, sch_go_q, ini_go_q}) && !(isu_go_q[si(s_q)] || cnf_go_q[si(s_q)] || sch_go_q[si(s_q)] || ini_go_q[si(s_q)]))))
       $error("ms_scheduler: per-sensor write strobes disagree with s_q");
   end
 `endif
@@ -1759,20 +1776,20 @@ module ms_scheduler #(
         trk_pulses_q <= '0;
       end
       if (hit_go_q && !h_wh_q && h_ep_q) begin  // S_HIT: a first echo of the current epoch
-        wake_q[h_s_q] <= 1'b1;
-        if (hw.init) any_trk_q[h_s_q] <= 1'b1;
+        wake_q[si(h_s_q)] <= 1'b1;
+        if (hw.init) any_trk_q[si(h_s_q)] <= 1'b1;
       end
       if (cls_go_q && c_valid) begin  // S_CLOSE
-        wake_q[c_s_q] <= 1'b1;
+        wake_q[si(c_s_q)] <= 1'b1;
         if (c_empty && !cw.init && c_ep_q && c_kmiss_q && c_trk_q) begin
-          tracking_q[c_s_q] <= 1'b0;  // safety re-initialisation: every sensor re-evaluates
+          tracking_q[si(c_s_q)] <= 1'b0;  // safety re-initialisation: every sensor re-evaluates
           wake_q            <= '1;
         end
         if (cw.init && c_ep_q) begin
-          init_open_q[c_s_q] <= c_open_q - 6'd1;
+          init_open_q[si(c_s_q)] <= c_open_q - 6'd1;
           if (c_last_q) begin
-            in_init_q[c_s_q]  <= 1'b0;
-            tracking_q[c_s_q] <= c_trk_nx_q;  // any_trk may include this tick's samples (EDGE before CLOSE)
+            in_init_q[si(c_s_q)]  <= 1'b0;
+            tracking_q[si(c_s_q)] <= c_trk_nx_q;  // any_trk may include this tick's samples (EDGE before CLOSE)
           end
         end
       end

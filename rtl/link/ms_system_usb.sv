@@ -15,7 +15,9 @@ module ms_system_usb #(
   parameter int    STRETCH_W = 22,
   parameter string CPU       = "vexriscv",
   parameter int    FAST_MUL  = 1,
-  parameter int    SERIAL    = 'h00000001  // USB serial number (8 hex digits)
+  parameter int    SERIAL    = 'h00000001, // USB serial number (8 hex digits)
+  parameter int    NUM_VS    = 8,      // scheduler size (ms_sonar_core)
+  parameter int    WSLOTS    = 16
 ) (
   input  logic              clk_i,
   input  logic              rst_i,
@@ -52,7 +54,7 @@ module ms_system_usb #(
   logic [7:0] out_data, in_data;
 
   ms_system #(.NUM_CH(NUM_CH), .RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE), .STRETCH_W(STRETCH_W),
-              .CPU(CPU), .FAST_MUL(FAST_MUL)) u_sys (
+              .CPU(CPU), .FAST_MUL(FAST_MUL), .NUM_VS(NUM_VS), .WSLOTS(WSLOTS)) u_sys (
     .clk_i, .rst_i, .echo_i, .drive_o,
     .cmd_valid_i (out_valid), .cmd_data_i (out_data), .cmd_end_i (out_end), .cmd_zlp_i (out_zlp),
     .cmd_ready_o (out_ready),

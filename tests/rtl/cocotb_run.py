@@ -51,8 +51,11 @@ def rtl_sources() -> list[Path]:
 
 def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = None,
                parameters: Mapping[str, object] | None = None, icarus_ok: bool = True,
-               extra_env: Mapping[str, str] | None = None, extra_sources: Sequence[Path] = ()) -> None:
-    """Build ``top`` and run the cocotb tests in tests/rtl/<tb_module>.py; fail on any failure."""
+               extra_env: Mapping[str, str] | None = None, extra_sources: Sequence[Path] = (),
+               variant: str = "", testcase: Sequence[str] | None = None) -> None:
+    """Build ``top`` and run the cocotb tests in tests/rtl/<tb_module>.py; fail on any failure.
+    ``variant`` names a build with other parameters (its own build directory, so it does not
+    rebuild the default one); ``testcase`` runs only the tests named."""
     from cocotb_tools.check_results import get_results
     from cocotb_tools.runner import get_runner
 
@@ -61,7 +64,7 @@ def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = Non
         pytest.skip(f"{top} uses SystemVerilog (unpacked structs in generated code) that Icarus 11 cannot compile")
     srcs = (list(sources) if sources is not None else rtl_sources()) + list(extra_sources)
     coverage = (os.environ.get("RTL_COVERAGE") or "0") == "1" and sim == "verilator"
-    build_dir = ROOT / "build" / "sim" / f"{top}-{sim}{'-cov' if coverage else ''}"
+    build_dir = ROOT / "build" / "sim" / f"{top}{'-' + variant if variant else ''}-{sim}{'-cov' if coverage else ''}"
     waves = (os.environ.get("WAVES") or "0") == "1"
     build_args: list[str] = []
     plusargs: list[str] = []
@@ -80,6 +83,7 @@ def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = Non
                  log_file=build_dir / "build.log")
     results = runner.test(hdl_toplevel=top, test_module=tb_module, test_dir=Path(__file__).parent,
                           build_dir=build_dir, waves=waves, extra_env=dict(extra_env or {}), plusargs=plusargs,
+                          testcase=list(testcase) if testcase else None,
                           parameters=dict(parameters or {}),
                           results_xml=str(build_dir / f"{tb_module}.results.xml"))
     n_tests, n_failed = get_results(Path(results))

@@ -10,7 +10,9 @@ module ms_scheduler_tb #(
   parameter int NUM_CH    = 24,
   parameter int LEAD      = 4096,
   parameter int EVT_DEPTH = 8192,
-  parameter int TRG_DEPTH = 4096
+  parameter int TRG_DEPTH = 4096,
+  parameter int SCHED_VS  = 8,    // sensors the scheduler runs (its NUM_VS; the table has 8)
+  parameter int WSLOTS    = 16    // window slots per element
 ) (
   input  logic                 clk_i,
   input  logic                 rst_i,
@@ -141,7 +143,7 @@ module ms_scheduler_tb #(
   endfunction
   always_ff @(posedge clk_i)
     if (u_sched.dbg_loaded)
-      for (int s = 0; s < NUM_VS; s++) begin
+      for (int s = 0; s < SCHED_VS; s++) begin
         automatic logic [23:0] dbl = 24'((vs_dead[s] > vs_xt[s]) ? vs_dead[s] : vs_xt[s]) + 24'(u_sched.vdmax_q[s]);
         if (u_sched.sh_tx_m[s] != vs_tx[s] || u_sched.sh_rx_m[s] != vs_rx[s] || u_sched.sh_nb_m[s] != vs_nb[s]
             || u_sched.sh_xt_m[s] != xt_expect(vs_tx[s], vs_nb[s])
@@ -165,7 +167,7 @@ module ms_scheduler_tb #(
   logic             evt_valid;
   logic [63:0]      evt_data;
 
-  ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .LEAD(LEAD)) u_sched (
+  ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(SCHED_VS), .LEAD(LEAD), .WSLOTS(WSLOTS)) u_sched (
     .clk_i              (clk_i),
     .rst_i              (rst_i),
     .tick_i             (tick_q),

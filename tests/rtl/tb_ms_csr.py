@@ -7,6 +7,7 @@ three are generated from rtl/regs/sonar_regs.rdl.
 
 from __future__ import annotations
 
+import os
 import random
 
 import cocotb
@@ -33,6 +34,10 @@ async def setup(dut) -> PassthroughMaster:
 VS_REGS = ["VS_TX_MASK", "VS_RX_MASK", "VS_MODE", "VS_WINDOW", "VS_T_DEAD", "VS_MAX_TOF", "VS_XTALK",
            "VS_TRACK", "VS_PHASE"]  # the core's read port: word entry * 9 + index here
 VS_WORDS = 8 * len(VS_REGS)
+# the build's parameters (tests/rtl/test_ms_csr.py passes them to both): entries implemented,
+# window slots reported
+CSR_NUM_VS = int(os.environ.get("CSR_NUM_VS", "8"))
+CSR_WSLOTS = int(os.environ.get("CSR_WSLOTS", "16"))
 
 
 async def core_port_word(dut, entry: int, reg: str) -> int:
@@ -358,7 +363,7 @@ async def vs_table_refilled_after_reset(dut):
     also for the last word refilled (a read issued right after the reset waits for it)."""
     bus = await setup(dut)
     reg = R.REGISTERS["VS_PHASE"]
-    last = reg.dims[0] - 1  # entry 7's PHASE: word 71, the last one refilled
+    last = min(reg.dims[0], CSR_NUM_VS) - 1  # the last entry's PHASE: the last word refilled (71 of 72)
     await bus.write(reg.addr(last), 0x123456)
     assert await bus.read(reg.addr(last)) == 0x123456
     assert await core_port_word(dut, last, "VS_PHASE") == 0x123456
@@ -366,3 +371,27 @@ async def vs_table_refilled_after_reset(dut):
     patient = PassthroughMaster(dut, dut.clk_i, timeout_cycles=2 * VS_WORDS)
     assert await patient.read(reg.addr(last)) == reg.reset
     assert await core_port_word(dut, last, "VS_PHASE") == reg.reset
+
+
+@cocotb.test()
+async def caps_and_implemented_entries(dut):
+    """CAPS reports the build's parameters (num_ch, num_vs, win_slots, fifo depth); VS entries
+    from num_vs on (a reduced build, the 25F's 4) read as zero and ignore writes, the others
+    keep what the bus wrote and give it to the core's read port."""
+    bus = await setup(dut)
+    f = R.REGISTERS["CAPS"].fields
+    caps = await bus.read(R.CAPS_ADDR)
+    assert (f["NUM_CH"].get(caps), f["NUM_VS"].get(caps), f["WIN_SLOTS"].get(caps), f["FIFO_DEPTH_LOG2"].get(caps)) \
+        == (load_layout().n, CSR_NUM_VS, CSR_WSLOTS, 9), hex(caps)
+    n_map = R.REGISTERS["VS_PHASE"].dims[0]
+    phase, window = R.REGISTERS["VS_PHASE"], R.REGISTERS["VS_WINDOW"]
+    for v in range(n_map):
+        await bus.write(phase.addr(v), 0x1000 + v)
+        await bus.write(window.addr(v), 0x0002_0003 + (v << 4))
+    for v in range(n_map):
+        got = (await bus.read(phase.addr(v)), await bus.read(window.addr(v)))
+        if v < CSR_NUM_VS:
+            assert got == (0x1000 + v, 0x0002_0003 + (v << 4)), (v, got)
+            assert await core_port_word(dut, v, "VS_PHASE") == 0x1000 + v
+        else:
+            assert got == (0, 0), f"entry {v} is not implemented (num_vs {CSR_NUM_VS}) but reads {got}"

@@ -11,7 +11,10 @@ edge ending cycle n). At the end it reads the event log and compares, in order:
   - every 64-bit event word with the model's (ToFEvent.pack()).
 The RTL runs a little longer than the model so that every model event has been emitted.
 RTL and model use the same gated miss rule (miss_gate_i / FastFiringModel miss_gate, default
-the RX_FILTER.miss_gate reset value; 0 = off in both).
+the RX_FILTER.miss_gate reset value; 0 = off in both) and the same number of window slots per
+element (SCHED_WSLOTS: the wrapper's WSLOTS, FastFiringModel win_slots). The reduced build of
+the 25F (SCHED_VS 4, SCHED_WSLOTS 8; tests/rtl/test_ms_scheduler.py) runs the tests of up to
+four sensors.
 """
 
 from __future__ import annotations
@@ -33,6 +36,8 @@ from echo_driver import EchoDriver
 from tbutil import CLK_PERIOD_PS, start_clock
 
 LEAD = int(os.environ.get("SCHED_LEAD", "4096"))
+WSLOTS = int(os.environ.get("SCHED_WSLOTS", "16"))  # the wrapper's WSLOTS parameter
+SCHED_VS = int(os.environ.get("SCHED_VS", "8"))     # the wrapper's SCHED_VS parameter
 MS = 48_000
 M32 = (1 << 32) - 1
 LAYOUT = load_layout()
@@ -53,8 +58,15 @@ class CountingModel(FastFiringModel):
 
     conflicts = 0
     gated = 0
+    slot_full = 0  # candidate pulses that found a receiving element's window slots all taken
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("win_slots", WSLOTS)
+        super().__init__(*args, **kwargs)
 
     def _conflict(self, t, blanks, wins, n_tx=0):
+        if any(len(self.windows[e]) >= self.slots for e, _, _ in wins):
+            self.slot_full += 1
         r = super()._conflict(t, blanks, wins, n_tx)
         if r is not None:
             self.conflicts += 1
@@ -268,9 +280,10 @@ async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
              "conflicts": getattr(model, "conflicts", 0), "gated": getattr(model, "gated", 0),
              "per_sensor": [sum(p.sensor == s for p in m_fires) for s in range(len(sensors))],
              "cps": (dur_ticks + 3000) / wall, "triggers": [t for t in res.triggers if t.tick < end], "model": model,
+             "res": res, "e0": e0,
              "lag_max": int(dut.u_sched.lag_max_q.value)}  # engine headroom: largest lag behind real time, ticks
     dut._log.info("%s: %s; %d ticks in %.1f s wall = %.0f cycles/s", what,
-                  {k: v for k, v in stats.items() if k not in ("cps", "triggers", "model")},
+                  {k: v for k, v in stats.items() if k not in ("cps", "triggers", "model", "res", "e0")},
                   dur_ticks + 3000, wall, stats["cps"])
     return stats
 
@@ -589,6 +602,29 @@ async def four_sensors_shared_elements(dut):
     st = await scoreboard(dut, "4 sensors", SHARED, lambda: SyntheticEchoSource(ranges), 90 * MS, min_pulses=20)
     assert st["conflicts"] > 0 and st["deferred"] > 2, "the scenario must exercise deferral"
     assert all(n >= 3 for n in st["per_sensor"]), st["per_sensor"]
+
+
+@cocotb.test()
+async def window_slots_full(dut):
+    """Four order-4 sensors whose receivers overlap on elements 0..2 and 23: at 3 m the pulses
+    in flight reserve more windows on an element than 8 slots hold, so with WSLOTS 8 (the
+    25F's reduced scheduler) a candidate waits for a slot; the RTL must match the model with
+    its own slot count, and the scenario must depend on it (the other count issues otherwise)."""
+    sensors = [VirtualSensor("a", tx=[0], rx=[23, 0, 1], order=4), VirtualSensor("b", tx=[1], rx=[0, 1, 2], order=4),
+               VirtualSensor("c", tx=[2], rx=[1, 2, 3], order=4), VirtualSensor("d", tx=[23], rx=[22, 23, 0], order=4)]
+    dur = 90 * MS
+    st = await scoreboard(dut, f"window slots ({WSLOTS})", sensors, lambda: SyntheticEchoSource(3.0), dur,
+                          min_pulses=10)
+    model = st["model"]
+    other = CountingModel(Schedule(LAYOUT, sensors), SyntheticEchoSource(3.0), start_tick=st["e0"],
+                          decision_lead=LEAD, win_slots=16 if WSLOTS < 16 else 8)
+    other_pulses = [(p.t0, p.sensor) for p in other.run(dur).pulses]
+    if WSLOTS < 16:
+        assert model.slot_full > 0, "the scenario must fill an element's window slots"
+    else:
+        assert model.slot_full == 0 and other.slot_full > 0, (model.slot_full, other.slot_full)
+    assert other_pulses != [(p.t0, p.sensor) for p in st["res"].pulses], \
+        "the pulse sequence must depend on the slot count"
 
 
 @cocotb.test()

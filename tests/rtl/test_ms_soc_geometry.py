@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cocotb_run import ROOT, run_cocotb, selected_simulator
+from cocotb_run import GEN, ROOT, rtl_sources, run_cocotb, selected_simulator
 
 from multisonar.tools import geom_cases as gc
 
@@ -117,16 +117,31 @@ def firmware_hex(target: str, cpu: str, defines: tuple[str, ...] = ()) -> Path:
     return image
 
 
+def vex_sources(icache_kib: int) -> tuple[list[Path] | None, str]:
+    """(RTL sources, build variant) with VexRiscv's instruction cache at ``icache_kib`` KiB
+    (scripts/gen_vex_icache.py; rtl/sources.f lists the 16 KiB one): None / "" for 16."""
+    if icache_kib == 16:
+        return None, ""
+    vex = GEN / "cpu" / f"VexRiscv_icache{icache_kib}k.v"
+    subprocess.run([sys.executable, str(ROOT / "scripts/gen_vex_icache.py"), "--kib", str(icache_kib), "--out", str(vex)],
+                   check=True, capture_output=True)
+    srcs = [vex if p.name == "VexRiscv_icache16k.v" else p for p in rtl_sources()]
+    assert vex in srcs, "rtl/sources.f no longer lists VexRiscv_icache16k.v"
+    return srcs, f"icache{icache_kib}k"
+
+
 def run_image(variant: str, out: Path | None = None, max_cases: int = 0, cpu: str = DEFAULT_CPU,
-              defines: tuple[str, ...] = ()) -> dict:
+              defines: tuple[str, ...] = (), icache_kib: int = 16) -> dict:
     """Build build/fw/bench_geom_<variant>.hex (with ``defines``: firmware_hex), run it on the SoC
-    with ``cpu`` in the simulator (all cases, or only the first ``max_cases``) and return the
-    decoded stream plus {sim_cycles, words}; the raw JSON lands in ``out``."""
+    with ``cpu`` (VexRiscv: its I-cache of ``icache_kib`` KiB) in the simulator (all cases, or
+    only the first ``max_cases``) and return the decoded stream plus {sim_cycles, words}; the raw
+    JSON lands in ``out``."""
     if cpu not in CPUS:
         raise ValueError(f"unknown CPU {cpu!r}; ms_soc has {CPUS}")
     hexfile = firmware_hex(f"bench_geom_{variant}", cpu, BENCH_DEFINES[cpu] + tuple(defines))
     top = TOPS[cpu]
-    build_dir = ROOT / "build" / "sim" / f"{top}-{selected_simulator()}"
+    sources, build_variant = vex_sources(icache_kib) if cpu == "vexriscv" else (None, "")
+    build_dir = ROOT / "build" / "sim" / f"{top}{'-' + build_variant if build_variant else ''}-{selected_simulator()}"
     build_dir.mkdir(parents=True, exist_ok=True)
     image = build_dir / "firmware.hex"  # the fixed INIT_FILE of this top (no rebuild per image)
     shutil.copyfile(hexfile, image)
@@ -135,7 +150,7 @@ def run_image(variant: str, out: Path | None = None, max_cases: int = 0, cpu: st
     tb_sources = [ROOT / "tests/rtl/ms_soc_geometry_tb.sv"]
     if top != "ms_soc_geometry_tb":  # the VexRiscv wrapper top
         tb_sources.append(ROOT / f"tests/rtl/{top}.sv")
-    run_cocotb(top, "tb_ms_soc_geometry", extra_sources=tb_sources,
+    run_cocotb(top, "tb_ms_soc_geometry", sources=sources, extra_sources=tb_sources, variant=build_variant,
                parameters={"INIT_FILE": f'"{image}"'}, icarus_ok=False,
                extra_env={"GEOM_OUT": str(out), "GEOM_MAX_CASES": str(max_cases)})
     raw = json.loads(out.read_text())
