@@ -3,14 +3,17 @@
 // and the USB pins on the headers (constraints/ice40_hx8k_ct256.pcf).
 //
 // Reduced for the iCE40 (see docs/synthesis.md): NUM_CH transducer channels (default 8, not
-// 24) and RAM_WORDS = 1024 (4 KiB of SoC RAM, firmware linked for it by mk/synth.mk); the
-// sonar register map still reports CAPS.num_ch = 24. USB: ms_system_usb's device core on
+// 24), the scheduler at its smallest (NUM_VS 2 sensors, WSLOTS 2 window slots per element)
+// and RAM_WORDS = 1024 (4 KiB of SoC RAM, firmware linked for it by mk/synth.mk); CAPS reports
+// them. Even so the design is about twice the HX8K (docs/synthesis.md, "The 25F profile"). USB: ms_system_usb's device core on
 // usb_dp / usb_dn through SB_IO tristate pads (no inferred tristates with the slang frontend);
 // usb_pu drives the 1.5 kOhm D+ pull-up (high = attached).
 module ms_ice40hx8k #(
   parameter int    NUM_CH    = 8,
   parameter int    RAM_WORDS = 1024,
-  parameter string INIT_FILE = ""
+  parameter string INIT_FILE = "",
+  parameter int    NUM_VS    = 2,
+  parameter int    WSLOTS    = 2
 ) (
   input  logic              clk_12mhz,
   input  logic              btn_rst_n,   // reset, active low (header pin with pull-up)
@@ -42,7 +45,7 @@ module ms_ice40hx8k #(
   // PicoRV32 with the iterative multiplier: VexRiscv's caches alone would take the HX8K's whole
   // block RAM and the DSP-less single-cycle multiplier ~3 k SB_LUT4 (firmware/README.md)
   ms_system_usb #(.NUM_CH(NUM_CH), .RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE), .CPU("picorv32"),
-                  .FAST_MUL(0)) u_system (
+                  .FAST_MUL(0), .NUM_VS(NUM_VS), .WSLOTS(WSLOTS)) u_system (
     .clk_i (clk), .rst_i (rst),
     .echo_i (ms_echo), .drive_o (ms_drive),
     .usb_dp_i (dp_in), .usb_dn_i (dn_in), .usb_dp_o (dp_out), .usb_dn_o (dn_out), .usb_oe_o (usb_oe),
