@@ -210,7 +210,8 @@ def test_best_seed_keeps_the_fastest_finished_run(tmp_path):
 def test_25k_profile_settings():
     """make synth ECP5_DEVICE=25k builds the reduced profile the committed 25F report describes:
     4 sensors and 8 window slots (passed to the board top, reported in CAPS), the 8 KiB I-cache
-    VexRiscv, the HeAP placer at seed 2, its own build directory; the 45F build is unchanged."""
+    VexRiscv, ABC9 area mapping, the HeAP placer, its own build directory; the 45F build is
+    unchanged."""
     def dry(*args: str) -> str:
         return subprocess.run(["make", "-n", "-B", "synth", "TARGET=ecp5", *args], cwd=ROOT, capture_output=True,
                               text=True, check=True).stdout
@@ -218,6 +219,7 @@ def test_25k_profile_settings():
     assert "-G NUM_VS=4 -G WSLOTS=8" in small and "NUM_VS" not in full
     assert "--25k" in small and "--placer heap" in small and "--seed $s" in small and "ecp5-25k/sources.f" in small
     assert "VexRiscv_icache8k.v" in small and "--45k" in full and "--placer static" in full
+    assert "abc9 -W 300 -D 10000" in small and "abc9" not in full  # area mapping on the 25F only
     rep = _report_module().parse_report(ROOT / "synth/ecp5_25k_report.txt")
     assert rep.values["device"] == "LFE5U-25F-CABGA381"
     assert rep.number("fmax_mhz") >= 48.0 and rep.number("bram") <= 56
