@@ -23,7 +23,7 @@ from multisonar.device import Device, DeviceDisconnected, DeviceNotFound, read_r
 from multisonar.generated import sonar_regs as R
 from multisonar.schedule import ScheduleError, VirtualSensor
 from multisonar.simdevice import SimDevice
-from multisonar.usb.usbip_server import UsbipServer
+from multisonar.usb.usbip_server import RELEASE_GRACE_S, UsbipServer
 
 SENSORS = [VirtualSensor(name, tx=tx, rx=rx, order=1) for name, tx, rx in DEMO_SENSORS]
 
@@ -405,6 +405,33 @@ def test_usbip_end_to_end(replay_sim):
                     dev.counters()
     with pytest.raises(DeviceNotFound):
         Device.open(srv.url)
+
+
+class _SlowTeardown:
+    """A UsbFunction whose reset takes a while, as on a loaded CI machine."""
+
+    def __init__(self, fn, delay_s: float) -> None:
+        self._fn, self._delay_s = fn, delay_s
+
+    def reset(self) -> None:
+        time.sleep(self._delay_s)
+        self._fn.reset()
+
+    def __getattr__(self, name):
+        return getattr(self._fn, name)
+
+
+def test_usbip_reimport_waits_for_the_closed_importer_and_refuses_a_live_one(replay_sim):
+    # The old importer's teardown (unlink, reset) runs after its socket closed; a client that
+    # re-opens at once must get the device, not "already attached" (CI saw that race).
+    with UsbipServer(_SlowTeardown(replay_sim(), 0.4)) as srv:
+        for _ in range(3):
+            with Device.open(srv.url) as dev:
+                assert dev.echo(b"x") > 0
+                t0 = time.monotonic()
+                with pytest.raises(DeviceNotFound, match="refused"):
+                    Device.open(srv.url)  # the holder is alive: refused without waiting out the grace
+                assert time.monotonic() - t0 < 0.75 * RELEASE_GRACE_S
 
 
 def test_bad_urls():

@@ -2,7 +2,10 @@
 
 It exports one device (bus id ``1-1``) on a TCP port of 127.0.0.1 by default. Linux's
 ``usbip attach`` or our pyusb client (:mod:`multisonar.usb.usbip_client`) import it; one
-importer at a time, and the device is exportable again when that connection closes.
+importer at a time, and the device is exportable again when that connection closes. A
+client that closes and at once re-imports is not refused for the old connection: an import
+that finds the holder's socket already at end-of-file waits (at most ``RELEASE_GRACE_S``)
+for that connection's teardown instead of racing it.
 
 URB handling: control and bulk OUT URBs run at once in the connection's reader thread; bulk
 IN URBs queue per connection and a worker thread polls the function (``bulk_in`` with a short
@@ -16,6 +19,7 @@ All multi-byte fields on the wire are big-endian (network order).
 from __future__ import annotations
 
 import errno
+import select
 import socket
 import struct
 import threading
@@ -34,6 +38,7 @@ URB_HDR = struct.Struct(">IIIII")  # command, seqnum, devid, direction, ep
 SUBMIT_HDR = struct.Struct(">IIIII8s")  # flags, buffer length, start frame, packets, interval, setup
 RET_SUBMIT_TAIL = struct.Struct(">iiiii8x")  # status, actual length, start frame, packets, errors
 UDEV = struct.Struct(">256s32sIIIHHHBBBBBB")
+RELEASE_GRACE_S = 2.0  # longest wait for a closed importer's teardown (unlink the IN URB, reset)
 
 
 def recv_exact(sock: socket.socket, n: int) -> bytes:
@@ -74,6 +79,7 @@ class UsbipServer:
         self.host, self.port = self._sock.getsockname()[:2]
         self._stop = threading.Event()
         self._imported = threading.Lock()
+        self._importer: socket.socket | None = None  # the connection holding ``_imported``
         self._threads: list[threading.Thread] = []
         self._conns: list[socket.socket] = []
         self.urbs = 0
@@ -145,16 +151,17 @@ class UsbipServer:
                 conn.sendall(OP_HDR.pack(USBIP_VERSION, OP_REP_DEVLIST, 0) + struct.pack(">I", 1) + rec + intfs)
             elif code == OP_REQ_IMPORT:
                 busid = recv_exact(conn, 32).rstrip(b"\0").decode(errors="replace")
-                if busid != self.busid or not self._imported.acquire(blocking=False):
+                if busid != self.busid or not self._acquire_import():
                     conn.sendall(OP_HDR.pack(USBIP_VERSION, OP_REP_IMPORT, 1))
                     return
+                self._importer = conn
                 try:
                     conn.sendall(OP_HDR.pack(USBIP_VERSION, OP_REP_IMPORT, 0)
                                  + udev_record(self.fn, self.busid, self.busnum, self.devnum))
                     self._urb_loop(conn)
                 finally:
                     self.fn.reset()
-                    self._imported.release()
+                    self._imported.release()  # ``_importer`` keeps the closed socket: see _acquire_import
         except (ConnectionError, OSError, struct.error):
             pass
         finally:
@@ -164,6 +171,13 @@ class UsbipServer:
                 pass
             if conn in self._conns:
                 self._conns.remove(conn)
+
+    def _acquire_import(self) -> bool:
+        """Take the one import slot; refuse a live holder at once, wait out a closed one."""
+        if self._imported.acquire(blocking=False):
+            return True
+        holder = self._importer
+        return holder is not None and _peer_closed(holder) and self._imported.acquire(timeout=RELEASE_GRACE_S)
 
     def _urb_loop(self, conn: socket.socket) -> None:
         send_lock = threading.Lock()
@@ -272,6 +286,17 @@ class UsbipServer:
             with cv:
                 cv.notify_all()
             wt.join(timeout=2.0)
+
+
+def _peer_closed(conn: socket.socket) -> bool:
+    """True if the peer has closed ``conn`` (end-of-file is waiting) or it is already torn down.
+
+    Only peeks: the connection's own reader thread still consumes the bytes."""
+    try:
+        readable, _, _ = select.select([conn], [], [], 0)
+        return bool(readable) and conn.recv(1, socket.MSG_PEEK | socket.MSG_DONTWAIT) == b""
+    except (OSError, ValueError):  # closed under us (fileno -1) or reset: gone either way
+        return True
 
 
 def main(argv: list[str] | None = None) -> int:
