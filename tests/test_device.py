@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from multisonar import protocol as P
 from multisonar.cli import main as cli_main
 from multisonar.demo import DEMO_SENSORS
-from multisonar.device import Device, DeviceDisconnected, DeviceNotFound, read_recording
+from multisonar.device import Device, DeviceDisconnected, DeviceNotFound, RecordingWriter, read_recording
 from multisonar.generated import sonar_regs as R
 from multisonar.schedule import ScheduleError, VirtualSensor
 from multisonar.simdevice import SimDevice
@@ -339,7 +339,20 @@ def test_record_and_read_back(replay_sim, tmp_path):
     assert n == 120 and len(rec.frames) == 120 and rec.corrupt == 0 and not rec.truncated
     assert [f.seq for f in rec.frames] == list(range(120))
     assert rec.meta["protocol_version"] == 1 and [s["name"] for s in rec.meta["sensors"]] == [s.name for s in SENSORS]
-    assert np.all(np.diff(rec.host_ns.astype(np.int64)) >= 0)
+    # per-frame host time = the pulse's t0 mapped by the driver's clock (acquisition, not arrival):
+    # a straight line in the device ticks (frames of several sensors arrive out of t0 order)
+    assert rec.meta["format"] == 2
+    t0 = np.unwrap(np.array([f.t0 for f in rec.frames], float), period=2.0**32)
+    ns = rec.host_ns.astype(float)
+    assert not np.all(np.diff(t0) >= 0), "frames complete out of t0 order: the test needs that"
+    fit = np.polyval(np.polyfit(t0, ns, 1), t0)
+    assert np.max(np.abs(ns - fit)) < 2e6, np.max(np.abs(ns - fit))
+    # the writer stores the frame's acquisition stamp, whenever it is written
+    f = rec.frames[0]
+    f.stamp_ns = 1_234_567_890_123
+    with RecordingWriter(tmp_path / "one.msrec", rec.meta) as w:
+        w.write(f)
+    assert read_recording(tmp_path / "one.msrec").host_ns.tolist() == [1_234_567_890_123]
     ev = rec.events()
     assert len(ev) == sum(len(f.tof) for f in rec.frames)
     # damage: flip a byte inside frame 5, cut the file inside the last frame

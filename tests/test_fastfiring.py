@@ -413,3 +413,59 @@ def test_decision_lead_static_wall_same_rate_and_safety(lead):
     assert any(e.seq == reinit.seq & 0xFF and e.first_echo and e.tof == src.tof_ticks(1.1, reinit.t0)
                for e in res.events)
     assert reinit.t0 - step < 3 * 10 * MS + m.cfg[0].max_tof + lead
+
+
+def test_record_words_round_trip():
+    from multisonar.fastfiring import PulseStart, SensorCancel, unpack_word
+    p = PulseStart(tick=3, sensor=5, pulse_id=0xFFFF, t0=0xFFFFFFFF, init_ping=True, n_win=31)
+    w = p.pack()
+    assert w < 1 << 63 and not w & (1 << 44) and unpack_word(w, 3) == p  # bit 44 is the FIFO's
+    assert (w >> 37) & 7 == 5 and (w >> 43) & 1 == 1  # where a ToF event has sensor and init_ping
+    c = SensorCancel(tick=0x1_2345_6789, sensor=7)
+    assert unpack_word(c.pack()) == SensorCancel(tick=0x2345_6789, sensor=7)
+    with pytest.raises(ValueError):
+        p._replace(n_win=32).pack()
+    with pytest.raises(ValueError):
+        PulseStart.unpack(c.pack())
+
+
+@pytest.mark.parametrize("order,K,lead", [(0, 1, 0), (2, 2, 4096), (4, 3, 4096)])
+def test_records_give_exact_t0_and_completion(order, K, lead):
+    """What a reader of the FIFO words alone reconstructs (the firmware's rule): every pulse's
+    record comes before its events with the true t0, and a pulse is complete when n_win
+    terminal events (first echo or window_empty) have arrived or at its sensor's next cancel
+    record, after which no event of it comes; safety re-initialisations included."""
+    from multisonar.fastfiring import PulseStart, SensorCancel, unpack_word
+    src = SyntheticEchoSource(3.0, step_tick=seconds_to_ticks(0.06), step_ranges_m=1.1)
+    m = model(VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=order, miss_limit=K),
+              VirtualSensor("left", tx=[6], rx=[5, 6, 7], order=order, miss_limit=K, phase=1e-3),
+              source=src, decision_lead=lead)
+    res = m.run(seconds_to_ticks(0.3))
+    assert len(res.words) == len(res.events) + len(res.records)
+    assert any(isinstance(r, SensorCancel) for r in res.records), "the scene must trigger a safety cancel"
+    t0_true = {(p.sensor, p.seq & 0xFFFF): p.t0 for p in res.pulses}
+    open_: dict[tuple[int, int], list[int]] = {}  # (sensor, seq8) -> [n_win, terminal events, pulse id]
+    done: set[tuple[int, int]] = set()
+    complete = 0
+    for w in res.words:
+        x = unpack_word(w)
+        if isinstance(x, PulseStart):
+            assert x.t0 == t0_true[(x.sensor, x.pulse_id)] & 0xFFFFFFFF
+            key = (x.sensor, x.pulse_id & 0xFF)
+            assert key not in open_
+            open_[key] = [x.n_win, 0, x.pulse_id]
+            done.discard(key)
+        elif isinstance(x, SensorCancel):
+            for key in [k for k in open_ if k[0] == x.sensor]:
+                done.add(key)
+                del open_[key]
+        else:
+            key = (x.sensor, x.seq)
+            assert key in open_ and key not in done, f"event of a pulse without an open record: {x}"
+            if x.first_echo or x.window_empty:
+                open_[key][1] += 1
+                if open_[key][1] == open_[key][0]:
+                    done.add(key)
+                    del open_[key]
+                    complete += 1
+    assert complete > 10

@@ -17,6 +17,7 @@ The twin is built by `make twin` on first use (~1 min of Verilator on 2 cores)."
 from __future__ import annotations
 
 import csv
+import json
 import math
 import random
 
@@ -108,13 +109,24 @@ def test_random_validated_schedules_execute_as_the_model(seed):
 
 
 def test_demo_on_the_twin_over_usbip(tmp_path, capsys):
-    assert cli_main(["demo", "--seconds", "0.15", "--out", str(tmp_path)]) == 0
-    for name in ("map.png", "summary.md", "fixes.csv", "events.npz", "frames.msrec"):
+    """The short form users and CI run: the demo's five sensors on the noisy corridor, 0.5 s.
+    Nothing lost, every ToF frame within 1 ms (p99) of its pulse's completion, every firmware
+    fix equal to the host geometry on the same frame's ToF records."""
+    assert cli_main(["demo", "--seconds", "0.5", "--out", str(tmp_path)]) == 0
+    for name in ("map.png", "summary.md", "summary.json", "fixes.csv", "events.npz", "frames.msrec"):
         assert (tmp_path / name).stat().st_size > 0, name
     out = capsys.readouterr().out
     assert "RTL twin" in out and "over USB/IP" in out
     summary = (tmp_path / "summary.md").read_text()
     assert "dropped 0, FIFO overflows 0" in summary and "lost 0, bad CRC 0" in summary, summary
+    js = json.loads((tmp_path / "summary.json").read_text())
+    assert js["sonar_s"] == 0.5 and js["sonar_s_per_wall_s"] > 0, js
+    assert js["fifo_overflows"] == 0 and js["frames_lost"] == 0 and js["frames_dropped"] == 0, js
+    assert js["frames_flagged_lost"] == 0 and js["watchdog"] == 0, js
+    assert js["latency_us"]["p99"] <= 1000, js["latency_us"]
+    assert js["fw_vs_host"]["compared"] >= 20 and js["fw_vs_host"]["mismatches"] == 0, js["fw_vs_host"]
+    fw, host = js["fixes"]["firmware"], js["fixes"]["host"]
+    assert fw["wall"]["count"] >= 10 and fw["wall"]["median_mm"] < 5, fw
     rows = list(csv.DictReader(open(tmp_path / "fixes.csv")))
     walls = np.array([float(r["error_m"]) for r in rows if r["kind"] == "wall"])
     assert len(walls) >= 10 and np.median(walls) < 0.005, walls

@@ -14,12 +14,16 @@
  * clears it, closes the open pulses and answers with the next frame sequence number.
  *
  * Main loop while running (firmware/README.md, "sonar_app"); commands are polled every pass:
- *   1. pop every waiting event (EVT_LO, then EVT_HI: bit 31 valid, the read pops) into its
- *      pulse group, keyed (sensor, seq);
- *   2. a group is complete when every receiver of its sensor has its first-echo or
- *      window_empty event; it is also closed when a later pulse of the same sensor completes
- *      (windows cancelled by a re-initialisation give no event) or when the sensor's maximum
- *      time of flight plus 1 ms has passed since the pulse's t0 (estimate, below);
+ *   1. pop every waiting word (EVT_LO, then EVT_HI: bit 31 valid, the read pops): a pulse
+ *      record (bit 62: sensor, pulse id, t0, window count; written by the scheduler before any
+ *      event of its pulse) opens the pulse's group, a ToF event goes into its group, keyed
+ *      (sensor, seq = pulse id mod 256);
+ *   2. a group is complete when each of its windows has its terminal event (first echo or
+ *      window_empty), as many as the record's window count. An init ping's record closes the
+ *      open pulses of its sensor (their windows were cancelled: frame flag CUT); a group also
+ *      goes when the sensor's maximum time of flight plus 1 ms has passed since t0 (CUT). An
+ *      overflow flag on a word marks every open group LOST (no fix); an event whose record was
+ *      lost gets an estimated t0 (pop time - tof - edge latency) and LOST;
  *   3. a closed group becomes one frame (docs/protocol.md section 6: 20-byte head, 8-byte ToF
  *      records, a 16-byte geometry record when >= 3 receivers have a first echo: ms_fix on the
  *      prepared array, speed of sound from the TEMPERATURE_CC parameter) in a section 2 packet
@@ -33,10 +37,8 @@
  *      checked (a refused table is restored), the restart waited for, open groups flushed.
  *   5. kick the watchdog.
  *
- * Frame head fields the events do not carry: t0 is an estimate, min over the pulse's events of
- * (timer at the pop - tof - edge latency L), i.e. >= the true t0 by the polling delay (the
- * event words hold no t0; exact t0 needs the scheduler's pulse strobe as a register, see the
- * README); timestamp is the cycle timer (= the sonar tick: both count clocks from reset).
+ * Frame head: t0 is the pulse record's trigger tick; timestamp is the cycle timer (= the sonar
+ * tick: both count clocks from reset).
  *
  * Mailbox (SIM_OUT), tag in bits 31:28:
  *   0x1  boot: sensors << 16 | watchdog resets (low 16)
@@ -78,6 +80,19 @@
 #define APPLY_WAIT 2000000u  /* cycles to wait for an apply to be taken */
 #define SCAN_TICKS 4800u     /* timeout scan period, 0.1 ms */
 
+/* frame header flags (docs/protocol.md section 2) */
+#define FRAME_INIT 1u      /* init ping */
+#define FRAME_TRUNC 2u     /* more ToF records than MAX_EV */
+#define FRAME_LOST 8u      /* event-FIFO words of this pulse were lost (overflow): no fix */
+#define FRAME_CUT 16u      /* closed before every window reported (re-initialisation, apply, stop) */
+#define FRAME_GEO 32u      /* a geometry frame: the records of a pulse whose ToF frame went before */
+#define GEO_JOBS 8         /* closed pulses waiting for their fix */
+
+/* event-FIFO word, high half (EVT_HI; docs/fast_firing.md section 6) */
+#define EVH_OVF (1u << 12)    /* words were dropped before this one */
+#define EVH_RECORD (1u << 30) /* a record: a pulse's, or with EVH_CANCEL a sensor's cancel */
+#define EVH_CANCEL (1u << 29)
+
 #define REAIM_BANG ((int32_t)((uint32_t)REAIM_DEG * (4294967296.0 / 360.0)))
 
 /* ---------------------------------------------------------------- register helpers */
@@ -94,11 +109,16 @@ static inline uint32_t now32(void) { return MS_SOC(TIMER_LO); }
 
 /* ---------------------------------------------------------------- state */
 typedef struct {
-    uint8_t used, vs, seq, flags; /* flags: frame header flags (init ping, truncated) */
+    uint8_t used, vs, seq, flags; /* flags: frame header flags (FRAME_*) */
     uint8_t n_ev;
+    uint8_t has_rec;   /* the pulse record was seen: t0 and n_win are the hardware's */
+    uint8_t n_win;     /* windows the pulse opened (pulse record) */
+    uint8_t n_term;    /* their terminal events so far (first echo or window_empty) */
     uint32_t done;     /* receivers with their first-echo / window_empty event (element bits) */
     uint32_t firsts;   /* receivers with a first echo */
-    uint32_t t0_est;
+    uint32_t t0;       /* trigger tick: the pulse record's; without one (lost), an estimate */
+    uint32_t t_done;   /* detection tick of the last terminal event so far */
+    uint32_t t_pop;    /* timer at the last word taken for it */
     int32_t first_tof[APP_MAX_GROUP]; /* per receiver index of the sensor */
     uint32_t rec[MAX_EV][2];          /* ToF records as they go on the wire */
 } group_t;
@@ -207,121 +227,184 @@ static void sensor_setup(int i, int shift)
 }
 
 /* ---------------------------------------------------------------- frames */
-/* builds and sends g's frame; returns 1 when it holds an edge or wall fix */
-static int send_frame(group_t *g)
+/* one frame (docs/protocol.md sections 2, 6): header 12 bytes, head 20 bytes, records; the host
+ * link appends the CRC-32 at the commit and drops the frame whole (FRAMES_DROPPED) if the frame
+ * queue has no room for it */
+static void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_t n_tof,
+                        const uint32_t (*tof)[2], uint32_t n_geo, const uint32_t *geo)
 {
-    const int si = vs_index[g->vs];
-    app_sensor_t *c = &cfgs[si];
-    sensor_t *s = &sens[si];
     uint32_t *w = fbuf;
-    int n_geo = 0, fixed = 0;
-    ms_class cl;
-
-    /* geometry record: >= 3 first echoes */
-    int nf = __builtin_popcount(g->firsts);
-    uint32_t geo[4] = {0, 0, 0, 0};
-    if (nf >= 3 && c->n_rx <= APP_MAX_GROUP && c->n_tx <= APP_MAX_GROUP) {
-        ms_len_t path[APP_MAX_GROUP];
-        for (int k = 0; k < c->n_rx; k++)
-            path[k] = (ms_len_t)(((uint64_t)(uint32_t)g->first_tof[k] * path_k + 0x80000000u) >> 32) + c->path_offset_um;
-        ms_wdt_kick();
-        if (nf == c->n_rx) {
-            ms_fix(&s->arr, path, &cl);
-        } else { /* a subset of the receivers: general path, slow */
-            ms_vec2 rx[APP_MAX_GROUP], src = {c->src_um[s->shift][0], c->src_um[s->shift][1]};
-            ms_len_t p2[APP_MAX_GROUP];
-            ms_class_opts copts;
-            int m = 0;
-            for (int k = 0; k < c->n_rx; k++)
-                if (g->firsts >> s->rx[k] & 1u) {
-                    rx[m].x = ms_elem_x_um[s->rx[k]];
-                    rx[m].y = ms_elem_y_um[s->rx[k]];
-                    p2[m++] = path[k];
-                }
-            ms_class_opts_default(&copts);
-            ms_classify(rx, p2, m, src, (ms_len_t)((sound_um_s(2000) + 500000u) / 1000000u), &copts, &cl);
-        }
-        ms_wdt_kick();
-        uint32_t cls = (uint32_t)cl.kind + 1u, quality = 0;
-        int32_t x = 0, y = 0, rng = 0, res = 0;
-        uint32_t brg = 0, nrm = 0;
-        int k = cls == 2u ? 1 : 0;
-        if (cls == 1u || cls == 2u) { /* 255 * (1 - chi2 / threshold), Q16.16 in; 32-bit division */
-            uint32_t thr = cl.thr[k] > 0 ? (uint32_t)cl.thr[k] : 0u;
-            uint32_t chi = cl.chi2[k] < 0 ? 0u : (uint32_t)cl.chi2[k] < thr ? (uint32_t)cl.chi2[k] : thr;
-            while (thr >= (1u << 23)) {
-                thr >>= 1;
-                chi >>= 1;
-            }
-            if (thr > 0)
-                quality = 255u - (255u * chi + thr / 2u) / thr;
-        }
-        if (cls == 2u && cl.wall.valid) {
-            x = cl.wall.foot_x; y = cl.wall.foot_y; rng = cl.wall.distance; res = cl.wall.residual;
-            brg = nrm = (uint32_t)cl.wall.normal_angle;
-        } else if (cl.point.valid) {
-            x = cl.point.x; y = cl.point.y; rng = cl.point.range; res = cl.point.residual;
-            brg = (uint32_t)cl.point.bearing;
-        } else {
-            cls = 4u;
-            quality = 0;
-        }
-        geo[0] = ((uint32_t)sat16(div_round(x, 1000), -32768, 32767) & 0xFFFFu)
-               | ((uint32_t)sat16(div_round(y, 1000), -32768, 32767) << 16);
-        geo[1] = ((uint32_t)sat16(div_round(rng, 1000), 0, 65535)) | (bang16(brg) << 16);
-        geo[2] = bang16(nrm) | (quality << 16) | (cls << 24);
-        geo[3] = (uint32_t)nf | ((uint32_t)sat16(res, 0, 65535) << 16);
-        n_geo = par_geometry ? 1 : 0;
-
-        /* re-aiming input: the fix's angle against the sensor's axis */
-        if (cls == 1u || cls == 2u) {
-            s->last_dev = (int32_t)(brg - s->axis);
-            s->last_side = s->last_dev > 0 ? 1 : -1;
-            s->init_misses = 0;
-            fixed = 1;
-        }
-    }
-
-    /* packet: header 12 bytes, payload; the host link appends the CRC-32 at the commit and
-     * drops the frame whole (FRAMES_DROPPED) if the frame queue has no room for it */
-    uint32_t n_tof = par_tof ? g->n_ev : 0u;
-    uint32_t plen = 20u + 8u * n_tof + 16u * (uint32_t)n_geo;
+    uint32_t plen = 20u + 8u * n_tof + 16u * n_geo;
     uint32_t nwords = (12u + plen) / 4u;
     w[0] = 0x4Du | (0x46u << 8) | (1u << 16) | (0x40u << 24); /* "MF", version 1, type 0x40 */
-    w[1] = (uint32_t)g->flags | (0u << 8) | (plen << 16);
+    w[1] = flags | (0u << 8) | (plen << 16);
     w[2] = frame_seq;
     w[3] = now32();              /* timestamp */
-    w[4] = g->t0_est;            /* t0 (estimate, see the header comment) */
-    w[5] = (uint32_t)g->vs | ((uint32_t)g->seq << 8) | (n_tof << 16) | ((uint32_t)n_geo << 24);
+    w[4] = t0;                   /* the pulse record's trigger tick */
+    w[5] = vs | (seq << 8) | (n_tof << 16) | (n_geo << 24);
     w[6] = MS_SOC(FRAMES_DROPPED);
     w[7] = (MS_SONAR(OVERFLOWS) & 0xFFFFu) | (((MS_SOC(WDT_RESETS) - wdt_base) & 0xFFFFu) << 16);
     uint32_t *p = &w[8];
     for (uint32_t i = 0; i < n_tof; i++) {
-        *p++ = g->rec[i][0];
-        *p++ = g->rec[i][1];
+        *p++ = tof[i][0];
+        *p++ = tof[i][1];
     }
-    for (int i = 0; i < 4 * n_geo; i++)
+    for (uint32_t i = 0; i < 4u * n_geo; i++)
         *p++ = geo[i];
     frame_seq++;
     for (uint32_t i = 0; i < nwords; i++)
         MS_SOC(HOST_TX) = w[i];
     MS_SOC(HOST_CTRL) = SOC_REGS__HOST_CTRL__FRAME_END_bm;
-    g->used = 0;
-    return fixed;
 }
 
-static int close_group(group_t *g)
+/* Geometry is the best-effort path: a closed pulse with >= 3 first echoes becomes a job in this
+ * queue, run by the main loop when no event and no command waits; its record goes out in a
+ * frame of its own (FRAME_GEO, no ToF records). Queue full: the fix is skipped and counted. */
+typedef struct {
+    uint8_t vs, seq, flags;
+    uint32_t firsts, t0;
+    int shift;
+    int32_t first_tof[APP_MAX_GROUP];
+} geo_job_t;
+static geo_job_t geo_q[GEO_JOBS];
+static uint32_t geo_head, geo_tail, geo_skipped, geo_declined;
+
+static void sensor_outcome(int si, int init, int fixed);
+
+/* mailbox 0x6 per geometry job: what happened (0 fix, 1 skipped: queue full, 2 declined: the
+ * fast path does not solve it, 3 stale: the sensor was re-aimed since) << 24 | cycles */
+static void geo_report(uint32_t what, uint32_t cycles)
+{
+    if (what == 1u)
+        geo_skipped++;
+    else if (what >= 2u)
+        geo_declined++;
+    ms_report(0x60000000u | (what << 24) | (cycles > 0xFFFFFFu ? 0xFFFFFFu : cycles));
+}
+
+/* the ToF frame of g, at once; then its geometry job (if any) */
+static void send_tof_frame(group_t *g)
+{
+    const int si = vs_index[g->vs];
+    const app_sensor_t *c = &cfgs[si];
+    uint32_t n_tof = par_tof ? g->n_ev : 0u;
+    int nf = __builtin_popcount(g->firsts);
+    send_packet(g->flags, g->t0, g->vs, g->seq, n_tof, g->rec, 0u, 0);
+    g->used = 0;
+    if (g->flags & FRAME_LOST) /* no fix from incomplete data, and no verdict either */
+        return;
+    if (nf >= 3 && c->n_rx <= APP_MAX_GROUP && c->n_tx <= APP_MAX_GROUP) {
+        if (geo_tail - geo_head >= GEO_JOBS) {
+            geo_report(1u, 0u);
+            return;
+        }
+        geo_job_t *j = &geo_q[geo_tail % GEO_JOBS];
+        j->vs = g->vs;
+        j->seq = g->seq;
+        j->flags = g->flags & FRAME_INIT;
+        j->firsts = g->firsts;
+        j->t0 = g->t0;
+        j->shift = sens[si].shift;
+        for (int k = 0; k < c->n_rx; k++)
+            j->first_tof[k] = g->first_tof[k];
+        geo_tail++;
+    } else {
+        sensor_outcome(si, g->flags & FRAME_INIT, 0); /* < 3 first echoes: no fix */
+    }
+}
+
+/* one geometry job: the fix (fast path only: bounded), its frame, the re-aiming input */
+static void run_geo_job(const geo_job_t *j)
 {
     uint32_t t = now32();
-    int fixed = send_frame(g);
-    ms_report(0x20000000u | ((now32() - t) & 0x0FFFFFFFu));
+    const int si = vs_index[j->vs];
+    if (si < 0)
+        return;
+    const app_sensor_t *c = &cfgs[si];
+    sensor_t *s = &sens[si];
+    if (j->shift != s->shift) { /* the sensor was re-aimed since: its prepared array moved */
+        geo_report(3u, now32() - t);
+        return;
+    }
+    int nf = __builtin_popcount(j->firsts), fixed = 0;
+    ms_class cl;
+    if (nf != c->n_rx) { /* a subset of the receivers: only the general path solves it */
+        geo_report(2u, now32() - t);
+        return;
+    }
+    ms_len_t path[APP_MAX_GROUP];
+    for (int k = 0; k < c->n_rx; k++)
+        path[k] = (ms_len_t)(((uint64_t)(uint32_t)j->first_tof[k] * path_k + 0x80000000u) >> 32) + c->path_offset_um;
+    if (ms_fix_fast(&s->arr, path, &cl) == MS_FIX_DECLINED) {
+        geo_report(2u, now32() - t);
+        return;
+    }
+    uint32_t cls = (uint32_t)cl.kind + 1u, quality = 0;
+    int32_t x = 0, y = 0, rng = 0, res = 0;
+    uint32_t brg = 0, nrm = 0;
+    int k = cls == 2u ? 1 : 0;
+    if (cls == 1u || cls == 2u) { /* 255 * (1 - chi2 / threshold), Q16.16 in; 32-bit division */
+        uint32_t thr = cl.thr[k] > 0 ? (uint32_t)cl.thr[k] : 0u;
+        uint32_t chi = cl.chi2[k] < 0 ? 0u : (uint32_t)cl.chi2[k] < thr ? (uint32_t)cl.chi2[k] : thr;
+        while (thr >= (1u << 23)) {
+            thr >>= 1;
+            chi >>= 1;
+        }
+        if (thr > 0)
+            quality = 255u - (255u * chi + thr / 2u) / thr;
+    }
+    if (cls == 2u && cl.wall.valid) {
+        x = cl.wall.foot_x; y = cl.wall.foot_y; rng = cl.wall.distance; res = cl.wall.residual;
+        brg = nrm = (uint32_t)cl.wall.normal_angle;
+    } else if (cl.point.valid) {
+        x = cl.point.x; y = cl.point.y; rng = cl.point.range; res = cl.point.residual;
+        brg = (uint32_t)cl.point.bearing;
+    } else {
+        cls = 4u;
+        quality = 0;
+    }
+    uint32_t geo[4];
+    geo[0] = ((uint32_t)sat16(div_round(x, 1000), -32768, 32767) & 0xFFFFu)
+           | ((uint32_t)sat16(div_round(y, 1000), -32768, 32767) << 16);
+    geo[1] = ((uint32_t)sat16(div_round(rng, 1000), 0, 65535)) | (bang16(brg) << 16);
+    geo[2] = bang16(nrm) | (quality << 16) | (cls << 24);
+    geo[3] = (uint32_t)nf | ((uint32_t)sat16(res, 0, 65535) << 16);
+    if (par_geometry)
+        send_packet(FRAME_GEO | j->flags, j->t0, j->vs, j->seq, 0u, 0, 1u, geo);
+    /* re-aiming input: the fix's angle against the sensor's axis */
+    if (cls == 1u || cls == 2u) {
+        s->last_dev = (int32_t)(brg - s->axis);
+        s->last_side = s->last_dev > 0 ? 1 : -1;
+        fixed = 1;
+    }
+    geo_report(0u, now32() - t);
+    sensor_outcome(si, j->flags & FRAME_INIT, fixed);
+}
+
+/* the oldest geometry job, if any */
+static int geo_step(void)
+{
+    if (geo_head == geo_tail)
+        return 0;
+    geo_job_t j = geo_q[geo_head % GEO_JOBS];
+    geo_head++;
+    run_geo_job(&j);
+    return 1;
+}
+
+static void close_group(group_t *g)
+{
+    send_tof_frame(g);
+    /* mailbox 0x2: from the pulse's completion (the detection tick of its last window's
+     * terminal event, or of the cancel that cut it; the pop when its record was lost) */
+    uint32_t from = (g->flags & FRAME_LOST) ? g->t_pop : g->t_done;
+    ms_report(0x20000000u | ((now32() - from) & 0x0FFFFFFFu));
     ms_report(0x40000000u | (busy_acc & 0x0FFFFFFFu));
     busy_acc = 0;
-    return fixed;
 }
 
 /* ---------------------------------------------------------------- events */
-static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0_est, int init)
+static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int init)
 {
     group_t *free_g = 0, *oldest = 0;
     for (int i = 0; i < MAX_GROUPS; i++) {
@@ -329,44 +412,102 @@ static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0_est, int init)
         if (g->used) {
             if (g->vs == vs && g->seq == seq)
                 return g;
-            if (!oldest || (int32_t)(g->t0_est - oldest->t0_est) < 0)
+            if (!oldest || (int32_t)(g->t0 - oldest->t0) < 0)
                 oldest = g;
         } else if (!free_g) {
             free_g = g;
         }
     }
     if (!free_g) { /* no room: the oldest pulse goes out as it is */
+        oldest->flags |= FRAME_CUT;
         close_group(oldest);
         free_g = oldest;
     }
     /* first_tof / rec are read only where firsts / n_ev say they were written */
-    free_g->n_ev = 0;
+    free_g->n_ev = free_g->has_rec = free_g->n_win = free_g->n_term = 0;
     free_g->done = free_g->firsts = 0;
     free_g->used = 1;
     free_g->vs = (uint8_t)vs;
     free_g->seq = (uint8_t)seq;
-    free_g->t0_est = t0_est;
-    free_g->flags = init ? 1u : 0u;
+    free_g->t0 = t0;
+    free_g->flags = init ? FRAME_INIT : 0u;
     return free_g;
 }
 
-/* one event; returns the completed group or 0 */
+static int group_complete(const group_t *g)
+{
+    const sensor_t *s = &sens[vs_index[g->vs]];
+    if (g->has_rec)
+        return g->n_term >= g->n_win;
+    return (g->done & s->rx_mask) == s->rx_mask; /* no record (lost): every receiver reported */
+}
+
+/* A cancel record: a re-initialisation cancelled every pending window of the sensor at tick
+ * lo, so its open pulses are complete now (FRAME_CUT). An init ping's record does the same
+ * (a sensor re-initialises only after its windows were cancelled or closed): a fallback for a
+ * cancel record lost in an overflow. */
+static void cut_sensor(uint32_t vs, uint32_t keep_seq, int keep, uint32_t tick)
+{
+    for (int i = 0; i < MAX_GROUPS; i++) {
+        group_t *o = &groups[i];
+        if (o->used && o->vs == vs && !(keep && o->seq == keep_seq)) {
+            o->flags |= FRAME_CUT;
+            o->t_done = tick;
+            close_group(o);
+        }
+    }
+}
+
+/* A pulse record: the pulse's group with the hardware's t0 and window count. */
+static group_t *take_record(uint32_t lo, uint32_t hi, uint32_t now)
+{
+    uint32_t vs = (hi >> 5) & 7u, init = (hi >> 11) & 1u;
+    uint32_t seq = (hi >> 13) & 0xFFu;
+    if (vs_index[vs] < 0)
+        return 0;
+    if (hi & EVH_CANCEL) {
+        cut_sensor(vs, 0u, 0, lo);
+        return 0;
+    }
+    if (init)
+        cut_sensor(vs, seq, 1, now);
+    group_t *g = group_for(vs, seq, lo, (int)init);
+    g->has_rec = 1;
+    g->t0 = lo;
+    g->t_done = g->t_pop = now;
+    g->n_win = (uint8_t)(hi & 0x1Fu);
+    return group_complete(g) ? g : 0;
+}
+
+/* one event word; returns the completed group or 0 */
 static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
 {
+    if (hi & EVH_OVF) /* words were lost just before this one: every open pulse may miss some */
+        for (int i = 0; i < MAX_GROUPS; i++)
+            if (groups[i].used)
+                groups[i].flags |= FRAME_LOST;
+    if (hi & EVH_RECORD)
+        return take_record(lo, hi, now);
     uint32_t tof = lo & 0xFFFFFFu, rx = (lo >> 24) & 0x1Fu;
     uint32_t seq = ((lo >> 29) | (hi << 3)) & 0xFFu, vs = (hi >> 5) & 7u, fl = (hi >> 8) & 0xFu;
     if (vs_index[vs] < 0)
         return 0;
+    /* an event without its pulse's record: the record went in an overflow; t0 estimated from
+     * the pop time (late by the polling delay), and the frame says so */
     uint32_t t0c = now - tof - ((fl & 4u) ? 0u : edge_lat);
     group_t *g = group_for(vs, seq, t0c, (fl & 8u) != 0);
-    if ((int32_t)(t0c - g->t0_est) < 0)
-        g->t0_est = t0c;
+    if (!g->has_rec) {
+        g->flags |= FRAME_LOST;
+        if ((int32_t)(t0c - g->t0) < 0)
+            g->t0 = t0c;
+    }
+    g->t_pop = now;
     if (g->n_ev < MAX_EV) {
         g->rec[g->n_ev][0] = tof;
         g->rec[g->n_ev][1] = rx | (seq << 8) | (vs << 16) | (fl << 24);
         g->n_ev++;
     } else {
-        g->flags |= 2u; /* truncated */
+        g->flags |= FRAME_TRUNC;
     }
     const sensor_t *s = &sens[vs_index[vs]];
     app_sensor_t *c = &cfgs[vs_index[vs]];
@@ -377,28 +518,38 @@ static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
                 g->firsts |= 1u << rx;
             }
         g->done |= 1u << rx;
+        g->n_term++;
+        g->t_done = g->t0 + tof + edge_lat;         /* the edge's detection tick */
     } else if (fl & 4u) {
         g->done |= 1u << rx;
+        g->n_term++;
+        g->t_done = g->t0 + tof - 1u + edge_lat;    /* the window's close */
     }
-    return (g->done & s->rx_mask) == s->rx_mask ? g : 0;
+    return group_complete(g) ? g : 0;
 }
 
 static int reaim(int si, int dir, int why);
 static int in_reaim;
 
-/* a complete group: earlier pulses of its sensor go first, then it; then re-aim if needed */
+/* a complete group goes out. Earlier pulses of its sensor without a record (lost in an
+ * overflow) cannot be completed by count: they go first */
 static void finish(group_t *g)
 {
-    int si = vs_index[g->vs];
-    sensor_t *s = &sens[si];
     for (int i = 0; i < MAX_GROUPS; i++) {
         group_t *o = &groups[i];
-        if (o->used && o != g && o->vs == g->vs && (int8_t)(uint8_t)(g->seq - o->seq) > 0)
+        if (o->used && !o->has_rec && o != g && o->vs == g->vs && (int8_t)(uint8_t)(g->seq - o->seq) > 0)
             close_group(o);
     }
-    int init = g->flags & 1u;
-    int fixed = close_group(g);
-    if (in_reaim)
+    close_group(g);
+}
+
+/* what a pulse of sensor si found, once known (a fix or no fix): re-aim if needed */
+static void sensor_outcome(int si, int init, int fixed)
+{
+    sensor_t *s = &sens[si];
+    if (fixed)
+        s->init_misses = 0;
+    if (in_reaim || !running) /* STOP closes pulses: no re-aim restarts the sonar core */
         return;
     if (fixed) { /* outside the confidence interval round the axis: one element toward it */
         if (s->last_dev > REAIM_BANG || s->last_dev < -REAIM_BANG)
@@ -433,11 +584,16 @@ static void poll_events(void)
 }
 
 /* ---------------------------------------------------------------- re-aiming */
-static void flush_all(void)
+/* every open group goes out, cut: the sonar core dropped their windows at tick `when` (an
+ * apply taken, or STOP) */
+static void flush_all(uint32_t when)
 {
     for (int i = 0; i < MAX_GROUPS; i++)
-        if (groups[i].used)
+        if (groups[i].used) {
+            groups[i].flags |= FRAME_CUT;
+            groups[i].t_done = when;
             close_group(&groups[i]);
+        }
 }
 
 static void write_group(int si, const sensor_t *s)
@@ -470,7 +626,7 @@ static int reaim(int si, int dir, int why)
     write_group(si, &nw);
     MS_SONAR(CTRL) = SONAR_REGS__CTRL__ENABLE_bm | SONAR_REGS__CTRL__APPLY_bm;
     /* validation (~300 clocks), then the scheduler stops (running low) and restarts */
-    uint32_t t = now32(), st, err = 0;
+    uint32_t t = now32(), st, err = 0, t_stop = 0;
     int stopped = 0;
     while (now32() - t < APPLY_WAIT) {
         st = MS_SONAR(STATUS);
@@ -479,6 +635,7 @@ static int reaim(int si, int dir, int why)
             break;
         if (!(st & SONAR_REGS__STATUS__RUNNING_bm)) {
             stopped = 1;
+            t_stop = now32();
             break;
         }
         poll_events();
@@ -497,7 +654,7 @@ static int reaim(int si, int dir, int why)
         ms_wdt_kick();
     /* every event of the old table is in the FIFO now (new pulses give none for > D) */
     poll_events();
-    flush_all();
+    flush_all(t_stop);
     ms_report(0x50000000u | (frame_seq & 0x0FFFFFFFu)); /* first frame of the new table */
     int8_t side = s->last_side;
     sensor_setup(si, shift);
@@ -682,8 +839,11 @@ static void stop_run(void)
 {
     MS_SONAR(CTRL) = 0u;
     running = 0;
+    uint32_t t_stop = now32();
     poll_events();
-    flush_all();
+    flush_all(t_stop);
+    while (geo_step()) /* their geometry too: no frame follows STOP's reply */
+        ;
 }
 
 static void drain_events(void)
@@ -698,6 +858,7 @@ static uint32_t cmd_start(uint32_t *len)
     MS_SOC(HOST_CTRL) = SOC_REGS__HOST_CTRL__DISCARD_bm;
     for (int i = 0; i < MAX_GROUPS; i++)
         groups[i].used = 0;
+    geo_head = geo_tail;
     drain_events();
     int bad = delay_refused();
     if (bad >= 0) { /* checked before the scheduler validates: the RTL cannot see the lost bits */
@@ -964,6 +1125,8 @@ int main(void)
         if (MS_SONAR(STATUS) & SONAR_REGS__STATUS__FIFO_LEVEL_bm) {
             poll_events();
             work = 1;
+        } else if (!(MS_SOC(CMD_STATUS) & SOC_REGS__CMD_STATUS__AVAIL_bm) && geo_step()) {
+            work = 1; /* one geometry job when no event and no command waits */
         }
         /* timeouts (every window of a pulse has closed max_tof after its t0), checked every
          * 0.1 ms: the scan of the groups stays out of the per-event path */
@@ -973,7 +1136,8 @@ int main(void)
         next_scan = now + SCAN_TICKS;
         for (int i = 0; i < MAX_GROUPS; i++) {
             group_t *g = &groups[i];
-            if (g->used && (int32_t)(now - g->t0_est) > (int32_t)(cfgs[vs_index[g->vs]].max_tof + CLOSE_MARGIN)) {
+            if (g->used && (int32_t)(now - g->t0) > (int32_t)(cfgs[vs_index[g->vs]].max_tof + CLOSE_MARGIN)) {
+                g->flags |= FRAME_CUT;
                 close_group(g);
                 work = 1;
             }

@@ -1705,7 +1705,8 @@ static __attribute__((noinline)) int fix_general(const ms_array *a, const ms_len
     return out->kind;
 }
 
-MS_HOT int ms_fix(const ms_array *a, const ms_len_t *path, ms_class *out)
+/* ms_fix's fast path alone: the kind, or MS_FIX_DECLINED (out's fields then unspecified) */
+static MS_HOT int fix_fast(const ms_array *a, const ms_len_t *path, ms_class *out, int *reason_out)
 {
     int reason, i;
     out->kind = MS_KIND_UNCERTAIN;
@@ -1734,7 +1735,20 @@ MS_HOT int ms_fix(const ms_array *a, const ms_len_t *path, ms_class *out)
         FQ_STAT(ms_geom_stat_general);
     }
 #endif
-    return fix_general(a, path, reason, out);
+    *reason_out = reason;
+    return MS_FIX_DECLINED;
+}
+
+MS_HOT int ms_fix_fast(const ms_array *a, const ms_len_t *path, ms_class *out)
+{
+    int reason;
+    return fix_fast(a, path, out, &reason);
+}
+
+int ms_fix(const ms_array *a, const ms_len_t *path, ms_class *out)
+{
+    int reason, kind = fix_fast(a, path, out, &reason);
+    return kind != MS_FIX_DECLINED ? kind : fix_general(a, path, reason, out);
 }
 
 int ms_classify(const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src, ms_len_t noise_sigma,

@@ -260,5 +260,10 @@ int ms_wall_prepared(const ms_array *a, const ms_len_t *path, ms_wall_fit *out);
 /* Per pulse: one fix = both fits and the edge / wall / uncertain decision, as ms_classify
  * (fits with tol = max_gdop = infinity, as Python's classify; the array's fov and axis). */
 int ms_fix(const ms_array *a, const ms_len_t *path, ms_class *out);
+/* ms_fix's bounded part: the closed-form fast path (Q, N = 3) only. Returns the kind as ms_fix
+ * would, or MS_FIX_DECLINED where ms_fix would take the general path (millions of cycles):
+ * the real-time firmware skips those fixes (counted) instead of stalling its event path. */
+#define MS_FIX_DECLINED (-1)
+int ms_fix_fast(const ms_array *a, const ms_len_t *path, ms_class *out);
 
 #endif

@@ -83,6 +83,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--inproc", action="store_true",
                    help="twin: reach the device through the in-process pyusb backend instead of USB/IP")
     p.add_argument("--no-compare", action="store_true", help="twin: do not run the golden model alongside")
+    p.add_argument("--sensors", choices=("demo", "ring8"), default="demo",
+                   help="demo: five sensors (a phased front sensor, four side sensors); ring8: the maximum load, "
+                        "eight sensors over all 24 receivers at order 4 [%(default)s]")
     p.set_defaults(func=_cmd_demo)
 
     from .device_cli import register as _register_device_commands
@@ -168,7 +171,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
     try:
         return run_demo(args.scene, args.out, seconds=args.seconds, backend=args.backend, fst=args.fst,
-                        usbip=not args.inproc, compare=not args.no_compare)
+                        usbip=not args.inproc, compare=not args.no_compare, sensors=args.sensors)
     except TwinError as e:
         print(f"multisonar demo: error: {e}", file=sys.stderr)
         return 1

@@ -20,6 +20,7 @@ frames.msrec, the frames as recorded by the driver (`multisonar export` reads it
 from __future__ import annotations
 
 import csv
+import json
 import math
 import sys
 import time
@@ -29,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from .constants import TICK_HZ
+from .constants import DEVICE_DECISION_LEAD, TICK_HZ
 
 #: Virtual sensors of the demo: a phased 3-element front sensor (virtual source at the robot
 #: origin) and single-transmitter sensors with three receivers towards the sides and
@@ -84,10 +85,21 @@ def _progress(done: float, total: float, t0: float, what: str = "") -> None:
     sys.stderr.flush()
 
 
-def demo_sensors() -> list[Any]:
+#: the maximum load: 8 virtual sensors (the table's size), one transmitter and three receivers
+#: each, so all 24 receivers listen, at the highest fast-firing order
+RING8_SENSORS = [(f"ring{k}", [3 * k + 1], [3 * k, 3 * k + 1, 3 * k + 2]) for k in range(8)]
+SENSOR_SETS = {"demo": (DEMO_SENSORS, 1), "ring8": (RING8_SENSORS, 4)}
+
+
+def demo_sensors(which: str = "demo") -> list[Any]:
+    """The virtual sensors of a sensor set: ``demo`` (five, order 1) or ``ring8`` (the maximum
+    load: eight, every receiver, order 4)."""
     from .schedule import VirtualSensor
 
-    return [VirtualSensor(name, tx=tx, rx=rx, order=1) for name, tx, rx in DEMO_SENSORS]
+    if which not in SENSOR_SETS:
+        raise ValueError(f"unknown sensor set {which!r}; known: {', '.join(SENSOR_SETS)}")
+    sensors, order = SENSOR_SETS[which]
+    return [VirtualSensor(name, tx=tx, rx=rx, order=order) for name, tx, rx in sensors]
 
 
 @dataclass
@@ -104,6 +116,8 @@ class DemoRun:
     fixes: list[Fix]
     events: dict[str, np.ndarray]
     notes: list[str] = field(default_factory=list)
+    #: machine-readable figures of the run (summary.json)
+    metrics: dict[str, Any] = field(default_factory=dict)
 
 
 def _world(scene: Any, t: float, p: Any) -> tuple[np.ndarray, float]:
@@ -112,16 +126,17 @@ def _world(scene: Any, t: float, p: Any) -> tuple[np.ndarray, float]:
     return rot @ np.asarray(p, float) + (px, py), ph
 
 
-def run_golden(scene: Any, duration: float, *, progress: bool = True) -> DemoRun:
+def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: str = "demo") -> DemoRun:
     """The golden model on the demo's sensors: tick-exact scheduler and gating, host geometry."""
     from . import geometry
     from .fastfiring import SEQ_W, FastFiringModel, SceneEchoSource
     from .schedule import Schedule
 
     layout = scene.layout
-    schedule = Schedule(layout, demo_sensors(), temperature_c=scene.temperature_c)
+    schedule = Schedule(layout, demo_sensors(sensors), temperature_c=scene.temperature_c)
     resolved = schedule.validate()
-    model = FastFiringModel(schedule, SceneEchoSource(scene))
+    # the device's decision lead: the model of the device, not the paper's zero-latency rule
+    model = FastFiringModel(schedule, SceneEchoSource(scene), decision_lead=DEVICE_DECISION_LEAD)
     c = scene.speed_of_sound
     t_wall = time.time()
     chunk = int(0.05 * TICK_HZ)
@@ -184,11 +199,11 @@ def run_golden(scene: Any, duration: float, *, progress: bool = True) -> DemoRun
 
 
 def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, usbip: bool = True,
-             progress: bool = True) -> DemoRun:
+             progress: bool = True, sensors: str = "demo") -> DemoRun:
     """The full-system twin on the demo's sensors: configured, started and streamed through the
     driver; fixes are the firmware's geometry records (robot frame) placed with the pose at t0."""
     from . import protocol as P
-    from .device import RecordingWriter
+    from .device import RECORDING_FORMAT, RecordingWriter
     from .twin import open_twin
 
     t_wall = time.time()
@@ -199,10 +214,10 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
     with open_twin(scene, usbip=usbip, fst=fst) as tw:
         t_boot = time.time()
         dev = tw.device
-        sched = dev.configure(demo_sensors(), temperature_c=scene.temperature_c)
+        sched = dev.configure(demo_sensors(sensors), temperature_c=scene.temperature_c)
         resolved = sched.validate()
         total = int(round(duration * TICK_HZ))
-        meta = {"format": 1, "protocol_version": P.PROTOCOL_VERSION, "url": tw.url, "started_unix": time.time(),
+        meta = {"format": RECORDING_FORMAT, "protocol_version": P.PROTOCOL_VERSION, "url": tw.url, "started_unix": time.time(),
                 "device_info": dev.info().__dict__, "sensors": dev._sensor_meta(), "scene": scene.name,
                 "source": "multisonar demo --backend twin"}
         t_run = time.time()
@@ -228,6 +243,8 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
         tags = mail >> 28
         commit = (mail[tags == 0x2] & 0x0FFFFFFF).astype(float)
         busy = (mail[tags == 0x4] & 0x0FFFFFFF).astype(float)
+        geo_jobs = mail[tags == 0x6] & 0x0FFFFFFF
+        geo_what, geo_cycles = geo_jobs >> 24, (geo_jobs & 0xFFFFFF).astype(float)
         reaims = int(np.sum((tags == 0x3) & ((mail & 0xF0) == 0)))
         usb = dict(tw.function.stats)
         notes.append(f"Device time simulated: {tw.sim.seconds:.3f} s ({tw.sim.cycles:,} clocks at 48 MHz: boot, "
@@ -243,14 +260,22 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
                      f"{usb['bytes_out']:,} out in {usb['in_packets']} / {usb['out_packets']} data packets, "
                      f"{usb['in_naks']} NAKed IN polls (every 50 us while no frame waits).")
         if len(commit):
-            notes.append(f"Firmware (mailbox): {len(commit)} frames; group completion to committed frame (fix + frame) "
-                         f"median {np.median(commit) / 48:.0f} us, 95 % {np.percentile(commit, 95) / 48:.0f} us, max "
-                         f"{commit.max() / 48:.0f} us; main-loop busy cycles per frame median {np.median(busy):.0f}, "
-                         f"max {busy.max():.0f}; {reaims} re-aims taken.")
+            notes.append(f"Firmware (mailbox): {len(commit)} ToF frames; pulse completion (its last window's "
+                         f"terminal event) to ToF frame committed median {np.median(commit) / 48:.0f} us, 99 % "
+                         f"{np.percentile(commit, 99) / 48:.0f} us, max {commit.max() / 48:.0f} us; main-loop busy "
+                         f"cycles per frame median {np.median(busy):.0f}, max {busy.max():.0f}; {reaims} re-aims "
+                         f"taken.")
+        fixed = geo_what == 0
+        notes.append(f"Geometry jobs: {int(fixed.sum())} fixes (cycles per fix with its frame: median "
+                     f"{np.median(geo_cycles[fixed]) if fixed.any() else 0:.0f}, max "
+                     f"{geo_cycles[fixed].max() if fixed.any() else 0:.0f}), {int(np.sum(geo_what == 1))} skipped "
+                     f"(queue full), {int(np.sum(geo_what == 2))} declined by the bounded fast path, "
+                     f"{int(np.sum(geo_what == 3))} stale after a re-aim.")
         notes.append("Harness: " + ", ".join(f"{k} {v}" for k, v in harness.items()) + f", pulses fired "
                      f"{len(tw.sim.fires)}, comparator pulses driven {tw.sim.echo_rows}.")
         if harness["echoes_late"] or harness["trig_orphans"] or harness["fires_incomplete"]:
             notes.append("**Warning: the harness clipped echoes or could not attribute triggers (see counters).**")
+        fw_host = _fw_vs_host(scene, resolved, frames, scene.speed_of_sound)
         fixes: list[Fix] = []
         for f in frames:
             t = tw.scene_time(f.t0)
@@ -272,14 +297,84 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
           "seq": ev_rows["pulse_seq"], "rx": ev_rows["rx"], "tof": ev_rows["tof"],
           "in_window": (flags & 1) > 0, "first_echo": (flags & 2) > 0, "window_empty": (flags & 4) > 0,
           "init_ping": (flags & 8) > 0}
-    vs = np.array([f.vs for f in frames], dtype=int)
-    init = np.array([bool(f.flags & 1) for f in frames], dtype=bool)
+    pulse_frames = [f for f in frames if not f.is_geometry]
+    vs = np.array([f.vs for f in pulse_frames], dtype=int)
+    init = np.array([bool(f.flags & P.FRAME_INIT_PING) for f in pulse_frames], dtype=bool)
     samples = ev["first_echo"] & ev["in_window"]
+    lat_us = commit / (TICK_HZ / 1e6)
+    metrics = {
+        "sonar_s": duration, "wall_s": round(wall_run, 3), "sonar_s_per_wall_s": round(duration / wall_run, 5),
+        "fifo_overflows": int(counters["fifo_overflows"]), "frames_lost": int(counters["host_lost"]),
+        "frames_dropped": int(counters["frames_dropped"]), "watchdog": int(counters["watchdog"]),
+        "frames_flagged_lost": int(sum(1 for f in pulse_frames if f.flags & P.FRAME_LOST)),
+        "frames_cut": int(sum(1 for f in pulse_frames if f.flags & P.FRAME_CUT)),
+        "geo_fixes": int(np.sum(geo_what == 0)), "geo_skipped": int(np.sum(geo_what == 1)),
+        "geo_declined": int(np.sum(geo_what == 2)), "geo_stale": int(np.sum(geo_what == 3)),
+        "geo_cycles_max": int(geo_cycles[geo_what == 0].max()) if np.any(geo_what == 0) else 0,
+        "latency_us": {"p50": _pct(lat_us, 50), "p99": _pct(lat_us, 99),
+                       "max": round(float(lat_us.max()), 1) if len(lat_us) else None},
+        "busy_cycles_max": int(busy.max()) if len(busy) else 0,
+        "reaims": reaims, "fw_vs_host": fw_host["summary"],
+    }
     return DemoRun("twin", duration, time.time() - t_wall, list(resolved),
                    pulses={r.id: int(np.sum(vs == r.id)) for r in resolved},
                    init_pings={r.id: int(np.sum(init & (vs == r.id))) for r in resolved},
                    samples={r.id: int(np.sum(samples & (ev["sensor"] == r.id))) for r in resolved},
-                   fixes=fixes, events=ev, notes=notes)
+                   fixes=fixes, events=ev, notes=notes + fw_host["notes"], metrics=metrics)
+
+
+def _pct(v: np.ndarray, q: float) -> float | None:
+    return round(float(np.percentile(v, q)), 1) if len(v) else None
+
+
+def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) -> dict[str, Any]:
+    """Every firmware geometry record against the record the host computes from the same
+    pulse's ToF records (multisonar.georecord, as the simulated device does): same class and
+    x, y within 1 mm, or a mismatch. The pulse's groups may have been moved by re-aiming: the
+    shift is the rotation that maps the configured receivers onto the ToF records'."""
+    from . import protocol as P
+    from .georecord import geo_records, sensor_paths
+
+    layout = scene.layout
+    n = layout.n
+    last_tof: dict[tuple[int, int], Any] = {}
+    compared = mismatches = 0
+    max_mm = 0.0
+    examples: list[str] = []
+    for f in frames:
+        key = (f.vs, f.pulse_seq)
+        if not f.is_geometry:
+            last_tof[key] = f
+            continue
+        tf = last_tof.get(key)
+        if tf is None or tf.t0 != f.t0 or f.vs >= len(resolved):
+            continue
+        r = resolved[f.vs]
+        firsts = {int(x["rx"]): int(x["tof"]) for x in tf.tof if int(x["flags"]) & 3 == 3}
+        rxs = sorted(firsts)
+        shift = next((k for k in range(n) if set(rxs) <= {(int(e) + k) % n for e in r.rx}), None)
+        if shift is None or len(rxs) < 3:
+            continue
+        source, paths = sensor_paths(layout, r, np.array([[firsts[e] for e in rxs]]), c, shift)
+        want = geo_records(layout.positions[np.array(rxs)], paths, source)[0]
+        for g in f.geo:
+            compared += 1
+            if want is None:
+                mismatches += 1
+                continue
+            d = math.hypot(int(g["x_mm"]) - int(want["x_mm"]), int(g["y_mm"]) - int(want["y_mm"]))
+            max_mm = max(max_mm, d)
+            if int(g["cls"]) != int(want["cls"]) or abs(int(g["x_mm"]) - int(want["x_mm"])) > 1 \
+                    or abs(int(g["y_mm"]) - int(want["y_mm"])) > 1:
+                mismatches += 1
+                if len(examples) < 3:
+                    examples.append(f"{r.name} pulse {f.pulse_seq}: firmware {P.GEO_CLASSES[int(g['cls'])]} "
+                                    f"({int(g['x_mm'])}, {int(g['y_mm'])}) mm, host "
+                                    f"{P.GEO_CLASSES[int(want['cls'])]} ({int(want['x_mm'])}, {int(want['y_mm'])}) mm")
+    notes = [f"Firmware geometry vs host geometry on the same ToF records: {compared} compared, {mismatches} "
+             f"mismatches (class, or x / y more than 1 mm apart), largest distance {max_mm:.1f} mm."
+             + ("".join(f" E.g. {e}." for e in examples))]
+    return {"summary": {"compared": compared, "mismatches": mismatches, "max_mm": round(max_mm, 1)}, "notes": notes}
 
 
 BACKENDS = ("twin", "golden")
@@ -288,11 +383,13 @@ TWIN_DEFAULT_SECONDS = 2.0
 
 
 def run_demo(scene_name: str = "corridor", out: str | Path = "build/demo", seconds: float | None = None, *,
-             backend: str = "twin", fst: str | None = None, usbip: bool = True, compare: bool = True) -> int:
+             backend: str = "twin", fst: str | None = None, usbip: bool = True, compare: bool = True,
+             sensors: str = "demo") -> int:
     from .scene import load_scene
 
     if backend not in BACKENDS:
         raise ValueError(f"unknown demo backend {backend!r}; known: {', '.join(BACKENDS)}")
+    n_sensors = len(demo_sensors(sensors))
     if fst is not None and backend != "twin":
         raise ValueError("--fst needs the twin backend (the golden model has no waveforms)")
     out = Path(out)
@@ -305,15 +402,16 @@ def run_demo(scene_name: str = "corridor", out: str | Path = "build/demo", secon
         raise ValueError(f"sonar time to simulate must be positive, got {duration}")
     what = ("RTL twin (Verilator: sonar core + VexRiscv firmware + USB device; driver over "
             + ("USB/IP)" if usbip else "an in-process backend)")) if backend == "twin" else "golden model"
-    print(f"demo: scene {scene.name!r} ({scene.n_reflectors} reflectors), {len(DEMO_SENSORS)} virtual sensors, "
+    print(f"demo: scene {scene.name!r} ({scene.n_reflectors} reflectors), {n_sensors} virtual sensors ({sensors}), "
           f"{duration:.2f} s of sonar time, {what}")
     if backend == "twin":
-        main = run_twin(scene, duration, out=out, fst=fst, usbip=usbip)
-        ref = run_golden(scene, duration) if compare else None
+        main = run_twin(scene, duration, out=out, fst=fst, usbip=usbip, sensors=sensors)
+        ref = run_golden(scene, duration, sensors=sensors) if compare else None
     else:
-        main, ref = run_golden(scene, duration), None
+        main, ref = run_golden(scene, duration, sensors=sensors), None
     summary = _summary(scene, main, ref, fst)
     (out / "summary.md").write_text(summary)
+    (out / "summary.json").write_text(json.dumps(_summary_json(scene, main, ref), indent=2) + "\n")
     with open(out / "fixes.csv", "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["t_s", "sensor", "kind", "x_m", "y_m", "normal_rad", "error_m"])
@@ -322,13 +420,38 @@ def run_demo(scene_name: str = "corridor", out: str | Path = "build/demo", secon
     np.savez_compressed(out / "events.npz", **main.events)
     _plot_map(scene, main.fixes, duration, out / "map.png", main.backend)
     print(summary)
-    files = [out / "map.png", out / "summary.md", out / "fixes.csv", out / "events.npz"]
+    files = [out / "map.png", out / "summary.md", out / "summary.json", out / "fixes.csv", out / "events.npz"]
     if backend == "twin":
         files.append(out / "frames.msrec")
     if fst:
         files.append(Path(fst))
     print("demo: wrote " + ", ".join(str(f) for f in files))
     return 0
+
+
+def _fix_errors(run: DemoRun) -> dict[str, Any]:
+    out = {}
+    for kind in ("wall", "edge"):
+        e = np.array([f.error for f in run.fixes if f.kind == kind]) * 1e3
+        out[kind] = {"count": int(len(e)), "median_mm": round(float(np.median(e)), 1) if len(e) else None,
+                     "p95_mm": round(float(np.percentile(e, 95)), 1) if len(e) else None}
+    return out
+
+
+def _summary_json(scene: Any, run: DemoRun, ref: DemoRun | None) -> dict[str, Any]:
+    """summary.json: the run's figures, per-sensor rates and per fix kind the median and 95 %
+    error of the device's (twin: firmware) fixes and of the host geometry's (golden model)."""
+    out: dict[str, Any] = {"scene": scene.name, "backend": run.backend, "sonar_s": run.duration,
+                           "wall_s": round(run.wall_s, 3)}
+    out.update(run.metrics)
+    out.setdefault("sonar_s_per_wall_s", round(run.duration / run.wall_s, 5))
+    out["sensors"] = {r.name: {"pulses": run.pulses[r.id], "init_pings": run.init_pings[r.id],
+                               "samples_per_s_per_rx": round(run.samples[r.id] / len(r.rx) / run.duration, 2)}
+                      for r in run.resolved}
+    out["fixes"] = {"firmware" if run.backend == "twin" else "host": _fix_errors(run)}
+    if ref is not None:
+        out["fixes"]["host"] = _fix_errors(ref)
+    return out
 
 
 def _summary(scene: Any, run: DemoRun, ref: DemoRun | None, fst: str | None) -> str:

@@ -27,6 +27,7 @@ from urllib.parse import parse_qs, urlparse
 
 import numpy as np
 
+from .clock import DeviceClock
 from . import protocol as P
 from .schedule import Schedule, ScheduleError, VirtualSensor
 
@@ -92,6 +93,9 @@ class Device:
         self.schedule: Schedule | None = None
         self.sensor_names: dict[int, str] = {}
         self.closed = False
+        #: device ticks -> 64 bits -> host time (syncs: START, then every SYNC_EVERY_S while streaming)
+        self.clock = DeviceClock()
+        self._next_sync = 0.0
 
     # -- opening ----------------------------------------------------------------------------
     @classmethod
@@ -271,6 +275,8 @@ class Device:
                 self.stats.lost += gap
         self._expect = (f.seq + 1) & 0xFFFFFFFF
         self.stats.frames += 1
+        f.t0_ticks = self.clock.extend(f.t0)
+        f.stamp_ns = self.clock.to_host_ns(f.t0_ticks)
         return f
 
     def _queue(self, f: P.Frame) -> None:
@@ -310,15 +316,20 @@ class Device:
             left = deadline - time.monotonic()
             if left <= 0:
                 raise DeviceTimeout(f"{self.url}: no reply to {P.Opcode(opcode).name} within {timeout_s or self.timeout_s} s")
+            reply = None
             for p in self._read_packets(min(left, 0.5)):
-                if p.is_frame:
+                if p.is_frame:  # frames read with the reply (before or after it) are all kept
                     f = self._frame(p)
                     if f is not None:
                         self._queue(f)
                     continue
-                if p.seq != seq or (p.type & 0x7F) != (opcode & 0x7F) and p.type != P.ERROR_REPLY_TYPE:
+                if reply is not None or p.seq != seq or (p.type & 0x7F) != (opcode & 0x7F) \
+                        and p.type != P.ERROR_REPLY_TYPE:
                     self.stats.stale_replies += 1
                     continue
+                reply = p
+            if reply is not None:
+                p = reply
                 if p.status == P.Status.OK:
                     return p.payload
                 if p.status == P.Status.CFG_REJECTED:
@@ -411,6 +422,17 @@ class Device:
         first = struct.unpack("<I", self.command(P.Opcode.START))[0]
         self.queue.clear()  # frames of an earlier run
         self._expect = first
+        self.sync_clock()
+
+    def sync_clock(self) -> int:
+        """One READ_COUNTERS round trip to map device ticks to host time (``clock``); returns
+        the round trip in ns. Frames read meanwhile are queued and stamped."""
+        sent = time.time_ns()
+        d = P.decode_counters(self.command(P.Opcode.READ_COUNTERS))
+        received = time.time_ns()
+        self.clock.sync(d["timestamp"], sent, received)
+        self._next_sync = time.monotonic() + SYNC_EVERY_S
+        return received - sent
 
     def stop(self, drain_s: float = 0.5) -> None:
         """Stop firing; frames already produced stay readable (queued). Frames the device numbered
@@ -431,7 +453,9 @@ class Device:
 
     def counters(self) -> dict[str, int]:
         """Device counters (READ_COUNTERS) and host counters (``host_*``)."""
+        sent = time.time_ns()
         d = P.decode_counters(self.command(P.Opcode.READ_COUNTERS))
+        self.clock.sync(d["timestamp"], sent, time.time_ns())
         d.update({f"host_{k}": v for k, v in self.stats.as_dict().items()})
         d["host_queued"] = len(self.queue)
         return d
@@ -464,6 +488,9 @@ class Device:
             now = time.monotonic()
             if t_end is not None and now >= t_end:
                 return
+            if self.clock.synced and now >= self._next_sync:
+                self.sync_clock()
+                continue
             if now - last > idle_timeout_s:
                 raise DeviceTimeout(f"{self.url}: no frame for {idle_timeout_s} s (started? Device.start())")
             wait = 0.2 if t_end is None else max(min(0.2, t_end - now), 0.001)
@@ -514,13 +541,16 @@ def _safe_serial(d: Any) -> str | None:
 # recording format
 # --------------------------------------------------------------------------------------------
 RECORDING_MAGIC = b"MSREC\x00\x00\x01"
-RECORDING_FORMAT = 1
+RECORDING_FORMAT = 2  # 2: per-frame host time = acquisition (t0 mapped), was receive time
+#: the driver re-syncs its tick -> host clock this often while streaming (one READ_COUNTERS)
+SYNC_EVERY_S = 1.0
 
 
 class RecordingWriter:
     """``MSREC\\0\\0\\x01``, u32 LE meta length, UTF-8 JSON meta, then per frame: u64 LE host
-    receive time (ns since the Unix epoch) and the frame's wire bytes (self-delimiting:
-    header length field, CRC-32)."""
+    time (ns since the Unix epoch) of the pulse's t0, mapped from device ticks by the driver's
+    clock (the receive time only for a frame read before the first clock sync), and the frame's
+    wire bytes (self-delimiting: header length field, CRC-32)."""
 
     def __init__(self, path: str | Path, meta: dict[str, Any]) -> None:
         self.path = Path(path)
@@ -530,7 +560,9 @@ class RecordingWriter:
         self._f.write(RECORDING_MAGIC + struct.pack("<I", len(m)) + m)
 
     def write(self, frame: P.Frame, host_ns: int | None = None) -> None:
-        self._f.write(struct.pack("<Q", time.time_ns() if host_ns is None else host_ns) + frame.packet())
+        if host_ns is None:
+            host_ns = frame.stamp_ns if frame.stamp_ns is not None else time.time_ns()
+        self._f.write(struct.pack("<Q", host_ns) + frame.packet())
 
     def close(self) -> None:
         self._f.close()

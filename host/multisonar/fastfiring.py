@@ -10,6 +10,7 @@ Usage::
     model = FastFiringModel(sched, SyntheticEchoSource(1.5))
     result = model.run(seconds_to_ticks(0.2))
     result.events      # ToFEvent list, in event-FIFO order
+    result.words       # every event-FIFO word in order: ToF events and pulse records
     result.triggers    # TriggerEvent list (tick, element, sensor, seq)
 """
 
@@ -84,6 +85,75 @@ class ToFEvent(NamedTuple):
                    window_empty=bool(f["window_empty"]), init_ping=bool(f["init_ping"]))
 
 
+#: pulse record word (docs/fast_firing.md section 6): bit 62 set (EVT_HI shows bits 62:32); sensor and init_ping where a
+#: ToF event has them; bit 44 stays the FIFO's overflow flag
+PULSE_ID_W = 16
+PULSE_FIELDS: dict[str, tuple[int, int]] = {
+    "t0": (0, 32), "n_win": (32, 5), "sensor": (37, VS_ID_W), "init_ping": (43, 1),
+    "pulse_id": (45, PULSE_ID_W), "record": (62, 1),
+}
+PULSE_RECORD_BIT = 1 << 62
+
+
+class PulseStart(NamedTuple):
+    """The scheduler's record of an issued pulse, written in the SCHED phase of its decision
+    tick (t0 - decision lead), before any event of the pulse."""
+    tick: int  #: tick the record is written to the FIFO (not part of the word)
+    sensor: int
+    pulse_id: int  #: per-sensor pulse number mod 2**16 (its low 8 bits are the events' seq)
+    t0: int  #: trigger tick mod 2**32
+    init_ping: bool
+    n_win: int  #: windows the pulse opened: one terminal event (first echo or window_empty) each
+
+    def pack(self) -> int:
+        w = PULSE_RECORD_BIT
+        for name, (lsb, width) in PULSE_FIELDS.items():
+            if name == "record":
+                continue
+            v = int(getattr(self, name))
+            if not 0 <= v < (1 << width):
+                raise ValueError(f"pulse record field {name}={v} does not fit {width} bits")
+            w |= v << lsb
+        return w
+
+    @classmethod
+    def unpack(cls, word: int, tick: int = -1) -> "PulseStart":
+        f = {n: (word >> lsb) & ((1 << w) - 1) for n, (lsb, w) in PULSE_FIELDS.items()}
+        if not f["record"] or word & (1 << 61):
+            raise ValueError(f"event word {word:#018x} is not a pulse record (bit 62 set, 61 clear)")
+        return cls(tick=tick, sensor=f["sensor"], pulse_id=f["pulse_id"], t0=f["t0"],
+                   init_ping=bool(f["init_ping"]), n_win=f["n_win"])
+
+
+CANCEL_RECORD_BIT = 1 << 61
+
+
+class SensorCancel(NamedTuple):
+    """The scheduler's record of a re-initialisation that cancelled every pending window of a
+    sensor (safety rule or forced re-init), written where the cancel happens (the CLOSE phase
+    after the window that missed, or the SCHED phase before the init ping's record): every
+    earlier pulse of the sensor gets no more events."""
+    tick: int  #: logical tick of the cancel (mod 2**32 in the word)
+    sensor: int
+
+    def pack(self) -> int:
+        return PULSE_RECORD_BIT | CANCEL_RECORD_BIT | (int(self.sensor) << 37) | (int(self.tick) & 0xFFFFFFFF)
+
+    @classmethod
+    def unpack(cls, word: int, tick: int = -1) -> "SensorCancel":
+        if word & (PULSE_RECORD_BIT | CANCEL_RECORD_BIT) != PULSE_RECORD_BIT | CANCEL_RECORD_BIT:
+            raise ValueError(f"event word {word:#018x} is not a cancel record (bits 62 and 61)")
+        return cls(tick=word & 0xFFFFFFFF, sensor=(word >> 37) & ((1 << VS_ID_W) - 1))
+
+
+def unpack_word(word: int, tick: int = -1) -> "ToFEvent | PulseStart | SensorCancel":
+    """An event-FIFO word as what it is: a record (bit 62: a pulse, or with bit 61 a cancel) or
+    a ToF event."""
+    if not word & PULSE_RECORD_BIT:
+        return ToFEvent.unpack(word, tick)
+    return SensorCancel.unpack(word, tick) if word & CANCEL_RECORD_BIT else PulseStart.unpack(word, tick)
+
+
 @dataclass(frozen=True)
 class PulseRecord:
     sensor: int
@@ -104,6 +174,9 @@ class RunResult:
     pulses: list[PulseRecord]
     #: windows cancelled by a re-initialisation: (sensor, seq, rx, tick); no event is written
     cancelled: list[tuple[int, int, int, int]] = field(default_factory=list)
+    #: every event-FIFO word in FIFO order: ToF events and records (PulseStart, SensorCancel)
+    words: list[int] = field(default_factory=list)
+    records: list[Any] = field(default_factory=list)
 
     def samples(self, sensor: int | None = None, rx: int | None = None) -> list[ToFEvent]:
         """First echoes in window (the tracking samples), optionally filtered."""
@@ -359,6 +432,8 @@ class FastFiringModel:
         self.events: list[ToFEvent] = []
         self.pulses: list[PulseRecord] = []
         self.cancelled: list[tuple[int, int, int, int]] = []
+        self.words: list[int] = []
+        self.records: list[Any] = []
         for s in self.sensors:
             self._push(max(s.due - self.lead, self.now), _SCHED, s.cfg.id, None)
 
@@ -367,6 +442,7 @@ class FastFiringModel:
         """Advance ``duration_ticks`` ticks; return what happened in that span."""
         end = self.now + int(duration_ticks)
         nt, ne, npu, nc = len(self.triggers), len(self.events), len(self.pulses), len(self.cancelled)
+        nw, nr = len(self.words), len(self.records)
         noise = getattr(self.source, "noise", None)
         if callable(noise):
             for rx, st, w in _rows(noise(self.now, end)):
@@ -384,7 +460,7 @@ class FastFiringModel:
         self.now = end
         trig = sorted(self.triggers[nt:])
         return RunResult(triggers=trig, events=self.events[ne:], pulses=self.pulses[npu:],
-                         cancelled=self.cancelled[nc:])
+                         cancelled=self.cancelled[nc:], words=self.words[nw:], records=self.records[nr:])
 
     def predicted_tof(self, sensor: int, rx: int, seq: int | None = None) -> int | None:
         """T_E the sensor would use for receiver rx in pulse seq (default: the next pulse)."""
@@ -397,6 +473,10 @@ class FastFiringModel:
     # -- internals ------------------------------------------------------------------
     def _push(self, tick: int, phase: int, key: int, payload: Any) -> None:
         heapq.heappush(self._heap, (tick, phase, key, next(self._ctr), payload))
+
+    def _emit(self, ev: ToFEvent) -> None:
+        self.events.append(ev)
+        self.words.append(ev.pack())
 
     def _add_pulse(self, rx: int, start: int, width: int) -> None:
         if width <= 0 or not 0 <= rx < len(self.lines):
@@ -431,7 +511,7 @@ class FastFiringModel:
         if w.n_edges > self.max_echoes:
             return
         first = w.n_edges == 1
-        self.events.append(ToFEvent(self.now, w.sensor, w.seq & SEQ_MASK, rx, n - w.t0, True, first, False, w.init))
+        self._emit(ToFEvent(self.now, w.sensor, w.seq & SEQ_MASK, rx, n - w.t0, True, first, False, w.init))
         if first:
             s = self.sensors[w.sensor]
             if w.epoch == s.epoch:
@@ -467,8 +547,8 @@ class FastFiringModel:
         s = self.sensors[w.sensor]
         if w.n_edges == 0 or w.rejected:
             if w.n_edges == 0:
-                self.events.append(ToFEvent(self.now, w.sensor, w.seq & SEQ_MASK, w.rx, w.end - w.t0,
-                                            False, False, True, w.init))
+                self._emit(ToFEvent(self.now, w.sensor, w.seq & SEQ_MASK, w.rx, w.end - w.t0,
+                                    False, False, True, w.init))
             if not w.init and w.epoch == s.epoch:
                 st = s.rx[w.rx]
                 st.miss = min(st.miss + 1, MISS_MAX)
@@ -486,7 +566,11 @@ class FastFiringModel:
             self._push(self.now, _SCHED, s.cfg.id, None)
 
     def _cancel(self, sensor: int) -> None:
-        """Free every window slot of ``sensor`` (pending or open): no event is written for them."""
+        """Free every window slot of ``sensor`` (pending or open): no event is written for them;
+        the cancel record says so."""
+        rec = SensorCancel(self.now, sensor)
+        self.records.append(rec)
+        self.words.append(rec.pack())
         for ws in self.windows:
             for w in ws:
                 if w.sensor == sensor:
@@ -553,6 +637,9 @@ class FastFiringModel:
             self._push(w.close, _CLOSE, e, w)
         for e, d in zip(c.tx, c.delays):
             self.triggers.append(TriggerEvent(t + int(d), int(e), c.id, k & SEQ_MASK))
+        rec = PulseStart(self.now, c.id, k & ((1 << PULSE_ID_W) - 1), t & 0xFFFFFFFF, init, len(wins))
+        self.records.append(rec)
+        self.words.append(rec.pack())
         self.pulses.append(PulseRecord(c.id, k, s.due, t, init, n_eff, period,
                                        tuple((e, t + a, t + b) for e, a, b in wins),
                                        tuple((e, t + a, t + b) for e, a, b in blanks)))

@@ -109,8 +109,10 @@ class CfgError(IntEnum):
 
 #: ToF record flags (bit positions; the event word's flag bits 40..43 shifted down by 40)
 TOF_IN_WINDOW, TOF_FIRST_ECHO, TOF_WINDOW_EMPTY, TOF_INIT_PING = 0x1, 0x2, 0x4, 0x8
-#: frame header flags
-FRAME_INIT_PING, FRAME_TRUNCATED, FRAME_SIMULATED = 0x1, 0x2, 0x4
+#: frame header flags: init ping, more ToF records than the device keeps, simulated device,
+#: event-FIFO words of the pulse lost (no geometry), closed before every window reported,
+#: a geometry frame (the records of a pulse whose ToF frame went before; no ToF records)
+FRAME_INIT_PING, FRAME_TRUNCATED, FRAME_SIMULATED, FRAME_LOST, FRAME_CUT, FRAME_GEO = 0x1, 0x2, 0x4, 0x8, 0x10, 0x20
 #: geometry classes
 GEO_CLASSES: tuple[str, ...] = ("none", "edge", "wall", "cylinder", "uncertain")
 
@@ -466,6 +468,10 @@ class Frame:
     tof: np.ndarray  #: TOF_DTYPE records
     geo: np.ndarray  #: GEO_DTYPE records
     payload: bytes = b""  #: the frame's payload (tof and geo are views into it)
+    #: set by the driver (multisonar.clock): t0 extended to 64 bits, and the host time
+    #: (time.time_ns epoch) of t0 mapped from device ticks (None before the first sync)
+    t0_ticks: int | None = None
+    stamp_ns: int | None = None
 
     def packet(self) -> bytes:
         """The frame's wire bytes (header + payload + CRC), e.g. for recording."""
@@ -486,6 +492,11 @@ class Frame:
     @property
     def pulse_seq(self) -> int:
         return int(self.head["pulse_seq"])
+
+    @property
+    def is_geometry(self) -> bool:
+        """A geometry frame: the records of a pulse whose ToF frame came earlier."""
+        return bool(self.flags & FRAME_GEO)
 
 
 def encode_frame(seq: int, head: dict | np.void, tof: np.ndarray | None = None, geo: np.ndarray | None = None,

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import heapq
 import itertools
-import math
 import struct
 import threading
 import time
@@ -595,55 +594,23 @@ class SimDevice(UsbFunction):
         """One geometry record per frame with >= 3 first echoes: classify_batch per (sensor,
         receiver set), position from the point or wall fit of the winning model (a cylinder
         reports its fitted nearest point: the point fit)."""
-        from . import geometry
+        from .georecord import geo_records, sensor_paths
 
         groups: dict[tuple[int, tuple[int, ...]], list[_FrameContent]] = {}
         for fc in items:
             firsts = getattr(fc, "firsts", {})
             if len(firsts) >= 3:
                 groups.setdefault((fc.vs, tuple(sorted(firsts))), []).append(fc)
-        pos = self.layout.positions
         for (sid, rxs), fcs in groups.items():
-            r = self._by_id[sid]
-            rx = np.array(rxs)
-            paths = self.c * np.array([[fc.firsts[i] for i in rxs] for fc in fcs], float) / TICK_HZ  # type: ignore[attr-defined]
-            if len(r.tx) == 1:
-                source = pos[r.tx[0]]
-            else:
-                source = np.asarray(r.source, float)
-                paths = paths + np.min(np.linalg.norm(pos[r.tx] - source, axis=1))
-            C = pos[rx]
+            tofs = np.array([[fc.firsts[i] for i in rxs] for fc in fcs], float)  # type: ignore[attr-defined]
+            source, paths = sensor_paths(self.layout, self._by_id[sid], tofs, self.c)
             try:
-                with np.errstate(all="ignore"):
-                    cb = geometry.classify_batch(C, paths, source)
-                    pb = geometry.solve_point_batch(C, paths, source, tol=np.inf, max_gdop=np.inf)
-                    wb = geometry.solve_wall_batch(C, paths, source, tol=np.inf, max_gdop=np.inf)
+                recs = geo_records(self.layout.positions[np.array(rxs)], paths, source)
             except (ValueError, FloatingPointError):
                 continue
-            for m, fc in enumerate(fcs):
-                kind = int(cb.kind[m]) + 1  # KINDS index -> GEO_CLASSES index
-                g = np.zeros(1, P.GEO_DTYPE)
-                g["cls"], g["n_rx"] = kind, len(rx)
-                k = 1 if kind == 2 else 0
-                thr = max(float(cb.threshold[k]), 1e-12)
-                q = 1.0 - min(float(cb.chi2[m, k]) / thr, 1.0) if kind in (1, 2) else 0.0
-                if kind == 2 and wb.valid[m]:
-                    xy, rng, brg, res = wb.foot[m], wb.distance[m], wb.normal_angle[m], wb.residual[m]
-                    g["normal"] = P.binary_angle(float(wb.normal_angle[m]))
-                elif pb.valid[m]:
-                    xy, rng, brg, res = pb.position[m], pb.range[m], pb.bearing[m], pb.residual[m]
-                else:
-                    g["cls"] = 4
-                    fc.geo = g
-                    continue
-                if not (np.all(np.isfinite(xy)) and math.isfinite(rng) and math.isfinite(res)):
-                    continue
-                g["x_mm"], g["y_mm"] = (int(np.clip(round(float(v) * 1000), -32768, 32767)) for v in xy)
-                g["range_mm"] = int(np.clip(round(float(rng) * 1000), 0, 65535))
-                g["bearing"] = P.binary_angle(float(brg))
-                g["quality"] = int(round(255 * max(q, 0.0)))
-                g["residual_um"] = int(np.clip(round(float(res) * 1e6), 0, 65535))
-                fc.geo = g
+            for fc, g in zip(fcs, recs):
+                if g is not None:
+                    fc.geo = np.array([g], P.GEO_DTYPE)
 
     def _enqueue(self, fc: _FrameContent) -> None:
         seq = self.frame_seq

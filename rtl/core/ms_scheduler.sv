@@ -36,7 +36,9 @@
 //     trig_delay_o ticks after the tick of this cycle (ms_tx_phaser fire with a one-hot mask),
 //     i.e. at t0 + its phasing delay; trig_burst_o = the sensor's burst cycles.
 //   - evt_valid_o / evt_data_o: event words (docs/fast_firing.md section 6) in the golden
-//     model's order, at most one per clock, a few clocks after their detection tick.
+//     model's order, at most one per clock, a few clocks after their detection tick; the
+//     pulse record of every issued pulse (bit 62) in its decision's SCHED phase, a cancel
+//     record (bits 62, 61) where a re-initialisation cancels a sensor's windows.
 //
 // Storage: per-element window slots (WIN: t0, offsets, seq, epoch, init), per (sensor,
 // receiver) tracking state (RXS), per (sensor, element) blank offsets (BLK), each with one
@@ -112,6 +114,9 @@ module ms_scheduler #(
   end
   if (WSLOTS < 2 || WSLOTS > 16) begin : g_bad_wslots
     $error("ms_scheduler: WSLOTS = %0d, supported 2..16", WSLOTS);
+  end
+  if (NUM_CH > 31) begin : g_bad_num_ch
+    $error("ms_scheduler: NUM_CH = %0d, the pulse record's n_win holds 0..31", NUM_CH);
   end
 
   // cfg_error codes: docs/protocol.md section 5 (multisonar.protocol.CfgError), checked per
@@ -213,7 +218,7 @@ module ms_scheduler #(
   logic [31:0] quiet_m [NUM_VS];
   logic [31:0] nxt_m [NUM_VS];
   logic [NUM_VS-1:0]       quiet_vld_q, tracking_q, in_init_q, epoch_q, wake_q, hold_q, any_trk_q;
-  logic [NUM_VS-1:0][7:0]  seq_q;
+  logic [NUM_VS-1:0][15:0] seq_q;  // pulse id: the events carry its low 8 bits (seq)
   logic [NUM_VS-1:0][5:0]  init_open_q;
   logic [NUM_VS-1:0][7:0]  trk_pulses_q;  // tracking pulses since the last init ping (saturating)
 
@@ -284,6 +289,7 @@ module ms_scheduler #(
   // candidate pulse: per receiver predicted T_E and whether it gets a window
   logic [23:0]       cand_te_q [NUM_CH];
   logic [NUM_CH-1:0] cand_act_q;
+  logic [4:0]        nwin_q;  // S_CAND: windows of the candidate pulse (its record's n_win)
 
   // ------------------------------------------------------------------ engine
   typedef enum logic [4:0] {
@@ -699,7 +705,10 @@ module ms_scheduler #(
   logic [15:0]       s_tv_q, s_tn_q;
   logic [31:0]       s_rmd_q;   // max ToF - D, 32-bit (two clocks after s_q)
   logic [NUM_CH-1:0] s_tx_q, s_xt_q;
-  logic [7:0]        s_burst_q, s_seq_q, s_tpc_q;
+  logic [7:0]        s_burst_q, s_tpc_q;
+  logic [15:0]       s_pid_q;   // the sensor's pulse id (seq_q)
+  logic [7:0]        s_seq_q;
+  assign s_seq_q = s_pid_q[7:0];
   logic              s_ep_q;
   always_ff @(posedge clk_i) begin
     s_trk_q   <= tracking_q[si(s_q)];
@@ -717,7 +726,7 @@ module ms_scheduler #(
     s_order_q <= sh_order_m[si(s_q)];
     s_rmax_q  <= sh_rmax_m[si(s_q)];
     s_burst_q <= sh_burst_m[si(s_q)];
-    s_seq_q   <= seq_q[si(s_q)];
+    s_pid_q   <= seq_q[si(s_q)];
     s_tpc_q   <= trk_pulses_q[si(s_q)];
     s_ep_q    <= epoch_q[si(s_q)];
   end
@@ -1241,6 +1250,7 @@ module ms_scheduler #(
     cand_clr_q   <= 1'b0;
     if (cand_clr_q) begin
       cand_act_q <= '0;
+      nwin_q     <= '0;
       te_min_q   <= '1;
       te_max_q   <= '0;
     end
@@ -1497,6 +1507,10 @@ module ms_scheduler #(
           end
           S_SAFE: begin  // safety cancel: element sf_e_q's windows of sensor sf_s_q (per-element writes)
             sf_e_q <= sf_e_q + 1'b1;
+            if (sf_e_q == '0) begin  // the cancel record (docs/fast_firing.md section 6)
+              evt_valid_q <= 1'b1;
+              evt_data_q  <= {2'b01, 1'b1, 16'd0, 1'b0, 1'b0, 3'b000, 3'(sf_s_q), 5'd0, cur_tick_q};
+            end
             if (sf_e_q == RW'(NUM_CH - 1)) st_q <= sf_ret_q ? S_SCHED : S_HEAD;
           end
           S_HEAD: begin  // next window of element el_q to close: the minimum close tick
@@ -1553,8 +1567,10 @@ module ms_scheduler #(
               rem_q[rel] <= 1'b0;
               if (!s_trk_q) begin
                 cand_act_q[rel] <= 1'b1;
+                nwin_q          <= nwin_q + 5'd1;
               end else if (rxs_c_q.trk) begin
                 cand_act_q[rel] <= 1'b1;
+                nwin_q          <= nwin_q + 5'd1;
                 cand_te_q[rel]  <= te_d_q;
                 if (te_d_q < te_min_q) te_min_q <= te_d_q;
                 if (te_d_q > te_max_q) te_max_q <= te_d_q;
@@ -1618,6 +1634,9 @@ module ms_scheduler #(
             pulse_seq_q  <= s_seq_q;
             pulse_t0_q   <= t_q;
             pulse_init_q <= !s_trk_q;
+            // the pulse record (docs/fast_firing.md section 6) goes ahead of the pulse's events
+            evt_valid_q  <= 1'b1;
+            evt_data_q   <= {2'b01, 1'b0, s_pid_q, 1'b0, !s_trk_q, 3'b000, 3'(s_q), nwin_q, t_q};
             rem_q        <= s_all_q;
             st_q         <= S_IEL;
           end
@@ -1803,7 +1822,7 @@ module ms_scheduler #(
         end
         if (edf_go_q[s] && eo_share_q && o_elig && o_first) hold_q[s] <= 1'b1;  // S_EDF: deferred
         if (isu_go_q[s]) begin  // S_ISSUE: the pulse goes
-          seq_q[s]        <= s_seq_q + 8'd1;
+          seq_q[s]        <= s_pid_q + 16'd1;
           quiet_vld_q[s]  <= 1'b1;
           trk_pulses_q[s] <= !s_trk_q ? 8'd0 : s_tpc_q + 8'(s_tpc_q != 8'hFF);
           if (!s_trk_q) begin  // init ping: new epoch, every receiver untracked

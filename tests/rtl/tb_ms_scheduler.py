@@ -222,8 +222,8 @@ class Bench:
 
 
 def fmt(word: int) -> str:
-    from multisonar.fastfiring import ToFEvent
-    return str(ToFEvent.unpack(word))[len("ToFEvent(tick=-1, "):-1]
+    from multisonar.fastfiring import unpack_word
+    return str(unpack_word(word)).replace("tick=-1, ", "")
 
 
 def compare(what: str, b: Bench, res, rtl_events: list[int], rtl_trig: list[tuple[int, int]], end: int) -> None:
@@ -237,13 +237,13 @@ def compare(what: str, b: Bench, res, rtl_events: list[int], rtl_trig: list[tupl
                     and m_t0[(t.sensor, t.seq)] == t.tick - int(b.cfg[t.sensor].delays[list(b.cfg[t.sensor].tx).index(t.element)]))
     n_trig = sum(len(b.cfg[s].tx) for _, s, _, _ in r_p)
     assert sorted(rtl_trig[:n_trig]) == m_trig, f"{what}: triggers differ"
-    m_words = [e.pack() for e in res.events]
-    assert len(rtl_events) >= len(m_words), f"{what}: RTL wrote {len(rtl_events)} events, model {len(m_words)}"
+    m_words = res.words  # ToF events and pulse records, in FIFO order
+    assert len(rtl_events) >= len(m_words), f"{what}: RTL wrote {len(rtl_events)} words, model {len(m_words)}"
     for i, (x, y) in enumerate(zip(rtl_events, m_words)):
         if x != y:
             ctx = "\n".join(f"  {j}: rtl {fmt(p)}\n      mdl {fmt(q)}" for j, (p, q) in
                             enumerate(zip(rtl_events[max(0, i - 3):i + 2], m_words[max(0, i - 3):i + 2]), max(0, i - 3)))
-            raise AssertionError(f"{what}: event {i} differs (model tick {res.events[i].tick}):\n{ctx}")
+            raise AssertionError(f"{what}: word {i} differs:\n{ctx}")
 
 
 async def scoreboard(dut, what: str, sensors, make_source, dur_ticks: int, *,
@@ -842,7 +842,7 @@ async def reconfigure_while_pulses_in_flight(dut):
     r1 = m1.run(stop_at - e0)
     b_old = Bench(dut, s_old)
     b_old.pulses = b.pulses[:n_pulses_old]
-    n_ev1, n_tr1 = len(r1.events), sum(len(s_old.validate()[p.sensor].tx) for p in r1.pulses)
+    n_ev1, n_tr1 = len(r1.words), sum(len(s_old.validate()[p.sensor].tx) for p in r1.pulses)
     compare("before the apply", b_old, r1, words[:n_ev1], trig[:n_tr1], stop_at + LEAD)
     in_flight = [p for p in r1.pulses if p.t0 + p.period > stop_at]
     assert in_flight and sum(len(ws) for ws in m1.windows) > 0, "the apply must hit pulses with open windows"

@@ -14,7 +14,7 @@ import cocotb
 from cocotb.triggers import ReadOnly, RisingEdge, Timer, ValueChange
 from cocotb.utils import get_sim_time
 
-from multisonar.fastfiring import FastFiringModel, SceneEchoSource, SyntheticEchoSource, ToFEvent, _rows
+from multisonar.fastfiring import FastFiringModel, SceneEchoSource, SyntheticEchoSource, _rows, unpack_word
 from multisonar.generated import sonar_regs as R
 from multisonar.layout import load_layout
 from multisonar.regmap import schedule_writes
@@ -37,6 +37,13 @@ def tick_now() -> int:
     return (int(get_sim_time("ps")) - _CLOCK_ORIGIN_PS[0]) // CLK_PERIOD_PS
 
 
+def in_rtl_ticks(words: list[int], offset: int) -> list[int]:
+    """The model's words with the records' ticks (bits 31:0 of a record, bit 62) on the RTL's
+    tick counter, which runs ``offset`` ticks behind this bench's tick_now()."""
+    rec = 1 << 62
+    return [(w & ~0xFFFFFFFF) | ((w - offset) & 0xFFFFFFFF) if w & rec else w for w in words]
+
+
 class CoreBench:
     def __init__(self, dut, sensor: VirtualSensor, source_factory, miss_gate: int | None = None):
         self.dut, self.sensor = dut, sensor
@@ -51,6 +58,7 @@ class CoreBench:
         self.echo = EchoDriver(dut.echo_i, LAYOUT.n, lambda tick: _CLOCK_ORIGIN_PS[0] + tick * CLK_PERIOD_PS)
         self.tasks = []
         self.words: list[int] = []
+        self.tick_offset = 0  # tick_now() - the RTL's tick counter (tick_q)
 
     async def start(self) -> None:
         dut = self.dut
@@ -76,6 +84,7 @@ class CoreBench:
             await RisingEdge(sched.pulse_o)
             await ReadOnly()
             t0 = tick_now() + ((int(sched.pulse_t0_o.value) - int(dut.tick_q.value)) & 0xFFFFFFFF)
+            self.tick_offset = (tick_now() - int(dut.tick_q.value)) & 0xFFFFFFFF
             self.fires.append(t0)
             for rx, st, w in _rows(self.source.fire(t0, np.array(tx), self.cfg.delays.copy())):
                 self.echo.drive(int(rx), max(int(st), t0), int(w))
@@ -151,12 +160,12 @@ async def core_scoreboard(dut, what: str, sensor: VirtualSensor, factory, dur_ti
             assert e not in b.pin_rises, f"{what}: element {e} drove but is not in the group"
     words = b.words + await b.read_events()
     # events of pulses the model also completed (the RTL ran a little past the last fire)
-    m_words = [ev.pack() for ev in res.events]
+    m_words = in_rtl_ticks(res.words, b.tick_offset)  # ToF events and records, in FIFO order
     n = min(len(words), len(m_words))
     assert n >= len(b.fires), f"{what}: only {n} events"
     for i in range(n):
-        assert words[i] == m_words[i], (f"{what}: event {i}: rtl {ToFEvent.unpack(words[i])} "
-                                       f"model {ToFEvent.unpack(m_words[i])}")
+        assert words[i] == m_words[i], (f"{what}: word {i}: rtl {unpack_word(words[i])} "
+                                       f"model {unpack_word(m_words[i])}")
     pulses = await b.bus.read(R.PULSES_ADDR)
     events = await b.bus.read(R.EVENTS_ADDR)
     overflows = await b.bus.read(R.OVERFLOWS_ADDR)
@@ -247,7 +256,7 @@ async def event_fifo_full_counted_and_flagged(dut):
     model = FastFiringModel(b.sched, SyntheticEchoSource(ranges), start_tick=e0, decision_lead=LEAD, miss_gate=b.gate)
     res = model.run(b.fires[-1] - e0 + 1)
     assert [p.t0 for p in res.pulses][:len(b.fires)] == b.fires, "scheduling must not depend on the FIFO"
-    m = [ev.pack() for ev in res.events]
+    m = in_rtl_ticks(res.words, b.tick_offset)
     flag = 1 << 44
     got = first + rest
     flagged = [i for i, w in enumerate(got) if w & flag]

@@ -69,7 +69,8 @@ def twin_rate(distance_m: float, order: int, temperature_c: float = 20.0, second
         inits = []
         end = tw.sim.tick + int(seconds * TICK_HZ)
         for f in tw.device.stream(idle_timeout_s=300):
-            inits.append((f.t0, bool(f.flags & 1)))
+            if not f.is_geometry:
+                inits.append((f.t0, bool(f.flags & 1)))
             if tw.sim.tick >= end:
                 break
         s0 = tw.sim.first_schedule_start

@@ -81,6 +81,9 @@ def compare_with_model(run: StreamRun, echo_source: Any, **model_kw: Any) -> dic
             raise TwinMismatch(f"pulse at {t0} of sensor {vs}: elements {el.tolist()} delays {delays.tolist()}, "
                                f"table {list(map(int, r.tx))} {list(map(int, r.delays))}")
     closed = {(p.sensor, p.seq & 0xFF) for p in res.pulses if max((w[2] for w in p.windows), default=p.t0) < cut}
+    t0_of: dict[tuple[int, int], int] = {}
+    for p in res.pulses:
+        t0_of.setdefault((p.sensor, p.seq & 0xFF), p.t0 & 0xFFFFFFFF)
     groups: dict[tuple[int, int], list[tuple[int, ...]]] = defaultdict(list)
     for e in res.events:
         groups[(e.sensor, e.seq)].append((e.tof, e.rx, e.seq, e.sensor, int(e.in_window) | int(e.first_echo) << 1
@@ -93,6 +96,8 @@ def compare_with_model(run: StreamRun, echo_source: Any, **model_kw: Any) -> dic
             continue
         seen.add(key)
         rec = [tuple(int(r[n]) for n in ("tof", "rx", "seq", "vs", "flags")) for r in f.tof]
+        if f.t0 != t0_of[key]:
+            raise TwinMismatch(f"pulse {key}: frame t0 {f.t0}, model {t0_of[key]} (the hardware's pulse record)")
         if rec != groups.get(key, []):
             raise TwinMismatch(f"pulse {key}: frame records {rec}, model {groups.get(key)}")
         n_frames += 1
