@@ -200,25 +200,27 @@ $(SYNTH_DIR)/report.txt: $(SYNTH_DIR)/pnr.json $(SYNTH_BIT) scripts/synth_report
 # ---- CI gate (.ci/run calls it before make test): the ECP5 flow from scratch, then the fresh
 # report against the committed synth/ecp5_report.txt (scripts/synth_report.py compare, the
 # table of differences always printed). Fails when timing at 48 MHz is not met (make synth),
-# when Fmax is below SYNTH_MIN_MHZ (the 1.3x goal, 62.4 MHz) or when LUT use grew more than
-# 10 %. Place and route runs seeds SYNTH_CHECK_SEEDS at once (four nextpnr processes on the
-# CI machine's two cores, ~10 minutes on the 45F) and keeps the fastest: one netlist's Fmax
-# spreads over 55-67 MHz from seed to seed (docs/synthesis.md), and the bitstream a user loads
-# is the best run. The flow is deterministic (pinned yowasp tools, fixed seeds), so CI
-# reproduces the committed figures.
+# when any of the seeds SYNTH_CHECK_SEEDS routes below SYNTH_MIN_WORST_MHZ (1.1x, 52.8 MHz: the
+# margin at every placement, issue #27) or when LUT use grew more than 10 %. Place and route
+# runs the seeds at once (four nextpnr processes on the CI machine's two cores, ~10 minutes on
+# the 45F) and keeps the fastest for the bitstream; one netlist's Fmax spreads over ~10 MHz
+# from seed to seed (docs/synthesis.md), so the best seed alone says little: the gate is the
+# worst one. The flow is deterministic (pinned yowasp tools, fixed seeds), so CI reproduces
+# the committed figures.
 # Then the LFE5U-25F profile (the issue's board: 4 sensors, 8 window slots, 8 KiB I-cache, ABC9
 # area mapping; HeAP placer, seeds 1 and 2 at once, ~15 minutes) against synth/ecp5_25k_report.txt: it must build and meet
 # 48 MHz (SYNTH_25K_MIN_MHZ); it routes at 91 % of the device, so no 1.3x margin there.
-SYNTH_MIN_MHZ     ?= 62.4
+SYNTH_MIN_MHZ     ?= 48
+SYNTH_MIN_WORST_MHZ ?= 52.8
 SYNTH_25K_MIN_MHZ ?= 48
 SYNTH_CHECK_SEEDS ?= 1 2 3 4
 .PHONY: synth-check
 synth-check:
 	@rm -rf $(BUILD)/synth/ecp5 $(BUILD)/synth/ecp5-25k
 	@$(MAKE) --no-print-directory synth TARGET=ecp5 SYNTH_SEEDS="$(SYNTH_CHECK_SEEDS)" SYNTH_DETAIL=0
-	@echo "synth-check: build/synth/ecp5/report.txt against synth/ecp5_report.txt (Fmax >= $(SYNTH_MIN_MHZ) MHz, LUTs +10 % at most)"
+	@echo "synth-check: build/synth/ecp5/report.txt against synth/ecp5_report.txt (every seed >= $(SYNTH_MIN_WORST_MHZ) MHz, LUTs +10 % at most)"
 	@$(VPY) scripts/synth_report.py compare $(BUILD)/synth/ecp5/report.txt synth/ecp5_report.txt \
-	    --min-mhz $(SYNTH_MIN_MHZ) --max-lut-growth 0.10
+	    --min-mhz $(SYNTH_MIN_MHZ) --min-worst-mhz $(SYNTH_MIN_WORST_MHZ) --max-lut-growth 0.10
 	@$(MAKE) --no-print-directory synth TARGET=ecp5 ECP5_DEVICE=25k SYNTH_DETAIL=0
 	@echo "synth-check: build/synth/ecp5-25k/report.txt against synth/ecp5_25k_report.txt (Fmax >= $(SYNTH_25K_MIN_MHZ) MHz, LUTs +10 % at most)"
 	@$(VPY) scripts/synth_report.py compare $(BUILD)/synth/ecp5-25k/report.txt synth/ecp5_25k_report.txt \

@@ -169,8 +169,26 @@ def parse_report(path: Path) -> Summary:
     return Summary(values)
 
 
-def compare(new_path: Path, ref_path: Path, min_mhz: float, max_lut_growth: float) -> list[str]:
-    """Differences between two reports; returns the list of failures (empty = pass)."""
+def seed_fmax(path: Path) -> dict[int, float | None]:
+    """Per placer seed, the Fmax a report's header line lists (`seed N (best of seed 1: X MHz,
+    seed 2: failed, ...)`, written by `best`); None for a seed that did not route. A report of a
+    single seed lists none: {}."""
+    import re
+
+    out: dict[int, float | None] = {}
+    for line in path.read_text().splitlines():
+        if line.startswith("#") and "best of" in line:
+            for seed, what in re.findall(r"seed (\d+): ([^,)]+)", line.split("best of", 1)[1]):
+                m = re.match(r"([0-9.]+) MHz", what.strip())
+                out[int(seed)] = float(m.group(1)) if m else None
+    return out
+
+
+def compare(new_path: Path, ref_path: Path, min_mhz: float, max_lut_growth: float,
+            min_worst_mhz: float | None = None) -> list[str]:
+    """Differences between two reports; returns the list of failures (empty = pass). Fmax is the
+    best seed's; with ``min_worst_mhz`` every seed the report lists must also have routed at
+    that Fmax or more (the timing margin at every placement, not at the luckiest one)."""
     new, ref = parse_report(new_path), parse_report(ref_path)
     print(f"{'key':<16} {'committed':>12} {'this build':>12}  change")
     for key in ("luts", "ffs", "bram", "dsp", "lutram", "fmax_mhz"):
@@ -186,6 +204,17 @@ def compare(new_path: Path, ref_path: Path, min_mhz: float, max_lut_growth: floa
     fmax = new.number("fmax_mhz")
     if fmax < min_mhz:
         failures.append(f"Fmax {fmax:.2f} MHz is below {min_mhz:.2f} MHz ({min_mhz / 48.0:.2f}x the 48 MHz clock)")
+    if min_worst_mhz is not None:
+        seeds = seed_fmax(new_path)
+        if seeds:
+            got = sorted(v for v in seeds.values() if v is not None)
+            print(f"seeds: {', '.join(f'{k}: ' + ('failed' if v is None else f'{v:.2f}') for k, v in sorted(seeds.items()))}"
+                  f" MHz; worst {got[0] if got else float('nan'):.2f}, median "
+                  f"{(got[(len(got) - 1) // 2] + got[len(got) // 2]) / 2 if got else float('nan'):.2f}")
+        for seed, v in sorted(seeds.items()):
+            if v is None or v < min_worst_mhz:
+                failures.append(f"seed {seed}: {'did not route' if v is None else f'{v:.2f} MHz'}, every seed must reach "
+                                f"{min_worst_mhz:.2f} MHz ({min_worst_mhz / 48.0:.2f}x the 48 MHz clock)")
     luts_new, luts_ref = new.number("luts"), ref.number("luts")
     if luts_new > luts_ref * (1.0 + max_lut_growth):
         failures.append(f"LUT use grew {100.0 * (luts_new / luts_ref - 1):.1f} % ({luts_ref:.0f} -> {luts_new:.0f}), "
@@ -439,7 +468,8 @@ def main() -> int:
     cp = sub.add_parser("compare", help="check a new report against the committed one")
     cp.add_argument("new", type=Path)
     cp.add_argument("ref", type=Path)
-    cp.add_argument("--min-mhz", type=float, default=62.4)
+    cp.add_argument("--min-mhz", type=float, default=62.4, help="the best seed's Fmax at least")
+    cp.add_argument("--min-worst-mhz", type=float, default=None, help="every listed seed's Fmax at least")
     cp.add_argument("--max-lut-growth", type=float, default=0.10)
     bp = sub.add_parser("blocks", help="table of the yosys cells of blocks synthesised alone")
     bp.add_argument("stats", type=Path, nargs="+", help="yosys `stat -json` outputs, named BLOCK.json")
@@ -491,7 +521,7 @@ def main() -> int:
                 for cell, n in sorted(late_sources(pnr, args.mhz).items(), key=lambda kv: -kv[1])[:args.rows]:
                     print(f"| {cell} | {n} |")
             return 0
-        failures = compare(args.new, args.ref, args.min_mhz, args.max_lut_growth)
+        failures = compare(args.new, args.ref, args.min_mhz, args.max_lut_growth, args.min_worst_mhz)
     except SynthReportError as e:
         print(f"synth_report: {e}", file=sys.stderr)
         return 2
