@@ -3,12 +3,12 @@
 #                                 compiled-in schedule build/fw/sonar_app_cfg.h
 # The schedule header comes from multisonar.tools.fw_schedule (SONAR_APP_CFG: a configuration
 # named there; default 'scene', the whole-system test's table, tests/rtl/test_system_scene.py).
-# Memory: the board's 60 KiB (ms_ulx3s RAM_WORDS 15360: 30 DP16KD, the 25F has 56): 48 KiB
-# image at 0, 12 KiB data/bss/stack at 0xC000 (the stack from 0xF000 down). In the simulated
+# Memory: the board's 60 KiB (ms_ulx3s RAM_WORDS 15360: 30 DP16KD, the 25F has 56): 40 KiB
+# image at 0, 20 KiB data/bss/stack at 0xA000 (the stack from 0xF000 down). In the simulated
 # SoC's 64 KiB the top 4 KiB stay unused. The link fails when either part outgrows its room
-# (46.4 KB image, 9.6 KB data + bss + 2 KB stack as of issue #8).
-SONAR_APP_LDFLAGS := -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0xC000 \
-                     -Wl,--defsym=__ram=0xC000 -Wl,--defsym=__ram_size=0x3000 -Wl,--gc-sections
+# (34 KB image, ~14 KB data + bss with 32 pulse groups, ~2.5 KB stack as of issue #26).
+SONAR_APP_LDFLAGS := -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0xA000 \
+                     -Wl,--defsym=__ram=0xA000 -Wl,--defsym=__ram_size=0x5000 -Wl,--gc-sections
 
 SONAR_APP_CFG ?= scene
 

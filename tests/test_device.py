@@ -53,7 +53,8 @@ def test_every_error_status(replay_sim):
                               P.encode_command(P.Opcode.DEVICE_INFO, b"\x01"),
                               P.encode_command(P.Opcode.WRITE_REGS, b"\0" * 12),
                               P.encode_command(P.Opcode.READ_REGS, b"\0" * 3),
-                              P.encode_command(P.Opcode.SET_PARAM, b"\0" * 4)],
+                              P.encode_command(P.Opcode.SET_PARAM, b"\0" * 4),
+                              P.encode_command(P.Opcode.FW_STATS, b"\0" * 4)],
         P.Status.BAD_MAGIC: [b"XY" + good[2:], P.encode_reply(1, 0, seq=5)],
         P.Status.BAD_VERSION: [good[:2] + b"\x07" + good[3:]],
         P.Status.BAD_CRC: [good[:-4] + bytes(4), good[:8] + b"\x06" + good[9:]],
@@ -252,7 +253,10 @@ def test_golden_model_frames_match_the_model():
         dev.start()
         frames = list(dev.stream(max_frames=60))
         dev.stop()
+        c = dev.counters()
     geo = P.frames_to_geometry(frames)
+    # FW_STATS: the simulated device counts its geometry records, skips nothing
+    assert c["fw_geo_fixes"] >= len(geo) > 0 and c["fw_geo_skipped"] == c["fw_frames_cut"] == 0, c
     walls = geo[(geo["cls"] == 2) & np.isin(geo["vs"], [2, 3])]
     assert len(walls) >= 5
     # corridor: side walls 1.2 m from the robot axis at the start

@@ -187,3 +187,18 @@ def test_device_refuses_an_over_wide_phasing_delay():
         dev.write_regs([(a, good)])
         dev.start()
         dev.stop()
+
+
+def test_max_load_ring8_on_the_noisy_corridor(tmp_path):
+    """The maximum load: eight virtual sensors over all 24 receivers at order 4 on the noisy
+    corridor. Nothing lost, every ToF frame within 1 ms (p99) of its pulse's completion, every
+    firmware fix equal to the host geometry on the same ToF records."""
+    from multisonar.demo import run_demo
+
+    assert run_demo("corridor", tmp_path, seconds=0.15, sensors="ring8", compare=False) == 0
+    js = json.loads((tmp_path / "summary.json").read_text())
+    assert len(js["sensors"]) == 8 and all(s["pulses"] >= 3 for s in js["sensors"].values()), js["sensors"]
+    assert js["fifo_overflows"] == 0 and js["frames_lost"] == 0 and js["frames_dropped"] == 0, js
+    assert js["frames_flagged_lost"] == 0 and js["watchdog"] == 0, js
+    assert js["latency_us"]["p99"] <= 1000, js["latency_us"]
+    assert js["fw_vs_host"]["mismatches"] == 0, js["fw_vs_host"]

@@ -64,7 +64,7 @@
 #endif
 
 /* ---------------------------------------------------------------- tunables */
-#define MAX_GROUPS 12        /* pulses being collected at once */
+#define MAX_GROUPS 32        /* pulses being collected at once: 8 sensors, up to 4 in flight each */
 #define MAX_EV 16            /* ToF records per frame kept (protocol allows 64) */
 #define REAIM_DEG 10         /* 2/3 of the 15 deg element pitch: after a one-element move the */
                              /* reflector is <= ~5 deg off, well inside: no ping-pong */
@@ -78,6 +78,7 @@
 #endif
 #define WDT_CYCLES 48000000u /* 1 s: a general-path fix may take millions of cycles */
 #define APPLY_WAIT 2000000u  /* cycles to wait for an apply to be taken */
+#define APPLY_TIGHT 24000u   /* the stop comes within LEAD/2 + the ~300-clock check of the apply */
 #define SCAN_TICKS 4800u     /* timeout scan period, 0.1 ms */
 
 /* frame header flags (docs/protocol.md section 2) */
@@ -226,6 +227,12 @@ static void sensor_setup(int i, int shift)
     s->init_misses = 0;
 }
 
+/* FW_STATS (docs/protocol.md section 3; protocol.FW_STATS_FIELDS), cleared by CLEAR_COUNTERS:
+ * geometry jobs by outcome (in geo_report's order), ToF frames cut / lost, ToF latency */
+enum { FW_GEO_FIXES, FW_GEO_SKIPPED, FW_GEO_DECLINED, FW_GEO_STALE, FW_CUT, FW_LOST, FW_LAT_MAX,
+       FW_LAT_OVER_1MS, FW_NSTATS };
+static uint32_t fw_stats[FW_NSTATS];
+
 /* ---------------------------------------------------------------- frames */
 /* one frame (docs/protocol.md sections 2, 6): header 12 bytes, head 20 bytes, records; the host
  * link appends the CRC-32 at the commit and drops the frame whole (FRAMES_DROPPED) if the frame
@@ -267,7 +274,7 @@ typedef struct {
     int32_t first_tof[APP_MAX_GROUP];
 } geo_job_t;
 static geo_job_t geo_q[GEO_JOBS];
-static uint32_t geo_head, geo_tail, geo_skipped, geo_declined;
+static uint32_t geo_head, geo_tail;
 
 static void sensor_outcome(int si, int init, int fixed);
 
@@ -275,10 +282,7 @@ static void sensor_outcome(int si, int init, int fixed);
  * fast path does not solve it, 3 stale: the sensor was re-aimed since) << 24 | cycles */
 static void geo_report(uint32_t what, uint32_t cycles)
 {
-    if (what == 1u)
-        geo_skipped++;
-    else if (what >= 2u)
-        geo_declined++;
+    fw_stats[FW_GEO_FIXES + what]++;
     ms_report(0x60000000u | (what << 24) | (cycles > 0xFFFFFFu ? 0xFFFFFFu : cycles));
 }
 
@@ -397,8 +401,13 @@ static void close_group(group_t *g)
     send_tof_frame(g);
     /* mailbox 0x2: from the pulse's completion (the detection tick of its last window's
      * terminal event, or of the cancel that cut it; the pop when its record was lost) */
-    uint32_t from = (g->flags & FRAME_LOST) ? g->t_pop : g->t_done;
-    ms_report(0x20000000u | ((now32() - from) & 0x0FFFFFFFu));
+    uint32_t from = (g->flags & FRAME_LOST) ? g->t_pop : g->t_done, lat = now32() - from;
+    ms_report(0x20000000u | (lat & 0x0FFFFFFFu));
+    if (lat > fw_stats[FW_LAT_MAX])
+        fw_stats[FW_LAT_MAX] = lat;
+    fw_stats[FW_LAT_OVER_1MS] += lat > MS_TICK_HZ / 1000u;
+    fw_stats[FW_CUT] += (g->flags & FRAME_CUT) != 0;
+    fw_stats[FW_LOST] += (g->flags & FRAME_LOST) != 0;
     ms_report(0x40000000u | (busy_acc & 0x0FFFFFFFu));
     busy_acc = 0;
 }
@@ -443,14 +452,15 @@ static int group_complete(const group_t *g)
 }
 
 /* A cancel record: a re-initialisation cancelled every pending window of the sensor at tick
- * lo, so its open pulses are complete now (FRAME_CUT). An init ping's record does the same
- * (a sensor re-initialises only after its windows were cancelled or closed): a fallback for a
- * cancel record lost in an overflow. */
-static void cut_sensor(uint32_t vs, uint32_t keep_seq, int keep, uint32_t tick)
+ * lo, so its open pulses are complete now (FRAME_CUT). An init ping's record does the same: a
+ * sensor re-initialises only after its windows were cancelled or closed, and a table applied
+ * while running (re-aim) restarts every sensor with an init ping (pulse id 0) after dropping
+ * all windows, so this is where the old table's pulses end. */
+static void cut_sensor(uint32_t vs, uint32_t tick)
 {
     for (int i = 0; i < MAX_GROUPS; i++) {
         group_t *o = &groups[i];
-        if (o->used && o->vs == vs && !(keep && o->seq == keep_seq)) {
+        if (o->used && o->vs == vs) {
             o->flags |= FRAME_CUT;
             o->t_done = tick;
             close_group(o);
@@ -466,11 +476,11 @@ static group_t *take_record(uint32_t lo, uint32_t hi, uint32_t now)
     if (vs_index[vs] < 0)
         return 0;
     if (hi & EVH_CANCEL) {
-        cut_sensor(vs, 0u, 0, lo);
+        cut_sensor(vs, lo);
         return 0;
     }
     if (init)
-        cut_sensor(vs, seq, 1, now);
+        cut_sensor(vs, now);
     group_t *g = group_for(vs, seq, lo, (int)init);
     g->has_rec = 1;
     g->t0 = lo;
@@ -583,6 +593,20 @@ static void poll_events(void)
     }
 }
 
+/* at most n words, without serving commands (the re-aim's hand-over between two tables) */
+static void poll_words(uint32_t n)
+{
+    for (; n > 0u; n--) {
+        uint32_t lo = MS_SONAR(EVT_LO);
+        uint32_t hi = MS_SONAR(EVT_HI);
+        if (!(hi & SONAR_REGS__EVT_HI__VALID_bm))
+            return;
+        group_t *g = take_event(lo, hi, now32());
+        if (g)
+            finish(g);
+    }
+}
+
 /* ---------------------------------------------------------------- re-aiming */
 /* every open group goes out, cut: the sonar core dropped their windows at tick `when` (an
  * apply taken, or STOP) */
@@ -626,7 +650,7 @@ static int reaim(int si, int dir, int why)
     write_group(si, &nw);
     MS_SONAR(CTRL) = SONAR_REGS__CTRL__ENABLE_bm | SONAR_REGS__CTRL__APPLY_bm;
     /* validation (~300 clocks), then the scheduler stops (running low) and restarts */
-    uint32_t t = now32(), st, err = 0, t_stop = 0;
+    uint32_t t = now32(), st, err = 0, t_stop = 0, n_old = 0;
     int stopped = 0;
     while (now32() - t < APPLY_WAIT) {
         st = MS_SONAR(STATUS);
@@ -636,9 +660,14 @@ static int reaim(int si, int dir, int why)
         if (!(st & SONAR_REGS__STATUS__RUNNING_bm)) {
             stopped = 1;
             t_stop = now32();
+            n_old = ST_FIELD(st, FIFO_LEVEL); /* the old table's words: the rebuild writes none yet */
             break;
         }
-        poll_events();
+        /* running is low for a few hundred clocks only: STATUS alone at first, so that event
+         * work between two reads cannot hide the stop (a missed stop would restore the old
+         * entry while the sonar core runs the new one) */
+        if (now32() - t > APPLY_TIGHT)
+            poll_events();
     }
     if (!stopped) { /* refused (or never taken): the running table stays; put the entry back */
         for (int k = 0; k < c->n_tx; k++)
@@ -652,8 +681,9 @@ static int reaim(int si, int dir, int why)
     t = now32();
     while (!(MS_SONAR(STATUS) & SONAR_REGS__STATUS__RUNNING_bm) && now32() - t < APPLY_WAIT)
         ms_wdt_kick();
-    /* every event of the old table is in the FIFO now (new pulses give none for > D) */
-    poll_events();
+    /* the old table's last words (counted at the stop: the restart takes hundreds of clocks
+     * before its first record), then its open pulses go out, cut; the new table's words follow */
+    poll_words(n_old);
     flush_all(t_stop);
     ms_report(0x50000000u | (frame_seq & 0x0FFFFFFFu)); /* first frame of the new table */
     int8_t side = s->last_side;
@@ -769,7 +799,7 @@ enum { ST_OK = 0, ST_BAD_CRC = 1, ST_BAD_MAGIC = 2, ST_BAD_VERSION = 3, ST_BAD_L
        ST_INTERNAL = 11 };
 enum { CFG_ERROR_DELAY = 8 }; /* multisonar.protocol.CfgError.DELAY */
 enum { OP_DEVICE_INFO = 1, OP_WRITE_REGS, OP_READ_REGS, OP_START, OP_STOP, OP_READ_COUNTERS,
-       OP_CLEAR_COUNTERS, OP_SET_PARAM, OP_GET_PARAM, OP_ECHO };
+       OP_CLEAR_COUNTERS, OP_SET_PARAM, OP_GET_PARAM, OP_ECHO, OP_FW_STATS };
 enum { PAR_TEMPERATURE_CC = 1, PAR_GEOMETRY, PAR_TOF_RECORDS, PAR_MAX_ECHOES, PAR_GLITCH_MIN };
 
 /* one reply packet: header + len payload bytes from rbuf[3..] (the link appends the CRC) */
@@ -963,10 +993,10 @@ static void handle_command(void)
         st = ST_BAD_LENGTH;
     else if (!(cs & SOC_REGS__CMD_STATUS__CRC_OK_bm))
         st = ST_BAD_CRC;
-    else if (op < OP_DEVICE_INFO || op > OP_ECHO)
+    else if (op < OP_DEVICE_INFO || op > OP_FW_STATS)
         st = ST_UNKNOWN_OPCODE;
     const uint32_t *pl = &cbuf[3];
-    int no_payload = op != OP_WRITE_REGS && op != OP_READ_REGS && op < OP_SET_PARAM;
+    int no_payload = (op != OP_WRITE_REGS && op != OP_READ_REGS && op < OP_SET_PARAM) || op == OP_FW_STATS;
     if (st == ST_OK && no_payload && len != 0u)
         st = ST_BAD_LENGTH;
     if (st == ST_OK) {
@@ -1049,6 +1079,13 @@ static void handle_command(void)
             MS_SOC(HOST_CTRL) = SOC_REGS__HOST_CTRL__CLEAR_bm;
             wdt_base = MS_SOC(WDT_RESETS);
             bad_commands = 0;
+            for (int i = 0; i < FW_NSTATS; i++)
+                fw_stats[i] = 0;
+            break;
+        case OP_FW_STATS:
+            for (int i = 0; i < FW_NSTATS; i++)
+                rbuf[3 + i] = fw_stats[i];
+            rlen = 4u * FW_NSTATS;
             break;
         case OP_SET_PARAM:
             if (len != 8u) {

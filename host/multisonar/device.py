@@ -452,10 +452,16 @@ class Device:
             self._expect = end
 
     def counters(self) -> dict[str, int]:
-        """Device counters (READ_COUNTERS) and host counters (``host_*``)."""
+        """Device counters (READ_COUNTERS), the firmware's own (``fw_*``, FW_STATS: geometry
+        skipped, frames cut or lost, ToF latency) and the host's (``host_*``)."""
         sent = time.time_ns()
         d = P.decode_counters(self.command(P.Opcode.READ_COUNTERS))
         self.clock.sync(d["timestamp"], sent, time.time_ns())
+        try:
+            d.update({f"fw_{k}": v for k, v in P.decode_fw_stats(self.command(P.Opcode.FW_STATS)).items()})
+        except P.DeviceError as e:  # a device from before FW_STATS
+            if e.status != P.Status.UNKNOWN_OPCODE:
+                raise
         d.update({f"host_{k}": v for k, v in self.stats.as_dict().items()})
         d["host_queued"] = len(self.queue)
         return d

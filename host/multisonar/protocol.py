@@ -65,6 +65,7 @@ class Opcode(IntEnum):
     SET_PARAM = 0x08
     GET_PARAM = 0x09
     ECHO = 0x0A
+    FW_STATS = 0x0B
 
 
 class Status(IntEnum):
@@ -148,6 +149,14 @@ INFO = struct.Struct("<HHIBBBBIII")  # proto, max_payload, tick_hz, ch, vs, orde
 COUNTERS_FIELDS: tuple[str, ...] = ("frames_sent", "frames_dropped", "events", "pulses", "fifo_overflows",
                                     "watchdog", "bad_commands", "tx_collisions", "timestamp")
 COUNTERS = struct.Struct("<" + "I" * len(COUNTERS_FIELDS))
+#: FW_STATS reply: the firmware's own counts since CLEAR_COUNTERS (docs/protocol.md section 3):
+#: geometry jobs by outcome (a fix; skipped: queue full; declined: only the unbounded general
+#: path would solve it; stale: the sensor was re-aimed since), ToF frames flagged cut / lost,
+#: and the ToF path's latency (pulse completion -> frame committed): its maximum in ticks and
+#: how many frames took over 1 ms
+FW_STATS_FIELDS: tuple[str, ...] = ("geo_fixes", "geo_skipped", "geo_declined", "geo_stale", "frames_cut",
+                                    "frames_lost", "latency_max_ticks", "latency_over_1ms")
+FW_STATS = struct.Struct("<" + "I" * len(FW_STATS_FIELDS))
 
 
 # --------------------------------------------------------------------------------------
@@ -447,6 +456,16 @@ class DeviceInfo:
 
 def encode_counters(values: dict[str, int]) -> bytes:
     return COUNTERS.pack(*(int(values.get(k, 0)) & 0xFFFFFFFF for k in COUNTERS_FIELDS))
+
+
+def encode_fw_stats(values: dict[str, int]) -> bytes:
+    return FW_STATS.pack(*(int(values.get(k, 0)) & 0xFFFFFFFF for k in FW_STATS_FIELDS))
+
+
+def decode_fw_stats(payload: bytes) -> dict[str, int]:
+    if len(payload) != FW_STATS.size:
+        raise BadLength("length", f"FW_STATS reply payload must be {FW_STATS.size} bytes, got {len(payload)}")
+    return dict(zip(FW_STATS_FIELDS, FW_STATS.unpack(payload)))
 
 
 def decode_counters(payload: bytes) -> dict[str, int]:

@@ -264,6 +264,7 @@ class SimDevice(UsbFunction):
         self._pending_in = b""  # rest of a packet read with a short buffer
         self.frame_seq = 0
         self.counters = dict.fromkeys(P.COUNTERS_FIELDS, 0)
+        self.geo_fixes = 0  # geometry records made (FW_STATS)
         self.running = False
         self.closed = False
         self.now = 0  # device tick (unwrapped)
@@ -452,7 +453,15 @@ class SimDevice(UsbFunction):
             return P.Status.BAD_LENGTH, b""
         for k in self.counters:
             self.counters[k] = 0
+        self.geo_fixes = 0
         return P.Status.OK, b""
+
+    def _cmd_fw_stats(self, pl: bytes) -> tuple[P.Status, bytes]:
+        """The model computes every fix (host geometry, no budget) and closes every pulse when
+        its windows have: nothing skipped, declined, cut or late."""
+        if pl:
+            return P.Status.BAD_LENGTH, b""
+        return P.Status.OK, P.encode_fw_stats({"geo_fixes": self.geo_fixes})
 
     _PARAM_RANGE = {P.Param.TEMPERATURE_CC: (-4000, 8000), P.Param.GEOMETRY: (0, 1), P.Param.TOF_RECORDS: (0, 1),
                     P.Param.MAX_ECHOES: (1, 15), P.Param.GLITCH_MIN: (1, 255)}
@@ -611,6 +620,7 @@ class SimDevice(UsbFunction):
             for fc, g in zip(fcs, recs):
                 if g is not None:
                     fc.geo = np.array([g], P.GEO_DTYPE)
+                    self.geo_fixes += 1
 
     def _enqueue(self, fc: _FrameContent) -> None:
         seq = self.frame_seq

@@ -199,7 +199,7 @@ class Model:
             return self._bad(rop, P.Status.BAD_LENGTH, seq, b"")
         if struct.unpack_from("<I", data, 12 + length)[0] != P.crc32(data[:12 + length]):
             return self._bad(rop, P.Status.BAD_CRC, seq, b"")
-        if not 1 <= op <= 10:
+        if op not in P.Opcode._value2member_map_:
             return self._bad(rop, P.Status.UNKNOWN_OPCODE, seq, b"")
         st, pl = getattr(self, "_" + P.Opcode(op).name.lower())(data[12:12 + length])
         if st != P.Status.OK:
@@ -300,6 +300,9 @@ class Model:
     def _echo(self, pl):
         return P.Status.OK, pl
 
+    def _fw_stats(self, pl):
+        return (P.Status.BAD_LENGTH, b"") if pl else (P.Status.OK, ("fw_stats",))
+
 
 class Fuzzer:
     """Valid packets of every opcode and their mutations."""
@@ -332,7 +335,7 @@ class Fuzzer:
 
     def valid(self) -> bytes:
         r = self.rng
-        op = r.choices(list(P.Opcode), weights=[3, 10, 10, 3, 4, 4, 2, 8, 5, 10])[0]
+        op = r.choices(list(P.Opcode), weights=[3, 10, 10, 3, 4, 4, 2, 8, 5, 10, 3])[0]
         pl = b""
         if op == P.Opcode.WRITE_REGS:
             pairs = []
@@ -545,6 +548,8 @@ async def cmd_fuzz(dut):
                         model.stale_reads += 1  # the firmware's cached read (see FW_READS_CACHED)
                         continue
                     assert v == w, f"{where}: register 0x{a:X} reads 0x{v:08X}, model 0x{w:08X} ({model.log.get(a)})"
+            elif isinstance(pl, tuple) and pl[0] == "fw_stats":  # the firmware's counts: their size
+                assert len(P.decode_fw_stats(rep.payload)) == len(P.FW_STATS_FIELDS), where
             elif isinstance(pl, tuple):  # READ_COUNTERS: bad_commands since CLEAR_COUNTERS
                 c_ = P.decode_counters(rep.payload)
                 assert c_["bad_commands"] == pl[1], f"{where}: bad_commands {c_['bad_commands']}, model {pl[1]}"
