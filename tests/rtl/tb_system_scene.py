@@ -43,10 +43,10 @@ import numpy as np
 from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge, Timer
 from cocotb.utils import get_sim_time
 
-from multisonar import geometry as G
 from multisonar import protocol as P
 from multisonar.constants import TICK_HZ, speed_of_sound
 from multisonar.fastfiring import DEFAULT_MISS_GATE, FastFiringModel, _rows
+from multisonar.georecord import geo_records
 from multisonar.layout import load_layout
 from multisonar.tools.fw_schedule import TEMPERATURE_C, schedule_for
 from echo_driver import EchoDriver
@@ -210,33 +210,12 @@ def _frames(transfers: list[bytes]) -> tuple[list[P.Frame], list[P.Packet], P.St
 
 
 def _golden_geo(tofs: dict[int, int], src_el: int) -> np.void:
-    """What multisonar.simdevice puts in the geometry record for these first echoes."""
+    """The host's geometry record for these first echoes (multisonar.georecord, as the
+    simulated device and the demo's firmware check compute it)."""
     rxs = sorted(tofs)
-    C = LAYOUT.positions[rxs]
     paths = C_SOUND * np.array([[tofs[r] for r in rxs]], float) / TICK_HZ
-    source = LAYOUT.positions[src_el]
-    cb = G.classify_batch(C, paths, source)
-    pb = G.solve_point_batch(C, paths, source, tol=np.inf, max_gdop=np.inf)
-    wb = G.solve_wall_batch(C, paths, source, tol=np.inf, max_gdop=np.inf)
-    g = np.zeros((), P.GEO_DTYPE)
-    kind = int(cb.kind[0]) + 1
-    g["cls"], g["n_rx"] = kind, len(rxs)
-    k = 1 if kind == 2 else 0
-    thr = max(float(cb.threshold[k]), 1e-12)
-    q = 1.0 - min(float(cb.chi2[0, k]) / thr, 1.0) if kind in (1, 2) else 0.0
-    if kind == 2 and wb.valid[0]:
-        xy, rng, brg, res = wb.foot[0], wb.distance[0], wb.normal_angle[0], wb.residual[0]
-        g["normal"] = P.binary_angle(float(brg))
-    elif pb.valid[0]:
-        xy, rng, brg, res = pb.position[0], pb.range[0], pb.bearing[0], pb.residual[0]
-    else:
-        g["cls"] = 4
-        return g
-    g["x_mm"], g["y_mm"] = (int(np.clip(round(float(v) * 1000), -32768, 32767)) for v in xy)
-    g["range_mm"] = int(np.clip(round(float(rng) * 1000), 0, 65535))
-    g["bearing"] = P.binary_angle(float(brg))
-    g["quality"] = int(round(255 * max(q, 0.0)))
-    g["residual_um"] = int(np.clip(round(float(res) * 1e6), 0, 65535))
+    g = geo_records(LAYOUT.positions[rxs], paths, LAYOUT.positions[src_el])[0]
+    assert g is not None, f"no finite host fix for {tofs}"
     return g
 
 
