@@ -19,22 +19,26 @@
  *      event of its pulse) opens the pulse's group, a ToF event goes into its group, keyed
  *      (sensor, seq = pulse id mod 256);
  *   2. a group is complete when each of its windows has its terminal event (first echo or
- *      window_empty), as many as the record's window count. An init ping's record closes the
- *      open pulses of its sensor (their windows were cancelled: frame flag CUT); a group also
- *      goes when the sensor's maximum time of flight plus 1 ms has passed since t0 (CUT). An
- *      overflow flag on a word marks every open group LOST (no fix); an event whose record was
- *      lost gets an estimated t0 (pop time - tof - edge latency) and LOST;
- *   3. a closed group becomes one frame (docs/protocol.md section 6: 20-byte head, 8-byte ToF
- *      records, a 16-byte geometry record when >= 3 receivers have a first echo: ms_fix on the
- *      prepared array, speed of sound from the TEMPERATURE_CC parameter) in a section 2 packet
- *      ("MF", version 1, type 0x40, seq +1 per frame) written word by word to HOST_TX and
- *      committed (HOST_CTRL.frame_end); the link appends the CRC-32, or drops the frame whole
- *      and counts it (FRAMES_DROPPED) when the frame queue has no room;
+ *      window_empty), as many as the record's window count. A cancel record (bits 62, 61) or an
+ *      init ping's record closes the open pulses of its sensor (their windows were cancelled:
+ *      frame flag CUT); a group also goes when the sensor's maximum time of flight plus 1 ms
+ *      has passed since t0 (CUT). An overflow flag on a word marks every open group LOST (no
+ *      fix); an event whose record was lost gets an estimated t0 (pop time - tof - edge
+ *      latency) and LOST;
+ *   3. a closed group becomes its ToF frame at once (docs/protocol.md section 6: 20-byte head,
+ *      8-byte ToF records) in a section 2 packet ("MF", version 1, type 0x40, seq +1 per
+ *      frame) written word by word to HOST_TX and committed (HOST_CTRL.frame_end); the link
+ *      appends the CRC-32, or drops the frame whole and counts it (FRAMES_DROPPED) when the
+ *      frame queue has no room. With >= 3 first echoes it also becomes a geometry job, run
+ *      when no word and no command waits: ms_fix_fast on the prepared array (the bounded fast
+ *      path; what it declines is counted, never solved on the general path), speed of sound
+ *      from the TEMPERATURE_CC parameter, the 16-byte record in a geometry frame (FRAME_GEO);
  *   4. re-aiming: an edge / wall fix whose bearing (wall: normal) is more than REAIM_DEG off
  *      the sensor's axis moves its tx and rx groups one element toward the reflector;
  *      LOST_PINGS initialisation pings in a row without a fix move it toward the side of its
  *      last fix. The VS entry and delay memory are rewritten, CTRL.apply, STATUS.cfg_error
- *      checked (a refused table is restored), the restart waited for, open groups flushed.
+ *      checked (a refused table is restored); at the apply's stop the words then in the FIFO
+ *      (the old table's) are taken and the open pulses go out, cut;
  *   5. kick the watchdog.
  *
  * Frame head: t0 is the pulse record's trigger tick; timestamp is the cycle timer (= the sonar
@@ -42,7 +46,7 @@
  *
  * Mailbox (SIM_OUT), tag in bits 31:28:
  *   0x1  boot: sensors << 16 | watchdog resets (low 16)
- *   0x2  per frame: cycles from the group's completion to its commit (fix + frame)
+ *   0x2  per ToF frame: cycles from the pulse's completion to its commit
  *   0x4  per frame: busy cycles of the main loop since the previous frame (every iteration
  *        that popped an event or closed a group, measured with the cycle timer)
  *   0x3  re-aim: count << 20 | vs << 16 | new shift << 8 | cfg_error << 4 | why (1 angle, 2 lost)
@@ -76,10 +80,11 @@
 #ifndef APP_BUILD_ID
 #define APP_BUILD_ID 0u
 #endif
-#define WDT_CYCLES 48000000u /* 1 s: a general-path fix may take millions of cycles */
+#define WDT_CYCLES 48000000u /* 1 s: far above any bounded path (a re-aim's apply wait is 2 M) */
 #define APPLY_WAIT 2000000u  /* cycles to wait for an apply to be taken */
 #define APPLY_TIGHT 24000u   /* the stop comes within LEAD/2 + the ~300-clock check of the apply */
 #define SCAN_TICKS 4800u     /* timeout scan period, 0.1 ms */
+#define ALL_WORDS 0xFFFFFFFFu /* poll_events: until the FIFO is empty */
 
 /* frame header flags (docs/protocol.md section 2) */
 #define FRAME_INIT 1u      /* init ping */
@@ -451,16 +456,16 @@ static int group_complete(const group_t *g)
     return (g->done & s->rx_mask) == s->rx_mask; /* no record (lost): every receiver reported */
 }
 
-/* A cancel record: a re-initialisation cancelled every pending window of the sensor at tick
- * lo, so its open pulses are complete now (FRAME_CUT). An init ping's record does the same: a
- * sensor re-initialises only after its windows were cancelled or closed, and a table applied
- * while running (re-aim) restarts every sensor with an init ping (pulse id 0) after dropping
- * all windows, so this is where the old table's pulses end. */
-static void cut_sensor(uint32_t vs, uint32_t tick)
+/* The open pulses of sensor vs (vs < 0: of every sensor) go out, cut (FRAME_CUT): their
+ * windows ended at `tick` without reporting. A cancel record says so for one sensor (a
+ * re-initialisation cancelled its pending windows); so does an init ping's record (a sensor
+ * re-initialises only after its windows were cancelled or closed, and a table applied while
+ * running restarts every sensor with an init ping); an apply taken or STOP drops them all. */
+static void cut_open(int vs, uint32_t tick)
 {
     for (int i = 0; i < MAX_GROUPS; i++) {
         group_t *o = &groups[i];
-        if (o->used && o->vs == vs) {
+        if (o->used && (vs < 0 || o->vs == (uint32_t)vs)) {
             o->flags |= FRAME_CUT;
             o->t_done = tick;
             close_group(o);
@@ -476,11 +481,11 @@ static group_t *take_record(uint32_t lo, uint32_t hi, uint32_t now)
     if (vs_index[vs] < 0)
         return 0;
     if (hi & EVH_CANCEL) {
-        cut_sensor(vs, lo);
+        cut_open((int)vs, lo);
         return 0;
     }
     if (init)
-        cut_sensor(vs, now);
+        cut_open((int)vs, now);
     group_t *g = group_for(vs, seq, lo, (int)init);
     g->has_rec = 1;
     g->t0 = lo;
@@ -571,19 +576,19 @@ static void sensor_outcome(int si, int init, int fixed)
     }
 }
 
-/* Pops events until the FIFO is empty, or until a finished group leaves a host command
- * waiting: under load (fixes on the general geometry path take tens of thousands of cycles)
- * the FIFO never empties, and draining it first would starve the command port (found by the
- * full-system twin: no reply for seconds while frames kept streaming). The main loop serves
- * the command and comes back; the events wait in the hardware FIFO (overflows are counted). */
-static void poll_events(void)
+/* Pops at most max_words words, until the FIFO is empty, or (outside a re-aim) until a
+ * finished group leaves a host command waiting: under load the FIFO may never empty, and
+ * draining it first would starve the command port (found by the full-system twin: no reply for
+ * seconds while frames kept streaming). The main loop serves the command and comes back; the
+ * words wait in the hardware FIFO (overflows are counted). */
+static void poll_events(uint32_t max_words)
 {
-    for (;;) {
+    for (; max_words > 0u; max_words--) {
         uint32_t lo = MS_SONAR(EVT_LO);
         uint32_t hi = MS_SONAR(EVT_HI);
         if (!(hi & SONAR_REGS__EVT_HI__VALID_bm))
             return;
-        uint32_t now = now32(); /* after the pop: the event was written before it */
+        uint32_t now = now32(); /* after the pop: the word was written before it */
         group_t *g = take_event(lo, hi, now);
         if (g) {
             finish(g);
@@ -593,33 +598,7 @@ static void poll_events(void)
     }
 }
 
-/* at most n words, without serving commands (the re-aim's hand-over between two tables) */
-static void poll_words(uint32_t n)
-{
-    for (; n > 0u; n--) {
-        uint32_t lo = MS_SONAR(EVT_LO);
-        uint32_t hi = MS_SONAR(EVT_HI);
-        if (!(hi & SONAR_REGS__EVT_HI__VALID_bm))
-            return;
-        group_t *g = take_event(lo, hi, now32());
-        if (g)
-            finish(g);
-    }
-}
-
 /* ---------------------------------------------------------------- re-aiming */
-/* every open group goes out, cut: the sonar core dropped their windows at tick `when` (an
- * apply taken, or STOP) */
-static void flush_all(uint32_t when)
-{
-    for (int i = 0; i < MAX_GROUPS; i++)
-        if (groups[i].used) {
-            groups[i].flags |= FRAME_CUT;
-            groups[i].t_done = when;
-            close_group(&groups[i]);
-        }
-}
-
 static void write_group(int si, const sensor_t *s)
 {
     app_sensor_t *c = &cfgs[si];
@@ -667,7 +646,7 @@ static int reaim(int si, int dir, int why)
          * work between two reads cannot hide the stop (a missed stop would restore the old
          * entry while the sonar core runs the new one) */
         if (now32() - t > APPLY_TIGHT)
-            poll_events();
+            poll_events(ALL_WORDS);
     }
     if (!stopped) { /* refused (or never taken): the running table stays; put the entry back */
         for (int k = 0; k < c->n_tx; k++)
@@ -683,8 +662,8 @@ static int reaim(int si, int dir, int why)
         ms_wdt_kick();
     /* the old table's last words (counted at the stop: the restart takes hundreds of clocks
      * before its first record), then its open pulses go out, cut; the new table's words follow */
-    poll_words(n_old);
-    flush_all(t_stop);
+    poll_events(n_old);
+    cut_open(-1, t_stop); /* the sonar core dropped their windows at the stop */
     ms_report(0x50000000u | (frame_seq & 0x0FFFFFFFu)); /* first frame of the new table */
     int8_t side = s->last_side;
     sensor_setup(si, shift);
@@ -870,8 +849,8 @@ static void stop_run(void)
     MS_SONAR(CTRL) = 0u;
     running = 0;
     uint32_t t_stop = now32();
-    poll_events();
-    flush_all(t_stop);
+    poll_events(ALL_WORDS);
+    cut_open(-1, t_stop);
     while (geo_step()) /* their geometry too: no frame follows STOP's reply */
         ;
 }
@@ -1160,7 +1139,7 @@ int main(void)
         if (!running)
             continue;
         if (MS_SONAR(STATUS) & SONAR_REGS__STATUS__FIFO_LEVEL_bm) {
-            poll_events();
+            poll_events(ALL_WORDS);
             work = 1;
         } else if (!(MS_SOC(CMD_STATUS) & SOC_REGS__CMD_STATUS__AVAIL_bm) && geo_step()) {
             work = 1; /* one geometry job when no event and no command waits */

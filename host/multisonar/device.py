@@ -427,12 +427,16 @@ class Device:
     def sync_clock(self) -> int:
         """One READ_COUNTERS round trip to map device ticks to host time (``clock``); returns
         the round trip in ns. Frames read meanwhile are queued and stamped."""
+        return self._read_counters()[1].rtt_ns
+
+    def _read_counters(self) -> tuple[dict[str, int], Any]:
+        """READ_COUNTERS; its ``timestamp`` (the device tick, read during the round trip) also
+        syncs ``clock``. Returns the counters and the clock.Sync."""
         sent = time.time_ns()
         d = P.decode_counters(self.command(P.Opcode.READ_COUNTERS))
-        received = time.time_ns()
-        self.clock.sync(d["timestamp"], sent, received)
+        sync = self.clock.sync(d["timestamp"], sent, time.time_ns())
         self._next_sync = time.monotonic() + SYNC_EVERY_S
-        return received - sent
+        return d, sync
 
     def stop(self, drain_s: float = 0.5) -> None:
         """Stop firing; frames already produced stay readable (queued). Frames the device numbered
@@ -454,9 +458,7 @@ class Device:
     def counters(self) -> dict[str, int]:
         """Device counters (READ_COUNTERS), the firmware's own (``fw_*``, FW_STATS: geometry
         skipped, frames cut or lost, ToF latency) and the host's (``host_*``)."""
-        sent = time.time_ns()
-        d = P.decode_counters(self.command(P.Opcode.READ_COUNTERS))
-        self.clock.sync(d["timestamp"], sent, time.time_ns())
+        d = self._read_counters()[0]
         try:
             d.update({f"fw_{k}": v for k, v in P.decode_fw_stats(self.command(P.Opcode.FW_STATS)).items()})
         except P.DeviceError as e:  # a device from before FW_STATS

@@ -57,6 +57,21 @@ EVENT_FIELDS: dict[str, tuple[int, int]] = {
 }
 
 
+def _pack_fields(fields: dict[str, tuple[int, int]], values: Any, what: str, word: int = 0) -> int:
+    """``word`` with each named field of ``values`` at its (lsb, width); ValueError if one does
+    not fit its width."""
+    for name, (lsb, width) in fields.items():
+        v = int(getattr(values, name))
+        if not 0 <= v < (1 << width):
+            raise ValueError(f"{what} field {name}={v} does not fit {width} bits")
+        word |= v << lsb
+    return word
+
+
+def _unpack_fields(fields: dict[str, tuple[int, int]], word: int) -> dict[str, int]:
+    return {n: (word >> lsb) & ((1 << w) - 1) for n, (lsb, w) in fields.items()}
+
+
 class ToFEvent(NamedTuple):
     tick: int  #: tick the event is written to the FIFO (not part of the word)
     sensor: int
@@ -69,17 +84,11 @@ class ToFEvent(NamedTuple):
     init_ping: bool
 
     def pack(self) -> int:
-        w = 0
-        for name, (lsb, width) in EVENT_FIELDS.items():
-            v = int(getattr(self, name))
-            if not 0 <= v < (1 << width):
-                raise ValueError(f"event field {name}={v} does not fit {width} bits")
-            w |= v << lsb
-        return w
+        return _pack_fields(EVENT_FIELDS, self, "event")
 
     @classmethod
     def unpack(cls, word: int, tick: int = -1) -> "ToFEvent":
-        f = {n: (word >> lsb) & ((1 << w) - 1) for n, (lsb, w) in EVENT_FIELDS.items()}
+        f = _unpack_fields(EVENT_FIELDS, word)
         return cls(tick=tick, sensor=f["sensor"], seq=f["seq"], rx=f["rx"], tof=f["tof"],
                    in_window=bool(f["in_window"]), first_echo=bool(f["first_echo"]),
                    window_empty=bool(f["window_empty"]), init_ping=bool(f["init_ping"]))
@@ -90,9 +99,12 @@ class ToFEvent(NamedTuple):
 PULSE_ID_W = 16
 PULSE_FIELDS: dict[str, tuple[int, int]] = {
     "t0": (0, 32), "n_win": (32, 5), "sensor": (37, VS_ID_W), "init_ping": (43, 1),
-    "pulse_id": (45, PULSE_ID_W), "record": (62, 1),
+    "pulse_id": (45, PULSE_ID_W),
 }
 PULSE_RECORD_BIT = 1 << 62
+#: cancel record: bits 62 and 61 set, the logical tick and the sensor
+CANCEL_RECORD_BIT = 1 << 61
+CANCEL_FIELDS: dict[str, tuple[int, int]] = {"tick": (0, 32), "sensor": (37, VS_ID_W)}
 
 
 class PulseStart(NamedTuple):
@@ -106,26 +118,15 @@ class PulseStart(NamedTuple):
     n_win: int  #: windows the pulse opened: one terminal event (first echo or window_empty) each
 
     def pack(self) -> int:
-        w = PULSE_RECORD_BIT
-        for name, (lsb, width) in PULSE_FIELDS.items():
-            if name == "record":
-                continue
-            v = int(getattr(self, name))
-            if not 0 <= v < (1 << width):
-                raise ValueError(f"pulse record field {name}={v} does not fit {width} bits")
-            w |= v << lsb
-        return w
+        return _pack_fields(PULSE_FIELDS, self, "pulse record", PULSE_RECORD_BIT)
 
     @classmethod
     def unpack(cls, word: int, tick: int = -1) -> "PulseStart":
-        f = {n: (word >> lsb) & ((1 << w) - 1) for n, (lsb, w) in PULSE_FIELDS.items()}
-        if not f["record"] or word & (1 << 61):
+        if word & (PULSE_RECORD_BIT | CANCEL_RECORD_BIT) != PULSE_RECORD_BIT:
             raise ValueError(f"event word {word:#018x} is not a pulse record (bit 62 set, 61 clear)")
+        f = _unpack_fields(PULSE_FIELDS, word)
         return cls(tick=tick, sensor=f["sensor"], pulse_id=f["pulse_id"], t0=f["t0"],
                    init_ping=bool(f["init_ping"]), n_win=f["n_win"])
-
-
-CANCEL_RECORD_BIT = 1 << 61
 
 
 class SensorCancel(NamedTuple):
@@ -137,13 +138,14 @@ class SensorCancel(NamedTuple):
     sensor: int
 
     def pack(self) -> int:
-        return PULSE_RECORD_BIT | CANCEL_RECORD_BIT | (int(self.sensor) << 37) | (int(self.tick) & 0xFFFFFFFF)
+        return _pack_fields(CANCEL_FIELDS, self._replace(tick=self.tick & 0xFFFFFFFF), "cancel record",
+                            PULSE_RECORD_BIT | CANCEL_RECORD_BIT)
 
     @classmethod
     def unpack(cls, word: int, tick: int = -1) -> "SensorCancel":
         if word & (PULSE_RECORD_BIT | CANCEL_RECORD_BIT) != PULSE_RECORD_BIT | CANCEL_RECORD_BIT:
             raise ValueError(f"event word {word:#018x} is not a cancel record (bits 62 and 61)")
-        return cls(tick=word & 0xFFFFFFFF, sensor=(word >> 37) & ((1 << VS_ID_W) - 1))
+        return cls(**_unpack_fields(CANCEL_FIELDS, word))
 
 
 def unpack_word(word: int, tick: int = -1) -> "ToFEvent | PulseStart | SensorCancel":
@@ -478,6 +480,10 @@ class FastFiringModel:
         self.events.append(ev)
         self.words.append(ev.pack())
 
+    def _record(self, rec: PulseStart | SensorCancel) -> None:
+        self.records.append(rec)
+        self.words.append(rec.pack())
+
     def _add_pulse(self, rx: int, start: int, width: int) -> None:
         if width <= 0 or not 0 <= rx < len(self.lines):
             return
@@ -568,9 +574,7 @@ class FastFiringModel:
     def _cancel(self, sensor: int) -> None:
         """Free every window slot of ``sensor`` (pending or open): no event is written for them;
         the cancel record says so."""
-        rec = SensorCancel(self.now, sensor)
-        self.records.append(rec)
-        self.words.append(rec.pack())
+        self._record(SensorCancel(self.now, sensor))
         for ws in self.windows:
             for w in ws:
                 if w.sensor == sensor:
@@ -637,9 +641,7 @@ class FastFiringModel:
             self._push(w.close, _CLOSE, e, w)
         for e, d in zip(c.tx, c.delays):
             self.triggers.append(TriggerEvent(t + int(d), int(e), c.id, k & SEQ_MASK))
-        rec = PulseStart(self.now, c.id, k & ((1 << PULSE_ID_W) - 1), t & 0xFFFFFFFF, init, len(wins))
-        self.records.append(rec)
-        self.words.append(rec.pack())
+        self._record(PulseStart(self.now, c.id, k & ((1 << PULSE_ID_W) - 1), t & 0xFFFFFFFF, init, len(wins)))
         self.pulses.append(PulseRecord(c.id, k, s.due, t, init, n_eff, period,
                                        tuple((e, t + a, t + b) for e, a, b in wins),
                                        tuple((e, t + a, t + b) for e, a, b in blanks)))
