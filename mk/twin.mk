@@ -1,10 +1,10 @@
 # mk/twin.mk: the full-system twin (issue #7); included by the top Makefile.
-#   make twin        build/twin/fast/libmstwin.so: ms_system_usb (VexRiscv + firmware/app/sonar_app.c,
+#   make twin        build/twin/fast/libmstwin.so: ms_system_usb (VexRiscv + firmware/app/sonar,
 #                    sonar core, host link, USB device on its transaction-level port) verilated
 #                    with the C++ harness sim/twin/ms_twin.cpp, loaded by multisonar.twin (ctypes)
 #   make twin-fst    the same with FST tracing compiled in (build/twin/fst/), for --fst
 # The RTL is read from rtl/sources.f (the list lint, the cocotb tests and synthesis read).
-# Firmware: firmware/app/sonar_app.c built as build/fw/sonar_app.hex is, but with the demo's
+# Firmware: firmware/app/sonar built as build/fw/sonar_app.hex is, but with the demo's
 # table compiled in (multisonar.tools.fw_schedule --config demo: the power-on default and the
 # phased groups whose virtual source the firmware knows) -> build/twin/fw/sonar_app.hex.
 TWIN_DIR     := $(BUILD)/twin
@@ -15,11 +15,11 @@ $(TWIN_DIR)/fw/sonar_app_cfg.h: host/multisonar/tools/fw_schedule.py host/multis
 	@mkdir -p $(@D)
 	$(VPY) -m multisonar.tools.fw_schedule --header $@ --config demo
 
-$(TWIN_DIR)/fw/sonar_app.elf: firmware/app/sonar_app.c $(GEOM_SRC) firmware/geometry/ms_geom.h \
-                              $(TWIN_DIR)/fw/sonar_app_cfg.h $(wildcard firmware/app/*.h) $(STAMPS)/gen Makefile mk/twin.mk
+$(TWIN_DIR)/fw/sonar_app.elf: $(SONAR_APP_SRC) $(GEOM_SRC) firmware/geometry/ms_geom.h \
+                              $(TWIN_DIR)/fw/sonar_app_cfg.h $(SONAR_APP_HDR) $(STAMPS)/gen Makefile mk/twin.mk
 	@mkdir -p $(@D)
-	$(FW_CC) $(FW_CFLAGS) -ffunction-sections -fdata-sections -Ifirmware/geometry -I$(TWIN_DIR)/fw \
-	    -DMS_GEOM_ARITH=MS_ARITH_Q firmware/app/sonar_app.c $(GEOM_SRC) -o $@ $(SONAR_APP_LDFLAGS)
+	$(FW_CC) $(FW_CFLAGS) -ffunction-sections -fdata-sections -Ifirmware/geometry -Ifirmware/app -I$(TWIN_DIR)/fw \
+	    -DMS_GEOM_ARITH=MS_ARITH_Q $(SONAR_APP_SRC) $(GEOM_SRC) -o $@ $(SONAR_APP_LDFLAGS)
 
 $(TWIN_DIR)/fw/sonar_app.hex: $(TWIN_DIR)/fw/sonar_app.elf
 	riscv64-unknown-elf-objcopy -O binary $< $(@:.hex=.bin)

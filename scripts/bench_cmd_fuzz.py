@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Command fuzzing on the RTL at scale (issue #9): N random and mutated command packets through
 the device's command path (tests/rtl/cmd_fuzz_tb.sv: ms_system = SoC running
-firmware/app/sonar_app.c + sonar core + host link; the cocotb test ``cmd_fuzz`` of
+firmware/app/sonar + sonar core + host link; the cocotb test ``cmd_fuzz`` of
 tests/rtl/tb_cmd_fuzz.py, which checks every reply against the protocol model, the table and
 the streaming afterwards, and fails on any mismatch or hang). Prints the figures: packets, per
 status code, per packet kind, replies, hangs, latency, wall time, packets/s. With --watchdog

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Throughput and latency of the RTL path: the unchanged host driver (multisonar.Device, pyusb
 in-process backend) against the simulated device RTL (tests/rtl/usb_link_tb.sv: SoC running
-firmware/app/sonar_app.c, sonar core, host link, USB device core at transaction level), through
+firmware/app/sonar, sonar core, host link, USB device core at transaction level), through
 tests/rtl/usb_rtl_function.py. Runs the cocotb test ``bench_link`` of tests/rtl/tb_usb_link.py.
 
 Figures: ECHO round trip (OUT transfer -> firmware -> reply through the link's queue and

@@ -1,6 +1,6 @@
 """False fixes under spurious pulses and crosstalk (issue #9; multisonar.safety.run_false_fix_trial).
 
-A **fix** is what the firmware reports as one (sonar_app.c send_frame): a pulse with first
+A **fix** is what the firmware reports as one (firmware/app/sonar, a geometry frame): a pulse with first
 in-window echoes on >= 3 receivers that the geometry classes edge (valid point fit) or wall
 (valid wall fit). It is **false** when its point (edge position, wall foot), in the world with
 the robot pose at the reflection instant, is more than FALSE_FIX_TOL_M (50 mm) from every true

@@ -4,7 +4,7 @@ Backends (``--backend``):
 
 * ``twin`` (default): the full-system twin (multisonar.twin): scene -> acoustic model ->
   the device's RTL in Verilator (sonar core with phased triggers and gated receivers, VexRiscv
-  running firmware/app/sonar_app.c: geometry, classification, re-aiming; host link; USB
+  running firmware/app/sonar: geometry, classification, re-aiming; host link; USB
   device core) -> USB/IP on 127.0.0.1 -> the unchanged pyusb driver -> numpy. The map comes
   from the firmware's geometry records; the golden model runs the same scene alongside for the
   per-sensor rates.
@@ -263,14 +263,18 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
             notes.append(f"Firmware (mailbox): {len(commit)} ToF frames; pulse completion (its last window's "
                          f"terminal event) to ToF frame committed median {np.median(commit) / 48:.0f} us, 99 % "
                          f"{np.percentile(commit, 99) / 48:.0f} us, max {commit.max() / 48:.0f} us; main-loop busy "
-                         f"cycles per frame median {np.median(busy):.0f}, max {busy.max():.0f}; {reaims} re-aims "
-                         f"taken.")
+                         f"cycles per frame median {np.median(busy):.0f}, 99 % {np.percentile(busy, 99):.0f}, max "
+                         f"{busy.max():.0f}; {reaims} re-aims taken.")
+        cyc = {k[len("fw_cycles_"):]: v for k, v in counters.items() if k.startswith("fw_cycles_")}
+        if cyc:
+            notes.append("Firmware worst cycles per path (FW_STATS): " + ", ".join(
+                f"{k.replace('_max', '')} {v:,}" for k, v in cyc.items()) + ".")
         fixed = geo_what == 0
         notes.append(f"Geometry jobs: {int(fixed.sum())} fixes (cycles per fix with its frame: median "
                      f"{np.median(geo_cycles[fixed]) if fixed.any() else 0:.0f}, max "
                      f"{geo_cycles[fixed].max() if fixed.any() else 0:.0f}), {int(np.sum(geo_what == 1))} skipped "
                      f"(queue full), {int(np.sum(geo_what == 2))} declined by the bounded fast path, "
-                     f"{int(np.sum(geo_what == 3))} stale after a re-aim.")
+                     f"{int(np.sum(geo_what == 3))} stale (re-aimed twice since).")
         notes.append("Harness: " + ", ".join(f"{k} {v}" for k, v in harness.items()) + f", pulses fired "
                      f"{len(tw.sim.fires)}, comparator pulses driven {tw.sim.echo_rows}.")
         if harness["echoes_late"] or harness["trig_orphans"] or harness["fires_incomplete"]:
@@ -314,6 +318,10 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
         "latency_us": {"p50": _pct(lat_us, 50), "p99": _pct(lat_us, 99),
                        "max": round(float(lat_us.max()), 1) if len(lat_us) else None},
         "busy_cycles_max": int(busy.max()) if len(busy) else 0,
+        "busy_cycles_p99": _pct(busy, 99),
+        # the firmware's worst cycles per bounded path (FW_STATS; firmware/README.md)
+        "firmware_cycles": {k[len("fw_cycles_"):]: int(v) for k, v in counters.items()
+                            if k.startswith("fw_cycles_")},
         "reaims": reaims, "fw_vs_host": fw_host["summary"],
     }
     return DemoRun("twin", duration, time.time() - t_wall, list(resolved),

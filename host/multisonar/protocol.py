@@ -151,11 +151,18 @@ COUNTERS_FIELDS: tuple[str, ...] = ("frames_sent", "frames_dropped", "events", "
 COUNTERS = struct.Struct("<" + "I" * len(COUNTERS_FIELDS))
 #: FW_STATS reply: the firmware's own counts since CLEAR_COUNTERS (docs/protocol.md section 3):
 #: geometry jobs by outcome (a fix; skipped: queue full; declined: only the unbounded general
-#: path would solve it; stale: the sensor was re-aimed since), ToF frames flagged cut / lost,
-#: and the ToF path's latency (pulse completion -> frame committed): its maximum in ticks and
-#: how many frames took over 1 ms
+#: path would solve it; stale: the sensor was re-aimed twice since), ToF frames flagged cut / lost,
+#: the ToF path's latency (pulse completion -> frame committed): its maximum in ticks and how
+#: many frames took over 1 ms; then the worst cycles of each bounded firmware path
+#: (firmware/README.md, "Cycles per path"): one event word (frames it closed excluded), one ToF
+#: frame, one geometry job, one re-aim slice, one command while running, the longest slice away
+#: from the event FIFO, and the main loop's busy cycles per pulse (between two ToF frames)
 FW_STATS_FIELDS: tuple[str, ...] = ("geo_fixes", "geo_skipped", "geo_declined", "geo_stale", "frames_cut",
-                                    "frames_lost", "latency_max_ticks", "latency_over_1ms")
+                                    "frames_lost", "latency_max_ticks", "latency_over_1ms",
+                                    "cycles_word_max", "cycles_frame_max", "cycles_geo_max",
+                                    "cycles_reaim_max", "cycles_command_max", "cycles_slice_max",
+                                    "busy_per_pulse_max")
+FW_STATS_MIN_FIELDS: int = 8  #: a device from before the cycle fields answers the first 8
 FW_STATS = struct.Struct("<" + "I" * len(FW_STATS_FIELDS))
 
 
@@ -463,9 +470,14 @@ def encode_fw_stats(values: dict[str, int]) -> bytes:
 
 
 def decode_fw_stats(payload: bytes) -> dict[str, int]:
-    if len(payload) != FW_STATS.size:
-        raise BadLength("length", f"FW_STATS reply payload must be {FW_STATS.size} bytes, got {len(payload)}")
-    return dict(zip(FW_STATS_FIELDS, FW_STATS.unpack(payload)))
+    """The fields the reply carries: at least FW_STATS_MIN_FIELDS; words beyond the known fields
+    (a newer device) are ignored."""
+    n = len(payload) // 4
+    if len(payload) % 4 or n < FW_STATS_MIN_FIELDS:
+        raise BadLength("length", f"FW_STATS reply payload must be a multiple of 4 bytes, at least "
+                                  f"{4 * FW_STATS_MIN_FIELDS}, got {len(payload)}")
+    n = min(n, len(FW_STATS_FIELDS))
+    return dict(zip(FW_STATS_FIELDS, struct.unpack_from("<" + "I" * n, payload)))
 
 
 def decode_counters(payload: bytes) -> dict[str, int]:

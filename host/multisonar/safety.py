@@ -319,7 +319,7 @@ class FalseFixResult:
 
 
 def _fix_points(rx: list[int], paths: np.ndarray, source: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per pulse (rows of ``paths``), as the firmware's geometry record (``sonar_app.c``
+    """Per pulse (rows of ``paths``), as the firmware's geometry record (``firmware/app/sonar/geo.c``
     send_frame): the reported point (robot frame: the wall foot for a valid wall, else the
     point fit's position), whether the record has one, and whether it is a **fix** (class edge
     with a valid point fit, or wall with a valid wall fit). The firmware has no cylinder class

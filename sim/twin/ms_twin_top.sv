@@ -1,5 +1,5 @@
 // ms_twin_top: Verilator top of the full-system twin (host/multisonar/twin/, `make demo`).
-// The whole device, ms_system_usb (VexRiscv SoC running firmware/app/sonar_app.c, sonar core,
+// The whole device, ms_system_usb (VexRiscv SoC running firmware/app/sonar, sonar core,
 // host link, USB device core), with the USB device on its transaction-level port (tl_en_i = 1:
 // packets enter the real packet layer, transaction engine and endpoints as bytes; only the
 // line coding on D+/D- is skipped). The C++ harness (ms_twin.cpp) drives the clock, the echo

@@ -1,5 +1,5 @@
 // cmd_fuzz_tb: cocotb top for command fuzzing and the firmware-hang test (tests/rtl/test_cmd_fuzz.py):
-// ms_system (SoC running firmware/app/sonar_app.c, sonar core, host link) with its command input
+// ms_system (SoC running firmware/app/sonar, sonar core, host link) with its command input
 // fed from an SV-side transfer buffer and its reply / frame byte stream captured SV-side, so no
 // per-byte work happens in Python.
 //

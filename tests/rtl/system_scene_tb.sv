@@ -1,5 +1,5 @@
 // Testbench top for the whole-system scene test (tests/rtl/test_system_scene.py): ms_system
-// running the sonar firmware (firmware/app/sonar_app.c). A thin wrapper only so that this test
+// running the sonar firmware (firmware/app/sonar). A thin wrapper only so that this test
 // has its own Verilator build (build/sim/system_scene_tb-verilator) and never rebuilds the
 // smoke test's ms_system (the firmware image is a build-time parameter). Short LED stretch.
 module system_scene_tb #(

@@ -1,5 +1,5 @@
 """cocotb tests of the command path under fuzzing and of the firmware watchdog, on the RTL
-(cmd_fuzz_tb: ms_system = SoC running firmware/app/sonar_app.c + sonar core + host link).
+(cmd_fuzz_tb: ms_system = SoC running firmware/app/sonar + sonar core + host link).
 
 The USB endpoint is replaced by an SV-side feeder and capture (cmd_fuzz_tb.sv): Python hands a
 whole transfer over in one write, the SV feeds it byte by byte as the bulk OUT endpoint would
@@ -62,7 +62,7 @@ BATCH = 48                   # transfers fed back to back before the replies are
 LAYOUT = load_layout()
 EVT = {R.REGISTERS["EVT_LO"].addr(), R.REGISTERS["EVT_HI"].addr()}
 ERR = P.ERROR_REPLY_TYPE
-# Known firmware bug (report of issue #9): sonar_app.c reaches the table for WRITE_REGS /
+# Known firmware bug (report of issue #9): the firmware reaches the table for WRITE_REGS /
 # READ_REGS through SONAR_AT / DELAY_ENTRY at 0x1000_0000 + offset, the *cached* alias
 # (ms_hw.h's MS_REG uses MS_IO_UNCACHED), so VexRiscv's write-through data cache answers READ_REGS
 # with stale values (a value written unmasked, or one the firmware changed through the uncached
@@ -613,7 +613,7 @@ async def cmd_fuzz(dut):
 
 
 WDT_MARGIN = 600_000     # clocks of the watchdog timeout left when the hang is established
-WDT_CYCLES = 48_000_000  # sonar_app.c WDT_CYCLES (WDT_TIMEOUT written at boot)
+WDT_CYCLES = 48_000_000  # firmware/app/sonar/app.h WDT_CYCLES (WDT_TIMEOUT written at boot)
 BRIDGE_WAIT_ACK = 2        # ms_pico_bridge state_e: IDLE, REQ, WAIT_ACK, DONE
 
 

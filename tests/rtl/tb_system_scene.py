@@ -1,4 +1,4 @@
-"""cocotb whole-system test: ms_system running firmware/app/sonar_app.c on a scene.
+"""cocotb whole-system test: ms_system running firmware/app/sonar on a scene.
 
 Scene (static, deterministic; :class:`WallPointSource`): a wall 1.5 m ahead (tilted 5 deg) of the
 'front' sensor (element 0, receivers 23/0/1) and a point reflector behind-left of the 'back'
@@ -27,7 +27,7 @@ Checks:
   within 5 mm;
 * at least one wall fix and one edge fix; exactly one re-aim, of 'back', by +1 element, and
   after it the back sensor's edge is within the confidence interval;
-* firmware cycle figures from the mailbox (tags documented in sonar_app.c): per-frame
+* firmware cycle figures from the mailbox (tags documented in firmware/app/sonar/main.c): per-frame
   processing cycles and the main loop's busy cycles, logged (and checked to keep up here).
 """
 
@@ -271,6 +271,19 @@ async def sonar_app_on_wall_and_point(dut):
     seg_tables = [schedule_for("scene"), schedule_for("scene", rotations={BACK: 1})]
     seg_frames = [[f for f in frames if f.seq < first_seq_after[0]], [f for f in frames if f.seq >= first_seq_after[0]]]
 
+    # geometry frames (FRAME_GEO) follow their pulse's ToF frame, keyed (vs, pulse seq, t0): a
+    # pulse of the old table may get its geometry frame after the new table's first frame
+    geo_after = {}
+    tof_seen = set()
+    for f in frames:
+        key = (f.vs, f.pulse_seq, f.t0)
+        if f.flags & P.FRAME_GEO:
+            assert len(f.tof) == 0 and len(f.geo) == 1, f"geometry frame {f.seq}: {len(f.tof)} ToF records"
+            assert key in tof_seen and key not in geo_after, f"geometry frame {f.seq} for {key}"
+            geo_after[key] = f
+        else:
+            tof_seen.add(key)
+
     # ---- golden model per table segment
     src = WallPointSource()
     n_cmp = n_geo = 0
@@ -298,17 +311,6 @@ async def sonar_app_on_wall_and_point(dut):
         cut_ok = {(p.sensor, p.seq & 0xFF) for p in res.pulses
                   if max((w[2] for w in p.windows), default=p.t0) + LEAD > stop}
         seen = set()
-        # geometry frames (FRAME_GEO) follow their pulse's ToF frame
-        geo_after = {}
-        tof_seen = set()
-        for f in fr:
-            key = (f.vs, f.pulse_seq)
-            if f.flags & P.FRAME_GEO:
-                assert len(f.tof) == 0 and len(f.geo) == 1, f"geometry frame {f.seq}: {len(f.tof)} ToF records"
-                assert key in tof_seen and key not in geo_after, f"segment {k}: geometry frame {f.seq} for {key}"
-                geo_after[key] = f
-            else:
-                tof_seen.add(key)
         for f in fr:
             if f.flags & P.FRAME_GEO:
                 continue
@@ -331,15 +333,16 @@ async def sonar_app_on_wall_and_point(dut):
             assert bool(f.flags & P.FRAME_INIT_PING) == p.init
             firsts = {int(r["rx"]): int(r["tof"]) for r in f.tof if int(r["flags"]) & 3 == 3}
             assert len(f.geo) == 0, "geometry goes in a frame of its own"
+            key3 = (f.vs, f.pulse_seq, f.t0)
             if len(firsts) < 3:
-                assert key not in geo_after
+                assert key3 not in geo_after
                 continue
-            if key not in geo_after and (end_tick - f.timestamp) & 0xFFFFFFFF < MS:
+            if key3 not in geo_after and (end_tick - f.timestamp) & 0xFFFFFFFF < MS:
                 continue  # committed in the last millisecond: its geometry job had not run yet
-            assert key in geo_after, f"pulse {key} with {len(firsts)} first echoes has no geometry frame"
-            assert geo_after[key].t0 == f.t0 and geo_after[key].seq > f.seq
+            assert key3 in geo_after, f"pulse {key} with {len(firsts)} first echoes has no geometry frame"
+            assert geo_after[key3].seq > f.seq
             src_el = int(sched.validate()[f.vs].tx[0])
-            g, want = geo_after[key].geo[0], _golden_geo(firsts, src_el)
+            g, want = geo_after[key3].geo[0], _golden_geo(firsts, src_el)
             what = f"segment {k} pulse {key}: fw {g} python {want}"
             assert int(g["cls"]) == int(want["cls"]) and int(g["n_rx"]) == int(want["n_rx"]), what
             for fld in ("x_mm", "y_mm", "range_mm"):

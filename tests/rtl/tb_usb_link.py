@@ -1,5 +1,5 @@
 """cocotb tests of the whole device behind USB (usb_link_tb: ms_system_usb running
-firmware/app/sonar_app.c).
+firmware/app/sonar).
 
 ``driver_against_rtl``: the unchanged host driver (multisonar.Device over pyusb's in-process
 backend; at the end also over our USB/IP server, opened as usbip://127.0.0.1:PORT) in its own

@@ -1,5 +1,5 @@
 """Command fuzzing of the device and the firmware watchdog, on the RTL (ms_system running
-firmware/app/sonar_app.c; top tests/rtl/cmd_fuzz_tb.sv). Details: tb_cmd_fuzz.py.
+firmware/app/sonar; top tests/rtl/cmd_fuzz_tb.sv). Details: tb_cmd_fuzz.py.
 
 CMD_FUZZ_N sets the number of fuzzed command packets (default 10000, the CI size issue #9 asks for;
 ~3 min on 2 cores);

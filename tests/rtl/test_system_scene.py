@@ -1,5 +1,5 @@
 """The whole system on a scene: ms_system (SoC + sonar core) runs the sonar firmware
-(firmware/app/sonar_app.c) against echoes from a wall and a point reflector; its frames,
+(firmware/app/sonar) against echoes from a wall and a point reflector; its frames,
 read off the host FIFO, are checked against the golden models (multisonar.fastfiring for the
 ToF records, multisonar.geometry for the geometry records). Details: tb_system_scene.py."""
 

@@ -1,5 +1,5 @@
 // usb_link_tb: cocotb top for the whole device behind USB (tests/rtl/test_usb_link.py):
-// ms_system_usb (SoC running firmware/app/sonar_app.c, sonar core, host link, USB device core)
+// ms_system_usb (SoC running firmware/app/sonar, sonar core, host link, USB device core)
 // with both host models of tests/rtl/usb_host.py on its bus: the transaction-level host
 // (usb_tl_host_tb on the wire-less port, tl_en_i = 1: the unchanged host driver through the
 // real endpoint logic) and the wire-level host (usb_host_phy_tb on D+/D-, tl_en_i = 0).

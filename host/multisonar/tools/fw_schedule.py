@@ -1,4 +1,4 @@
-"""Compiled-in schedule of the sonar firmware (firmware/app/sonar_app.c).
+"""Compiled-in schedule of the sonar firmware (firmware/app/sonar).
 
 Only the soft-core reaches the sonar core's register bus in ``ms_system``, so the firmware
 carries its virtual-sensor table in its image: this tool turns a validated

@@ -1,7 +1,7 @@
 """The verilated device (sim/twin/ms_twin.cpp through ctypes) with the acoustic model in the loop.
 
 :class:`TwinSim` owns one simulation of ``ms_system_usb``: the VexRiscv SoC running
-firmware/app/sonar_app.c, the sonar core (scheduler, phased transmitters, 24 gated receivers),
+firmware/app/sonar, the sonar core (scheduler, phased transmitters, 24 gated receivers),
 the host link and the USB device core. Time runs in C++; Python is called per pulse and per
 USB packet:
 
@@ -209,7 +209,7 @@ class TwinSim:
 
     def mailbox(self) -> list[int]:
         """Words the firmware wrote to its simulation mailbox (SIM_OUT; tags documented in
-        firmware/app/sonar_app.c) since the last call."""
+        firmware/app/sonar) since the last call."""
         self._drain_mailbox()
         out, self._mail = self._mail, []
         return out

@@ -1,0 +1,153 @@
+/* sonar_app: the Multisonar firmware, split by job (firmware/README.md, "sonar_app").
+ *
+ *   main.c          boot, the main loop (one bounded slice per pass), time-outs, cycle stats
+ *   pulses.c        the ToF path: event words and pulse / cancel records -> pulse groups,
+ *                   exact completion, ToF frames (never waits for geometry)
+ *   geo.c           the geometry path: jobs queued by pulses.c, ms_fix_fast, geometry frames
+ *   sensors.c       the running table from the registers, each sensor's prepared geometry
+ *   reaim.c         re-aiming in bounded slices (prepare, apply, hand-over in the event stream)
+ *   cmd.c           the command transport: a transfer -> section 4 checks -> handler -> reply
+ *   cmd_handlers.c  one handler per opcode, registered in cmd_handlers[]
+ *
+ * Shared state is declared here and defined in the file of the job that owns it. */
+#ifndef SONAR_APP_H
+#define SONAR_APP_H
+
+#include <stdint.h>
+
+#include "ms_hw.h"
+#include "ms_geom.h"
+#include "ms_layout.h"
+#include "sonar_app_cfg.h"
+
+#if MS_GEOM_ARITH != MS_ARITH_Q
+#error "sonar_app is built with the Q geometry variant (integer interface)"
+#endif
+
+/* ---------------------------------------------------------------- tunables */
+#define MAX_GROUPS 32        /* pulses being collected at once: 8 sensors, up to 4 in flight each */
+#define MAX_EV 16            /* ToF records per frame kept (protocol allows 64) */
+#define REAIM_DEG 10         /* 2/3 of the 15 deg element pitch: after a one-element move the */
+                             /* reflector is ~5 deg off the new axis, so it stays (no ping-pong) */
+#define LOST_PINGS 3         /* init pings in a row without a fix = track lost */
+#define CLOSE_MARGIN 48000u  /* 1 ms after the last window can close */
+#define CMD_WORDS 272u       /* ms_link_cmd_rx keeps 1088 bytes of a transfer */
+#define START_WAIT 200000u   /* cycles for the scheduler to validate + start the table */
+#define VALIDATE_CYCLES 4000u /* the apply-time check is over after this (~300 clocks) */
+#ifndef APP_BUILD_ID
+#define APP_BUILD_ID 0u
+#endif
+#define WDT_CYCLES 48000000u /* 1 s: far above any bounded slice */
+#define APPLY_WAIT 2000000u  /* cycles for an apply to be taken (its restart seen) */
+#define ID_WRAP_MARGIN 256u  /* no apply while a pulse id is this close to its 16-bit wrap */
+#define SCAN_TICKS 48000u    /* timeout scan period, 1 ms (time-outs are a backstop) */
+#define GEO_JOBS 8           /* closed pulses waiting for their fix */
+
+/* frame header flags (docs/protocol.md section 6) */
+#define FRAME_INIT 1u      /* init ping */
+#define FRAME_TRUNC 2u     /* more ToF records than MAX_EV */
+#define FRAME_LOST 8u      /* event-FIFO words of this pulse were lost (overflow): no fix */
+#define FRAME_CUT 16u      /* closed before every window reported (re-initialisation, apply, stop) */
+#define FRAME_GEO 32u      /* a geometry frame: the records of a pulse whose ToF frame went before */
+
+/* event word, high half (docs/fast_firing.md section 6) */
+#define EVH_OVF (1u << 12)    /* words were dropped before this one */
+#define EVH_RECORD (1u << 30) /* a record: a pulse's, or with EVH_CANCEL a sensor's cancel */
+#define EVH_CANCEL (1u << 29)
+
+#define SONAR_BASE (MS_IO_UNCACHED | (uintptr_t)offsetof(ms_soc_map_t, sonar))
+#define SONAR_AT(off) (*(volatile uint32_t *)(SONAR_BASE + (off)))
+#define VS_REG(vs, reg) MS_REG(sonar.VS[vs].reg)
+#define SONAR_OFF(reg) ((uint32_t)offsetof(sonar_regs_t, reg))
+#define VS_STRIDE ((uint32_t)sizeof(sonar_regs__VS__stride40_t))
+#define DELAY_ENTRY(vs, el) \
+    (*(volatile uint32_t *)(SONAR_BASE + offsetof(sonar_regs_t, DELAY) + 4u * ((vs) * 32u + (el))))
+#define ST_FIELD(st, f) (((st) & SONAR_REGS__STATUS__##f##_bm) >> SONAR_REGS__STATUS__##f##_bp)
+
+static inline uint32_t now32(void) { return MS_SOC(TIMER_LO); }
+
+/* ---------------------------------------------------------------- types */
+typedef struct {
+    uint8_t used, vs, seq, flags; /* flags: frame header flags (FRAME_*) */
+    uint8_t n_ev;
+    uint8_t has_rec;   /* the pulse record was seen: t0 and n_win are the hardware's */
+    uint8_t n_win;     /* windows the pulse opened (pulse record) */
+    uint8_t n_term;    /* their terminal events so far (first echo or window_empty) */
+    uint32_t done;     /* receivers with their first-echo / window_empty event (element bits) */
+    uint32_t firsts;   /* receivers with a first echo */
+    uint32_t t0;       /* trigger tick: the pulse record's; without one (lost), an estimate */
+    uint32_t t_done;   /* detection tick of the last terminal event so far */
+    uint32_t t_pop;    /* timer at the last word taken for it */
+    int32_t first_tof[APP_MAX_GROUP]; /* per receiver index of the sensor */
+    uint32_t rec[MAX_EV][2];          /* ToF records as they go on the wire */
+} group_t;
+
+typedef struct {
+    int shift;               /* elements the groups are moved from the table's */
+    uint32_t tx_mask, rx_mask;
+    uint8_t tx[APP_MAX_GROUP], rx[APP_MAX_GROUP];
+    uint32_t axis;           /* binary angle */
+    ms_array arr;
+    int8_t last_side;        /* sign of the last fix's offset from the axis (0: none yet) */
+    int32_t last_dev;        /* the last fix's offset from the axis, binary angle */
+    uint8_t init_misses;     /* init pings in a row without a fix */
+} sensor_t;
+
+/* FW_STATS (docs/protocol.md section 3; protocol.FW_STATS_FIELDS, in this order), cleared by
+ * CLEAR_COUNTERS: geometry jobs by outcome (geo_report's order), ToF frames cut / lost, ToF
+ * latency; then the worst cycles of each bounded path (the firmware's cycle table) */
+enum { FW_GEO_FIXES, FW_GEO_SKIPPED, FW_GEO_DECLINED, FW_GEO_STALE, FW_CUT, FW_LOST, FW_LAT_MAX,
+       FW_LAT_OVER_1MS, FW_CYC_WORD, FW_CYC_FRAME, FW_CYC_GEO, FW_CYC_REAIM, FW_CYC_CMD,
+       FW_CYC_SLICE, FW_BUSY_PULSE, FW_NSTATS };
+extern uint32_t fw_stats[FW_NSTATS];
+static inline void stat_max(int i, uint32_t v)
+{
+    if (v > fw_stats[i])
+        fw_stats[i] = v;
+}
+
+/* ---------------------------------------------------------------- state */
+extern group_t groups[MAX_GROUPS];
+extern app_sensor_t cfgs[8];   /* the running table's sensors (from the registers at START) */
+extern sensor_t sens[8];
+extern int n_sens;
+extern int vs_index[8];        /* table index -> sensors[] index, -1 */
+extern uint32_t frame_seq, reaims, running, bad_commands, wdt_base, busy_acc;
+extern int32_t temperature_cc;
+extern uint8_t par_geometry, par_tof, par_max_echoes;
+extern uint64_t path_k;        /* um per tick, Q32 (~7.15 * 2^32) */
+extern uint32_t edge_lat;      /* L = 1 + max(glitch_min, 1) */
+extern uint16_t last_pulse_id[8]; /* per table entry, from its latest pulse record */
+
+/* ---------------------------------------------------------------- jobs */
+/* pulses.c */
+void poll_events(uint32_t max_words);     /* pops up to max_words words (ALL_WORDS) */
+#define ALL_WORDS 0xFFFFFFFFu
+void cut_open(int vs, uint32_t tick);     /* open pulses of vs (< 0: all) go out, cut */
+void scan_timeouts(uint32_t now);
+void groups_clear(void);
+void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_t n_tof,
+                 const uint32_t (*tof)[2], uint32_t n_geo, const uint32_t *geo);
+/* geo.c */
+void geo_enqueue(const group_t *g);       /* a complete pulse's fix, or its no-fix outcome */
+int geo_step(void);                       /* one job, if any; returns 1 when one ran */
+void geo_clear(void);
+/* sensors.c */
+int load_sensors(void);
+void sensor_setup(int i, int shift);
+void sensor_place(sensor_t *s, const app_sensor_t *c, int shift);
+void sensor_prepare(const sensor_t *s, const app_sensor_t *c, ms_array *arr);
+uint32_t sound_um_s(int32_t t_cc);
+uint32_t mask_of(const uint8_t *el, int n);
+void apply_rx_filter(void);
+/* reaim.c */
+void sensor_outcome(int si, int init, int fixed); /* a pulse's verdict: may request a re-aim */
+int reaim_step(int idle);               /* the pending re-aim's next slice; 1 when one ran */
+int reaim_restart_seen(uint32_t vs, uint32_t id, uint32_t init, uint32_t now);
+void reaim_cancel(void);
+const sensor_t *placement_of(int si, int shift); /* the sensor's groups at shift, if known */
+/* cmd.c */
+void handle_command(void);
+void stop_run(void);
+
+#endif

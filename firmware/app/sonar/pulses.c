@@ -1,0 +1,249 @@
+/* The ToF path: event-FIFO words -> pulse groups -> ToF frames (firmware/README.md, "Main loop").
+ *
+ * A pulse record (bit 62: sensor, 16-bit pulse id, the exact t0, the number of windows; written
+ * by the scheduler before any event of its pulse) opens the pulse's group, keyed (sensor, pulse
+ * id mod 256); a ToF event goes into its group. A group is complete when each of its windows has
+ * its terminal event (first echo or window_empty). A cancel record (bits 62, 61) or an init
+ * ping's record closes the open pulses of its sensor (their windows were cancelled: CUT); a
+ * group also goes when the sensor's maximum time of flight plus 1 ms has passed since t0 (CUT).
+ * An overflow flag on a word marks every open group LOST (no fix); an event whose record was
+ * lost gets an estimated t0 (pop time - tof - edge latency) and LOST. A complete group becomes
+ * its ToF frame at once and, with its first echoes, a geometry job (geo.c). */
+#include "app.h"
+
+group_t groups[MAX_GROUPS];
+static uint32_t fbuf[3 + 5 + 2 * MAX_EV + 4];
+static uint32_t frame_acc; /* cycles spent writing frames (taken out of the per-word figure) */
+
+/* one frame (docs/protocol.md sections 2, 6): header 12 bytes, head 20 bytes, records; the host
+ * link appends the CRC-32 at the commit and drops the frame whole (FRAMES_DROPPED) if the frame
+ * queue has no room for it */
+void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_t n_tof,
+                 const uint32_t (*tof)[2], uint32_t n_geo, const uint32_t *geo)
+{
+    uint32_t *w = fbuf;
+    uint32_t plen = 20u + 8u * n_tof + 16u * n_geo;
+    uint32_t nwords = (12u + plen) / 4u;
+    w[0] = 0x4Du | (0x46u << 8) | (1u << 16) | (0x40u << 24); /* "MF", version 1, type 0x40 */
+    w[1] = flags | (0u << 8) | (plen << 16);
+    w[2] = frame_seq;
+    w[3] = now32();              /* timestamp */
+    w[4] = t0;                   /* the pulse record's trigger tick */
+    w[5] = vs | (seq << 8) | (n_tof << 16) | (n_geo << 24);
+    w[6] = MS_SOC(FRAMES_DROPPED);
+    w[7] = (MS_SONAR(OVERFLOWS) & 0xFFFFu) | (((MS_SOC(WDT_RESETS) - wdt_base) & 0xFFFFu) << 16);
+    uint32_t *p = &w[8];
+    for (uint32_t i = 0; i < n_tof; i++) {
+        *p++ = tof[i][0];
+        *p++ = tof[i][1];
+    }
+    for (uint32_t i = 0; i < 4u * n_geo; i++)
+        *p++ = geo[i];
+    frame_seq++;
+    for (uint32_t i = 0; i < nwords; i++)
+        MS_SOC(HOST_TX) = w[i];
+    MS_SOC(HOST_CTRL) = SOC_REGS__HOST_CTRL__FRAME_END_bm;
+}
+
+/* the group's ToF frame at once, then its geometry job; the mailbox and stats */
+static void close_group(group_t *g)
+{
+    uint32_t t = now32();
+    send_packet(g->flags, g->t0, g->vs, g->seq, par_tof ? g->n_ev : 0u, g->rec, 0u, 0);
+    g->used = 0;
+    geo_enqueue(g);
+    /* mailbox 0x2: from the pulse's completion (the detection tick of its last window's
+     * terminal event, or of the cancel that cut it; the pop when its record was lost) */
+    uint32_t from = (g->flags & FRAME_LOST) ? g->t_pop : g->t_done, now = now32(), lat = now - from;
+    ms_report(0x20000000u | (lat & 0x0FFFFFFFu));
+    stat_max(FW_LAT_MAX, lat);
+    fw_stats[FW_LAT_OVER_1MS] += lat > MS_TICK_HZ / 1000u;
+    fw_stats[FW_CUT] += (g->flags & FRAME_CUT) != 0;
+    fw_stats[FW_LOST] += (g->flags & FRAME_LOST) != 0;
+    stat_max(FW_CYC_FRAME, now - t);
+    frame_acc += now32() - t;
+    /* mailbox 0x4: the main loop's busy cycles since the previous ToF frame */
+    ms_report(0x40000000u | (busy_acc & 0x0FFFFFFFu));
+    stat_max(FW_BUSY_PULSE, busy_acc);
+    busy_acc = 0;
+}
+
+static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int init)
+{
+    group_t *free_g = 0, *oldest = 0;
+    for (int i = 0; i < MAX_GROUPS; i++) {
+        group_t *g = &groups[i];
+        if (g->used) {
+            if (g->vs == vs && g->seq == seq)
+                return g;
+            if (!oldest || (int32_t)(g->t0 - oldest->t0) < 0)
+                oldest = g;
+        } else if (!free_g) {
+            free_g = g;
+        }
+    }
+    if (!free_g) { /* no room: the oldest pulse goes out as it is */
+        oldest->flags |= FRAME_CUT;
+        close_group(oldest);
+        free_g = oldest;
+    }
+    /* first_tof / rec are read only where firsts / n_ev say they were written */
+    free_g->n_ev = free_g->has_rec = free_g->n_win = free_g->n_term = 0;
+    free_g->done = free_g->firsts = 0;
+    free_g->used = 1;
+    free_g->vs = (uint8_t)vs;
+    free_g->seq = (uint8_t)seq;
+    free_g->t0 = t0;
+    free_g->flags = init ? FRAME_INIT : 0u;
+    return free_g;
+}
+
+static int group_complete(const group_t *g)
+{
+    const sensor_t *s = &sens[vs_index[g->vs]];
+    if (g->has_rec)
+        return g->n_term >= g->n_win;
+    return (g->done & s->rx_mask) == s->rx_mask; /* no record (lost): every receiver reported */
+}
+
+/* The open pulses of sensor vs (vs < 0: of every sensor) go out, cut (FRAME_CUT): their
+ * windows ended at `tick` without reporting. A cancel record says so for one sensor (a
+ * re-initialisation cancelled its pending windows); so does an init ping's record (a sensor
+ * re-initialises only after its windows were cancelled or closed); an apply taken (the new
+ * table's first record, reaim.c) or STOP drops them all. */
+void cut_open(int vs, uint32_t tick)
+{
+    for (int i = 0; i < MAX_GROUPS; i++) {
+        group_t *o = &groups[i];
+        if (o->used && (vs < 0 || o->vs == (uint32_t)vs)) {
+            o->flags |= FRAME_CUT;
+            o->t_done = tick;
+            close_group(o);
+        }
+    }
+}
+
+/* A pulse record: the pulse's group with the hardware's t0 and window count. */
+static group_t *take_record(uint32_t lo, uint32_t hi, uint32_t now)
+{
+    uint32_t vs = (hi >> 5) & 7u, init = (hi >> 11) & 1u;
+    uint32_t id = (hi >> 13) & 0xFFFFu;
+    if (vs_index[vs] < 0)
+        return 0;
+    if (hi & EVH_CANCEL) {
+        cut_open((int)vs, lo);
+        return 0;
+    }
+    reaim_restart_seen(vs, id, init, now); /* a taken apply: the old table's pulses go out */
+    last_pulse_id[vs] = (uint16_t)id;
+    if (init)
+        cut_open((int)vs, now);
+    group_t *g = group_for(vs, id & 0xFFu, lo, (int)init);
+    g->has_rec = 1;
+    g->t0 = lo;
+    g->t_done = g->t_pop = now;
+    g->n_win = (uint8_t)(hi & 0x1Fu);
+    return group_complete(g) ? g : 0;
+}
+
+/* one event word; returns the completed group or 0 */
+static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
+{
+    if (hi & EVH_OVF) /* words were lost just before this one: every open pulse may miss some */
+        for (int i = 0; i < MAX_GROUPS; i++)
+            if (groups[i].used)
+                groups[i].flags |= FRAME_LOST;
+    if (hi & EVH_RECORD)
+        return take_record(lo, hi, now);
+    uint32_t tof = lo & 0xFFFFFFu, rx = (lo >> 24) & 0x1Fu;
+    uint32_t seq = ((lo >> 29) | (hi << 3)) & 0xFFu, vs = (hi >> 5) & 7u, fl = (hi >> 8) & 0xFu;
+    if (vs_index[vs] < 0)
+        return 0;
+    /* an event without its pulse's record: the record went in an overflow; t0 estimated from
+     * the pop time (late by the polling delay), and the frame says so */
+    uint32_t t0c = now - tof - ((fl & 4u) ? 0u : edge_lat);
+    group_t *g = group_for(vs, seq, t0c, (fl & 8u) != 0);
+    if (!g->has_rec) {
+        g->flags |= FRAME_LOST;
+        if ((int32_t)(t0c - g->t0) < 0)
+            g->t0 = t0c;
+    }
+    g->t_pop = now;
+    if (g->n_ev < MAX_EV) {
+        g->rec[g->n_ev][0] = tof;
+        g->rec[g->n_ev][1] = rx | (seq << 8) | (vs << 16) | (fl << 24);
+        g->n_ev++;
+    } else {
+        g->flags |= FRAME_TRUNC;
+    }
+    const sensor_t *s = &sens[vs_index[vs]];
+    const app_sensor_t *c = &cfgs[vs_index[vs]];
+    if ((fl & 3u) == 3u) { /* in window, first echo */
+        for (int k = 0; k < c->n_rx; k++)
+            if (s->rx[k] == rx) {
+                g->first_tof[k] = (int32_t)tof;
+                g->firsts |= 1u << rx;
+            }
+        g->done |= 1u << rx;
+        g->n_term++;
+        g->t_done = g->t0 + tof + edge_lat;         /* the edge's detection tick */
+    } else if (fl & 4u) {
+        g->done |= 1u << rx;
+        g->n_term++;
+        g->t_done = g->t0 + tof - 1u + edge_lat;    /* the window's close */
+    }
+    return group_complete(g) ? g : 0;
+}
+
+/* a complete group goes out. Earlier pulses of its sensor without a record (lost in an
+ * overflow) cannot be completed by count: they go first */
+static void finish(group_t *g)
+{
+    for (int i = 0; i < MAX_GROUPS; i++) {
+        group_t *o = &groups[i];
+        if (o->used && !o->has_rec && o != g && o->vs == g->vs && (int8_t)(uint8_t)(g->seq - o->seq) > 0)
+            close_group(o);
+    }
+    close_group(g);
+}
+
+/* Pops at most max_words words, until the FIFO is empty, or until a finished group leaves a
+ * host command waiting: under load the FIFO may never empty, and draining it first would
+ * starve the command port (found by the full-system twin: no reply for seconds while frames
+ * kept streaming). The main loop serves the command and comes back; the words wait in the
+ * hardware FIFO (overflows are counted). */
+void poll_events(uint32_t max_words)
+{
+    for (; max_words > 0u; max_words--) {
+        uint32_t t = now32(), f0 = frame_acc;
+        uint32_t lo = MS_SONAR(EVT_LO);
+        uint32_t hi = MS_SONAR(EVT_HI);
+        if (!(hi & SONAR_REGS__EVT_HI__VALID_bm))
+            return;
+        uint32_t now = now32(); /* after the pop: the word was written before it */
+        group_t *g = take_event(lo, hi, now);
+        if (g)
+            finish(g);
+        stat_max(FW_CYC_WORD, now32() - t - (frame_acc - f0));
+        if (g && (MS_SOC(CMD_STATUS) & SOC_REGS__CMD_STATUS__AVAIL_bm))
+            return;
+    }
+}
+
+/* every window of a pulse has closed max_tof after its t0: a group still open then is cut */
+void scan_timeouts(uint32_t now)
+{
+    for (int i = 0; i < MAX_GROUPS; i++) {
+        group_t *g = &groups[i];
+        if (g->used && (int32_t)(now - g->t0) > (int32_t)(cfgs[vs_index[g->vs]].max_tof + CLOSE_MARGIN)) {
+            g->flags |= FRAME_CUT;
+            close_group(g);
+        }
+    }
+}
+
+void groups_clear(void)
+{
+    for (int i = 0; i < MAX_GROUPS; i++)
+        groups[i].used = 0;
+}
