@@ -8,7 +8,8 @@
 # SoC's 64 KiB the top 4 KiB stay unused. The link fails when either part outgrows its room
 # (34 KB image, ~14 KB data + bss with 32 pulse groups, ~2.5 KB stack as of issue #26).
 SONAR_APP_LDFLAGS := -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0xA000 \
-                     -Wl,--defsym=__ram=0xA000 -Wl,--defsym=__ram_size=0x5000 -Wl,--gc-sections
+                     -Wl,--defsym=__ram=0xA000 -Wl,--defsym=__ram_size=0x5000 -Wl,--gc-sections \
+                     -Wl,--sort-section=name
 
 SONAR_APP_CFG ?= scene
 SONAR_APP_SRC := $(sort $(wildcard firmware/app/sonar/*.c))

@@ -127,6 +127,7 @@ def test_demo_on_the_twin_over_usbip(tmp_path, capsys):
     assert js["fw_vs_host"]["compared"] >= 20 and js["fw_vs_host"]["mismatches"] == 0, js["fw_vs_host"]
     fw, host = js["fixes"]["firmware"], js["fixes"]["host"]
     assert fw["wall"]["count"] >= 10 and fw["wall"]["median_mm"] < 5, fw
+    _assert_bounded_slices(js)
     rows = list(csv.DictReader(open(tmp_path / "fixes.csv")))
     walls = np.array([float(r["error_m"]) for r in rows if r["kind"] == "wall"])
     assert len(walls) >= 10 and np.median(walls) < 0.005, walls
@@ -202,3 +203,15 @@ def test_max_load_ring8_on_the_noisy_corridor(tmp_path):
     assert js["frames_flagged_lost"] == 0 and js["watchdog"] == 0, js
     assert js["latency_us"]["p99"] <= 1000, js["latency_us"]
     assert js["fw_vs_host"]["mismatches"] == 0, js["fw_vs_host"]
+    _assert_bounded_slices(js)
+
+
+def _assert_bounded_slices(js: dict) -> None:
+    """The firmware's worst cycles per path (FW_STATS) are bounded: no general-path solve
+    (millions of cycles), no re-aim holding the loop (191-299 k cycles before the slices); the
+    figures themselves are firmware/README.md's "Cycles per path"."""
+    cyc = js["firmware_cycles"]
+    assert set(cyc) == {"word_max", "frame_max", "geo_max", "reaim_max", "command_max", "slice_max"}, cyc
+    assert 0 < cyc["frame_max"] <= 3_000 and 0 < cyc["word_max"] <= 15_000, cyc
+    assert 0 < cyc["geo_max"] <= 20_000 and cyc["command_max"] <= 15_000, cyc
+    assert cyc["reaim_max"] <= 50_000 and cyc["slice_max"] <= 50_000, cyc

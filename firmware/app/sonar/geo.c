@@ -16,7 +16,7 @@ static uint32_t geo_head, geo_tail;
 
 /* mailbox 0x6 per geometry job: what happened (0 fix, 1 skipped: queue full, 2 declined: the
  * fast path does not solve it, 3 stale: the sensor was re-aimed since) << 24 | cycles */
-static void geo_report(uint32_t what, uint32_t cycles)
+APP_HOT static void geo_report(uint32_t what, uint32_t cycles)
 {
     fw_stats[FW_GEO_FIXES + what]++;
     stat_max(FW_CYC_GEO, cycles);
@@ -32,7 +32,7 @@ static int32_t sat16(int32_t v, int32_t lo, int32_t hi) { return v < lo ? lo : v
 
 static uint32_t bang16(uint32_t a) { return ((a + 0x8000u) >> 16) & 0xFFFFu; }
 
-void geo_enqueue(const group_t *g)
+APP_HOT void geo_enqueue(const group_t *g)
 {
     const int si = vs_index[g->vs];
     const app_sensor_t *c = &cfgs[si];
@@ -61,7 +61,7 @@ void geo_enqueue(const group_t *g)
 /* the record of a fix (docs/protocol.md section 6, geometry record): class = kind + 1, a wall
  * its foot point / distance / normal, an edge its position / range / bearing; mm and 16-bit
  * binary angles rounded; quality = 255 * (1 - chi2 / threshold) of the chosen model */
-static uint32_t geo_record(const ms_class *cl, int nf, uint32_t geo[4], uint32_t *bearing)
+APP_HOT static uint32_t geo_record(const ms_class *cl, int nf, uint32_t geo[4], uint32_t *bearing)
 {
     uint32_t cls = (uint32_t)cl->kind + 1u, quality = 0;
     int32_t x = 0, y = 0, rng = 0, res = 0;
@@ -97,7 +97,7 @@ static uint32_t geo_record(const ms_class *cl, int nf, uint32_t geo[4], uint32_t
 }
 
 /* one geometry job: the fix (fast path only: bounded), its frame, the re-aiming input */
-static void run_geo_job(const geo_job_t *j)
+APP_HOT static void run_geo_job(const geo_job_t *j)
 {
     uint32_t t = now32();
     const int si = vs_index[j->vs];
@@ -138,7 +138,7 @@ static void run_geo_job(const geo_job_t *j)
     sensor_outcome(si, j->flags & FRAME_INIT, fixed);
 }
 
-int geo_step(void)
+APP_HOT int geo_step(void)
 {
     if (geo_head == geo_tail)
         return 0;

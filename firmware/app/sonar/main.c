@@ -39,9 +39,9 @@ static inline int command_waiting(void)
 }
 
 /* a slice away from the event FIFO: its cycles are the event path's worst wait */
-static void slice_done(uint32_t t) { stat_max(FW_CYC_SLICE, now32() - t); }
+APP_HOT static void slice_done(uint32_t t) { stat_max(FW_CYC_SLICE, now32() - t); }
 
-int main(void)
+APP_HOT int main(void)
 {
     MS_SOC(WDT_TIMEOUT) = WDT_CYCLES;
     ms_wdt_kick();

@@ -18,7 +18,7 @@ static uint32_t frame_acc; /* cycles spent writing frames (taken out of the per-
 /* one frame (docs/protocol.md sections 2, 6): header 12 bytes, head 20 bytes, records; the host
  * link appends the CRC-32 at the commit and drops the frame whole (FRAMES_DROPPED) if the frame
  * queue has no room for it */
-void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_t n_tof,
+APP_HOT void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_t n_tof,
                  const uint32_t (*tof)[2], uint32_t n_geo, const uint32_t *geo)
 {
     uint32_t *w = fbuf;
@@ -46,7 +46,7 @@ void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_
 }
 
 /* the group's ToF frame at once, then its geometry job; the mailbox and stats */
-static void close_group(group_t *g)
+APP_HOT static void close_group(group_t *g)
 {
     uint32_t t = now32();
     send_packet(g->flags, g->t0, g->vs, g->seq, par_tof ? g->n_ev : 0u, g->rec, 0u, 0);
@@ -68,7 +68,7 @@ static void close_group(group_t *g)
     busy_acc = 0;
 }
 
-static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int init)
+APP_HOT static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int init)
 {
     group_t *free_g = 0, *oldest = 0;
     for (int i = 0; i < MAX_GROUPS; i++) {
@@ -98,7 +98,7 @@ static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int init)
     return free_g;
 }
 
-static int group_complete(const group_t *g)
+APP_HOT static int group_complete(const group_t *g)
 {
     const sensor_t *s = &sens[vs_index[g->vs]];
     if (g->has_rec)
@@ -111,7 +111,7 @@ static int group_complete(const group_t *g)
  * re-initialisation cancelled its pending windows); so does an init ping's record (a sensor
  * re-initialises only after its windows were cancelled or closed); an apply taken (the new
  * table's first record, reaim.c) or STOP drops them all. */
-void cut_open(int vs, uint32_t tick)
+APP_HOT void cut_open(int vs, uint32_t tick)
 {
     for (int i = 0; i < MAX_GROUPS; i++) {
         group_t *o = &groups[i];
@@ -124,7 +124,7 @@ void cut_open(int vs, uint32_t tick)
 }
 
 /* A pulse record: the pulse's group with the hardware's t0 and window count. */
-static group_t *take_record(uint32_t lo, uint32_t hi, uint32_t now)
+APP_HOT static group_t *take_record(uint32_t lo, uint32_t hi, uint32_t now)
 {
     uint32_t vs = (hi >> 5) & 7u, init = (hi >> 11) & 1u;
     uint32_t id = (hi >> 13) & 0xFFFFu;
@@ -147,7 +147,7 @@ static group_t *take_record(uint32_t lo, uint32_t hi, uint32_t now)
 }
 
 /* one event word; returns the completed group or 0 */
-static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
+APP_HOT static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
 {
     if (hi & EVH_OVF) /* words were lost just before this one: every open pulse may miss some */
         for (int i = 0; i < MAX_GROUPS; i++)
@@ -197,7 +197,7 @@ static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
 
 /* a complete group goes out. Earlier pulses of its sensor without a record (lost in an
  * overflow) cannot be completed by count: they go first */
-static void finish(group_t *g)
+APP_HOT static void finish(group_t *g)
 {
     for (int i = 0; i < MAX_GROUPS; i++) {
         group_t *o = &groups[i];
@@ -212,7 +212,7 @@ static void finish(group_t *g)
  * starve the command port (found by the full-system twin: no reply for seconds while frames
  * kept streaming). The main loop serves the command and comes back; the words wait in the
  * hardware FIFO (overflows are counted). */
-void poll_events(uint32_t max_words)
+APP_HOT void poll_events(uint32_t max_words)
 {
     for (; max_words > 0u; max_words--) {
         uint32_t t = now32(), f0 = frame_acc;
@@ -231,7 +231,7 @@ void poll_events(uint32_t max_words)
 }
 
 /* every window of a pulse has closed max_tof after its t0: a group still open then is cut */
-void scan_timeouts(uint32_t now)
+APP_HOT void scan_timeouts(uint32_t now)
 {
     for (int i = 0; i < MAX_GROUPS; i++) {
         group_t *g = &groups[i];

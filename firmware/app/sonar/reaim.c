@@ -34,7 +34,7 @@ static struct {
 static sensor_t prev;
 static int prev_si = -1;
 
-const sensor_t *placement_of(int si, int shift)
+APP_HOT const sensor_t *placement_of(int si, int shift)
 {
     if (sens[si].shift == shift)
         return &sens[si];
@@ -54,7 +54,7 @@ static void request(int si, int dir, int why)
 }
 
 /* what a pulse of sensor si found, once known (a fix or no fix) */
-void sensor_outcome(int si, int init, int fixed)
+APP_HOT void sensor_outcome(int si, int init, int fixed)
 {
     sensor_t *s = &sens[si];
     if (fixed)
@@ -120,7 +120,7 @@ static void take_over(uint32_t now)
     ra.state = RA_IDLE;
 }
 
-int reaim_restart_seen(uint32_t vs, uint32_t id, uint32_t init, uint32_t now)
+APP_HOT int reaim_restart_seen(uint32_t vs, uint32_t id, uint32_t init, uint32_t now)
 {
     (void)vs;
     if (ra.state != RA_WAIT || id != 0u || !init)
@@ -130,7 +130,7 @@ int reaim_restart_seen(uint32_t vs, uint32_t id, uint32_t init, uint32_t now)
 }
 
 /* idle: the next slice of a move; every pass: the apply's verdict. Returns 1 when it worked. */
-int reaim_step(int idle)
+APP_HOT int reaim_step(int idle)
 {
     uint32_t t = now32();
     const app_sensor_t *c = &cfgs[ra.si];
