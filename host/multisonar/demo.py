@@ -337,8 +337,10 @@ def _pct(v: np.ndarray, q: float) -> float | None:
 
 def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) -> dict[str, Any]:
     """Every firmware geometry record against the record the host computes from the same
-    pulse's ToF records (multisonar.georecord, as the simulated device does): same class and
-    x, y within 1 mm, or a mismatch. The firmware has no cylinder model (firmware/geometry/
+    pulse's ToF records (multisonar.georecord, as the simulated device does): same class and,
+    for a fix (edge, wall), x, y within 1 mm, or a mismatch. An 'uncertain' record's position
+    (the point fit of data neither model explains, often ill-conditioned) is not a fix: its
+    distance is reported apart (``uncertain_max_mm``). The firmware has no cylinder model (firmware/geometry/
     ms_geom.h: where Python answers 'cylinder' it answers 'uncertain'), so a host cylinder
     counts as uncertain. The pulse's groups may have been moved by re-aiming: the shift is the
     rotation that maps the configured receivers onto the ToF records'."""
@@ -349,7 +351,7 @@ def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) ->
     n = layout.n
     last_tof: dict[tuple[int, int], Any] = {}
     compared = mismatches = 0
-    max_mm = 0.0
+    max_mm = uncertain_max_mm = 0.0
     examples: list[str] = []
     for f in frames:
         key = (f.vs, f.pulse_seq)
@@ -373,20 +375,26 @@ def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) ->
                 mismatches += 1
                 continue
             d = math.hypot(int(g["x_mm"]) - int(want["x_mm"]), int(g["y_mm"]) - int(want["y_mm"]))
-            max_mm = max(max_mm, d)
             want_cls = 4 if int(want["cls"]) == 3 else int(want["cls"])
-            if int(g["cls"]) != want_cls or abs(int(g["x_mm"]) - int(want["x_mm"])) > 1 \
-                    or abs(int(g["y_mm"]) - int(want["y_mm"])) > 1:
+            is_fix = want_cls in (1, 2)
+            if is_fix:
+                max_mm = max(max_mm, d)
+            elif int(g["cls"]) == want_cls:
+                uncertain_max_mm = max(uncertain_max_mm, d)
+            if int(g["cls"]) != want_cls or (is_fix and (abs(int(g["x_mm"]) - int(want["x_mm"])) > 1
+                                                         or abs(int(g["y_mm"]) - int(want["y_mm"])) > 1)):
                 mismatches += 1
                 if len(examples) < 3:
                     examples.append(f"{r.name} pulse {f.pulse_seq}: firmware {P.GEO_CLASSES[int(g['cls'])]} "
                                     f"({int(g['x_mm'])}, {int(g['y_mm'])}) mm, host "
                                     f"{P.GEO_CLASSES[int(want['cls'])]} ({int(want['x_mm'])}, {int(want['y_mm'])}) mm")
     notes = [f"Firmware geometry vs host geometry on the same ToF records: {compared} compared, {mismatches} "
-             f"mismatches (class, a host cylinder counting as uncertain, or x / y more than 1 mm apart), "
-             f"largest distance {max_mm:.1f} mm."
+             f"mismatches (class, a host cylinder counting as uncertain, or a fix's x / y more than 1 mm "
+             f"apart), largest distance of a fix {max_mm:.1f} mm (of an uncertain record's position "
+             f"{uncertain_max_mm:.1f} mm)."
              + ("".join(f" E.g. {e}." for e in examples))]
-    return {"summary": {"compared": compared, "mismatches": mismatches, "max_mm": round(max_mm, 1)}, "notes": notes}
+    return {"summary": {"compared": compared, "mismatches": mismatches, "max_mm": round(max_mm, 1),
+                        "uncertain_max_mm": round(uncertain_max_mm, 1)}, "notes": notes}
 
 
 BACKENDS = ("twin", "golden")

@@ -124,6 +124,7 @@ extern uint8_t par_geometry, par_tof, par_max_echoes;
 extern uint64_t path_k;        /* um per tick, Q32 (~7.15 * 2^32) */
 extern uint32_t edge_lat;      /* L = 1 + max(glitch_min, 1) */
 extern uint16_t last_pulse_id[8]; /* per table entry, from its latest pulse record */
+extern uint32_t word_aside;    /* pulses.c: cycles inside a word's handling that are not its own */
 
 /* ---------------------------------------------------------------- jobs */
 /* pulses.c */

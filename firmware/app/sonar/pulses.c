@@ -13,7 +13,7 @@
 
 group_t groups[MAX_GROUPS];
 static uint32_t fbuf[3 + 5 + 2 * MAX_EV + 4];
-static uint32_t frame_acc; /* cycles spent writing frames (taken out of the per-word figure) */
+uint32_t word_aside; /* cycles of frames and a re-aim's hand-over, taken out of the word's figure */
 
 /* one frame (docs/protocol.md sections 2, 6): header 12 bytes, head 20 bytes, records; the host
  * link appends the CRC-32 at the commit and drops the frame whole (FRAMES_DROPPED) if the frame
@@ -61,7 +61,7 @@ APP_HOT static void close_group(group_t *g)
     fw_stats[FW_CUT] += (g->flags & FRAME_CUT) != 0;
     fw_stats[FW_LOST] += (g->flags & FRAME_LOST) != 0;
     stat_max(FW_CYC_FRAME, now - t);
-    frame_acc += now32() - t;
+    word_aside += now32() - t;
     /* mailbox 0x4: the main loop's busy cycles since the previous ToF frame */
     ms_report(0x40000000u | (busy_acc & 0x0FFFFFFFu));
     stat_max(FW_BUSY_PULSE, busy_acc);
@@ -215,7 +215,7 @@ APP_HOT static void finish(group_t *g)
 APP_HOT void poll_events(uint32_t max_words)
 {
     for (; max_words > 0u; max_words--) {
-        uint32_t t = now32(), f0 = frame_acc;
+        uint32_t t = now32(), f0 = word_aside;
         uint32_t lo = MS_SONAR(EVT_LO);
         uint32_t hi = MS_SONAR(EVT_HI);
         if (!(hi & SONAR_REGS__EVT_HI__VALID_bm))
@@ -224,7 +224,7 @@ APP_HOT void poll_events(uint32_t max_words)
         group_t *g = take_event(lo, hi, now);
         if (g)
             finish(g);
-        stat_max(FW_CYC_WORD, now32() - t - (frame_acc - f0));
+        stat_max(FW_CYC_WORD, now32() - t - (word_aside - f0));
         if (g && (MS_SOC(CMD_STATUS) & SOC_REGS__CMD_STATUS__AVAIL_bm))
             return;
     }

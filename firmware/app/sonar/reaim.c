@@ -6,16 +6,17 @@
  * pings in a row without a fix request one toward the side of its last fix. One move at a
  * time; a request while one is under way is dropped (the next fix asks again).
  *
- *   PREPARE  the moved groups placed and their geometry prepared into a spare array (the
- *            running sensor is untouched);
- *   APPLY    (not while a pulse id is within ID_WRAP_MARGIN of its 16-bit wrap) the sensor's
- *            VS entry and delay memory rewritten, CTRL.apply;
+ *   APPLY    (not while a pulse id is within ID_WRAP_MARGIN of its 16-bit wrap) the moved
+ *            groups placed, the sensor's VS entry and delay memory rewritten, CTRL.apply;
  *   WAIT     the main loop goes on. The scheduler validates the table while running; taken,
  *            it finishes every tick before the apply, drops all windows and restarts every
  *            sensor with an init ping of pulse id 0. Words leave the event FIFO in the order
  *            they were written, so the first such record (reaim_restart_seen) is the first
  *            word of the new table: every pulse still open is the old table's and goes out,
- *            cut, and the moved sensor's new array takes over. STATUS.cfg_error set by this
+ *            cut; then the moved groups' geometry is prepared (ms_prepare, ~32 k cycles) and
+ *            takes over. Here it delays no ToF frame: every pulse is out, and the new table's
+ *            first event comes T_dead (1.5 ms by default) after its first trigger, which is
+ *            after this record. STATUS.cfg_error set by this
  *            apply means refused: the entry is put back (the running table never changed).
  *            No restart within APPLY_WAIT: accepted if the check passed (the records went in
  *            an overflow), else put back. */
@@ -23,7 +24,7 @@
 
 #define REAIM_BANG ((int32_t)((uint32_t)REAIM_DEG * (4294967296.0 / 360.0)))
 
-enum { RA_IDLE, RA_PREPARE, RA_APPLY, RA_WAIT };
+enum { RA_IDLE, RA_APPLY, RA_WAIT };
 static struct {
     int state, si, dir, why;
     sensor_t nw;           /* the moved groups and their prepared array */
@@ -47,7 +48,7 @@ static void request(int si, int dir, int why)
 {
     if (ra.state != RA_IDLE)
         return;
-    ra.state = RA_PREPARE;
+    ra.state = RA_APPLY;
     ra.si = si;
     ra.dir = dir;
     ra.why = why;
@@ -108,6 +109,12 @@ static void take_over(uint32_t now)
     sensor_t *s = &sens[ra.si];
     cut_open(-1, now); /* the old table's open pulses: the scheduler dropped their windows */
     ms_report(0x50000000u | (frame_seq & 0x0FFFFFFFu)); /* first frame of the new table */
+    uint32_t t = now32();
+    sensor_prepare(&ra.nw, &cfgs[ra.si], &ra.nw.arr);
+    t = now32() - t;
+    stat_max(FW_CYC_REAIM, t);
+    stat_max(FW_CYC_SLICE, t);
+    word_aside += t;
     ra.nw.last_side = s->last_side;
     ra.nw.last_dev = 0;
     ra.nw.init_misses = 0;
@@ -135,17 +142,11 @@ APP_HOT int reaim_step(int idle)
     uint32_t t = now32();
     const app_sensor_t *c = &cfgs[ra.si];
     switch (ra.state) {
-    case RA_PREPARE:
-        if (!idle)
-            return 0;
-        prev_si = -1; /* runs with the job queue empty: no job of an older placement waits */
-        sensor_place(&ra.nw, c, (sens[ra.si].shift + ra.dir + APP_RING_N) % APP_RING_N);
-        sensor_prepare(&ra.nw, c, &ra.nw.arr);
-        ra.state = RA_APPLY;
-        break;
     case RA_APPLY:
         if (!idle || near_wrap())
             return 0;
+        prev_si = -1; /* runs with the job queue empty: no job of an older placement waits */
+        sensor_place(&ra.nw, c, (sens[ra.si].shift + ra.dir + APP_RING_N) % APP_RING_N);
         for (int k = 0; k < c->n_tx; k++)
             DELAY_ENTRY(c->vs, sens[ra.si].tx[k]) = 0u;
         write_group(c, &ra.nw);
