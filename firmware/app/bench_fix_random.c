@@ -42,6 +42,7 @@
 
 #include "ms_geom.h"
 #include "ms_hw.h"
+#include "ms_isqrt.h"
 #include "ms_layout.h"
 
 #ifndef BENCH_CALLS
@@ -128,29 +129,11 @@ static uint32_t rnd_below(uint32_t n) { return (uint32_t)(((uint64_t)rnd() * n) 
 
 static int32_t rnd_span(int32_t a) { return (int32_t)rnd_below(2u * (uint32_t)a + 1u) - a; } /* -a..a */
 
-static uint32_t isqrt64(uint64_t v)
-{
-    uint64_t r = 0, b;
-    if (!v)
-        return 0;
-    b = (uint64_t)1 << ((63 - __builtin_clzll(v)) & ~1);
-    while (b) {
-        if (v >= r + b) {
-            v -= r + b;
-            r = (r >> 1) + b;
-        } else {
-            r >>= 1;
-        }
-        b >>= 2;
-    }
-    return (uint32_t)r;
-}
-
 /* |(dx, dy)| rounded to the micrometre */
 static int32_t dist_um(int64_t dx, int64_t dy)
 {
     uint64_t d2 = (uint64_t)(dx * dx + dy * dy);
-    uint32_t r = isqrt64(d2);
+    uint32_t r = (uint32_t)ms_isqrt64(d2);
     return (int32_t)(d2 - (uint64_t)r * r > r ? r + 1 : r);
 }
 

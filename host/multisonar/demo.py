@@ -238,6 +238,7 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
             _progress(duration, duration, t_run, "RTL twin ")
             sys.stderr.write("\n")
         counters = dev.counters()
+        cycles = {k[len("fw_cycles_"):]: int(v) for k, v in counters.items() if k.startswith("fw_cycles_")}
         harness = tw.sim.counters()
         mail = np.array(tw.sim.mailbox(), dtype=np.uint32)
         tags = mail >> 28
@@ -265,10 +266,9 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
                          f"{np.percentile(commit, 99) / 48:.0f} us, max {commit.max() / 48:.0f} us; main-loop busy "
                          f"cycles per frame median {np.median(busy):.0f}, 99 % {np.percentile(busy, 99):.0f}, max "
                          f"{busy.max():.0f}; {reaims} re-aims taken.")
-        cyc = {k[len("fw_cycles_"):]: v for k, v in counters.items() if k.startswith("fw_cycles_")}
-        if cyc:
+        if cycles:
             notes.append("Firmware worst cycles per path (FW_STATS): " + ", ".join(
-                f"{k.replace('_max', '')} {v:,}" for k, v in cyc.items()) + ".")
+                f"{k.replace('_max', '')} {v:,}" for k, v in cycles.items()) + ".")
         fixed = geo_what == 0
         notes.append(f"Geometry jobs: {int(fixed.sum())} fixes (cycles per fix with its frame: median "
                      f"{np.median(geo_cycles[fixed]) if fixed.any() else 0:.0f}, max "
@@ -320,8 +320,7 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
         "busy_cycles_max": int(busy.max()) if len(busy) else 0,
         "busy_cycles_p99": _pct(busy, 99),
         # the firmware's worst cycles per bounded path (FW_STATS; firmware/README.md)
-        "firmware_cycles": {k[len("fw_cycles_"):]: int(v) for k, v in counters.items()
-                            if k.startswith("fw_cycles_")},
+        "firmware_cycles": cycles,
         "reaims": reaims, "fw_vs_host": fw_host["summary"],
     }
     return DemoRun("twin", duration, time.time() - t_wall, list(resolved),

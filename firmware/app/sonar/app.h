@@ -147,10 +147,11 @@ void sensor_prepare(const sensor_t *s, const app_sensor_t *c, ms_array *arr);
 uint32_t sound_um_s(int32_t t_cc);
 uint32_t mask_of(const uint8_t *el, int n);
 void apply_rx_filter(void);
+void update_path_k(void);
 /* reaim.c */
 void sensor_outcome(int si, int init, int fixed); /* a pulse's verdict: may request a re-aim */
 int reaim_step(int idle);               /* the pending re-aim's next slice; 1 when one ran */
-int reaim_restart_seen(uint32_t vs, uint32_t id, uint32_t init, uint32_t now);
+int reaim_restart_seen(uint32_t id, uint32_t init, uint32_t now);
 void reaim_cancel(void);
 const sensor_t *placement_of(int si, int shift); /* the sensor's groups at shift, if known */
 /* cmd.c */

@@ -241,7 +241,7 @@ static uint32_t param_set(uint32_t id, int32_t v)
     switch (id) {
     case PAR_TEMPERATURE_CC:
         temperature_cc = v;
-        path_k = ((uint64_t)sound_um_s(temperature_cc) << 32) / MS_TICK_HZ;
+        update_path_k();
         break;
     case PAR_GEOMETRY: par_geometry = (uint8_t)v; break;
     case PAR_TOF_RECORDS: par_tof = (uint8_t)v; break;

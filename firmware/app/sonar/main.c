@@ -48,7 +48,7 @@ APP_HOT int main(void)
     /* wdt_base stays 0 at boot (bss): after a watchdog reset the host must see the count */
     for (int i = 0; i < 8; i++)
         vs_index[i] = -1;
-    path_k = ((uint64_t)sound_um_s(temperature_cc) << 32) / MS_TICK_HZ;
+    update_path_k();
     ms_report(0x10000000u | ((uint32_t)APP_NUM_SENSORS << 16) | (MS_SOC(WDT_RESETS) & 0xFFFFu));
 
     /* the compiled-in table is the power-on default; START (over USB) runs it or whatever

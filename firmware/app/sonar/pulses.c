@@ -61,7 +61,7 @@ APP_HOT static void close_group(group_t *g)
     fw_stats[FW_CUT] += (g->flags & FRAME_CUT) != 0;
     fw_stats[FW_LOST] += (g->flags & FRAME_LOST) != 0;
     stat_max(FW_CYC_FRAME, now - t);
-    word_aside += now32() - t;
+    word_aside += now - t;
     /* mailbox 0x4: the main loop's busy cycles since the previous ToF frame */
     ms_report(0x40000000u | (busy_acc & 0x0FFFFFFFu));
     stat_max(FW_BUSY_PULSE, busy_acc);
@@ -134,7 +134,7 @@ APP_HOT static group_t *take_record(uint32_t lo, uint32_t hi, uint32_t now)
         cut_open((int)vs, lo);
         return 0;
     }
-    reaim_restart_seen(vs, id, init, now); /* a taken apply: the old table's pulses go out */
+    reaim_restart_seen(id, init, now); /* a taken apply: the old table's pulses go out */
     last_pulse_id[vs] = (uint16_t)id;
     if (init)
         cut_open((int)vs, now);

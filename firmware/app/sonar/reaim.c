@@ -16,10 +16,9 @@
  *            cut; then the moved groups' geometry is prepared (ms_prepare, ~32 k cycles) and
  *            takes over. Here it delays no ToF frame: every pulse is out, and the new table's
  *            first event comes T_dead (1.5 ms by default) after its first trigger, which is
- *            after this record. STATUS.cfg_error set by this
- *            apply means refused: the entry is put back (the running table never changed).
- *            No restart within APPLY_WAIT: accepted if the check passed (the records went in
- *            an overflow), else put back. */
+ *            after this record. STATUS.cfg_error set by this apply means refused: the entry
+ *            is put back (the running table never changed). No restart within APPLY_WAIT:
+ *            accepted if the check passed (the records went in an overflow), else put back. */
 #include "app.h"
 
 #define REAIM_BANG ((int32_t)((uint32_t)REAIM_DEG * (4294967296.0 / 360.0)))
@@ -127,9 +126,8 @@ static void take_over(uint32_t now)
     ra.state = RA_IDLE;
 }
 
-APP_HOT int reaim_restart_seen(uint32_t vs, uint32_t id, uint32_t init, uint32_t now)
+APP_HOT int reaim_restart_seen(uint32_t id, uint32_t init, uint32_t now)
 {
-    (void)vs;
     if (ra.state != RA_WAIT || id != 0u || !init)
         return 0;
     take_over(now);

@@ -2,35 +2,19 @@
  * WRITE_REGS works as well as the compiled-in default), each with its groups moved by its
  * re-aim shift and its prepared geometry (ms_prepare). */
 #include "app.h"
+#include "ms_isqrt.h"
 
 app_sensor_t cfgs[8];
 sensor_t sens[8];
 int n_sens;
 int vs_index[8];
 
-static uint64_t isqrt64(uint64_t v)
-{
-    uint64_t r = 0, b = (uint64_t)1 << 62;
-    while (b > v)
-        b >>= 2;
-    while (b) {
-        if (v >= r + b) {
-            v -= r + b;
-            r = (r >> 1) + b;
-        } else {
-            r >>= 1;
-        }
-        b >>= 2;
-    }
-    return r;
-}
-
 /* speed of sound 331.3 m/s * sqrt(1 + T / 273.15 degC), in um/s */
 uint32_t sound_um_s(int32_t t_cc)
 {
     const uint64_t a = 331300000ull * 331300000ull;
     int64_t c2 = (int64_t)a + (int64_t)(a / 27315u) * t_cc + ((int64_t)(a % 27315u) * t_cc) / 27315;
-    return (uint32_t)isqrt64((uint64_t)c2);
+    return (uint32_t)ms_isqrt64((uint64_t)c2);
 }
 
 uint32_t mask_of(const uint8_t *el, int n)
@@ -41,12 +25,18 @@ uint32_t mask_of(const uint8_t *el, int n)
     return m;
 }
 
+/* the temperature -> um of path per tick, Q32 */
+void update_path_k(void)
+{
+    path_k = ((uint64_t)sound_um_s(temperature_cc) << 32) / MS_TICK_HZ;
+}
+
 /* RX_FILTER and the temperature -> the edge latency and um per tick */
 void apply_rx_filter(void)
 {
     uint32_t gm = MS_SONAR(RX_FILTER) & SONAR_REGS__RX_FILTER__GLITCH_MIN_bm;
     edge_lat = 1u + (gm > 1u ? gm : 1u);
-    path_k = ((uint64_t)sound_um_s(temperature_cc) << 32) / MS_TICK_HZ;
+    update_path_k();
 }
 
 /* the groups of sensor c moved by shift elements, and the axis (its middle transmit
