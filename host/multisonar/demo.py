@@ -32,6 +32,9 @@ import numpy as np
 
 from .constants import DEVICE_DECISION_LEAD, TICK_HZ
 
+#: the firmware's busy-budget window (sonar_app main.c BUSY_WINDOW, 10 ms)
+BUSY_WINDOW_TICKS = TICK_HZ // 100
+
 #: Virtual sensors of the demo: a phased 3-element front sensor (virtual source at the robot
 #: origin) and single-transmitter sensors with three receivers towards the sides and
 #: diagonals, as the paper's map-building experiment aims them at walls and openings.
@@ -116,6 +119,9 @@ class DemoRun:
     fixes: list[Fix]
     events: dict[str, np.ndarray]
     notes: list[str] = field(default_factory=list)
+    #: twin: the host geometry's fixes from the same run's ToF frames (every pulse with three or
+    #: more first echoes in its windows, whether or not the firmware fixed it)
+    host_fixes: list[Fix] | None = None
     #: machine-readable figures of the run (summary.json)
     metrics: dict[str, Any] = field(default_factory=dict)
 
@@ -126,10 +132,27 @@ def _world(scene: Any, t: float, p: Any) -> tuple[np.ndarray, float]:
     return rot @ np.asarray(p, float) + (px, py), ph
 
 
+def _host_fix(scene: Any, name: str, t: float, rx: np.ndarray, paths: np.ndarray, source: np.ndarray) -> Fix | None:
+    """The host geometry's fix (multisonar.geometry.classify) from one pulse's first echoes:
+    receivers ``rx``, path lengths (m) from ``source`` (robot frame), placed with the pose at
+    ``t``; None when the classification gives no valid edge or wall."""
+    from . import geometry
+
+    cls = geometry.classify(scene.layout.positions[rx], paths, source=source)
+    if cls.kind == "wall" and cls.wall.valid:
+        foot, ph = _world(scene, t, cls.wall.foot)
+        return Fix(t, name, "wall", *foot, cls.wall.normal_angle + ph,
+                   _truth_distance(foot, scene, walls=True, points=False))
+    if cls.kind == "edge" and cls.point.valid:
+        p, _ = _world(scene, t, cls.point.position)
+        return Fix(t, name, "edge", *p, 0.0, _truth_distance(p, scene, walls=True, points=True))
+    return None
+
+
 def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: str = "demo") -> DemoRun:
     """The golden model on the demo's sensors: tick-exact scheduler and gating, host geometry."""
-    from . import geometry
     from .fastfiring import SEQ_W, FastFiringModel, SceneEchoSource
+    from .georecord import sensor_paths
     from .schedule import Schedule
 
     layout = scene.layout
@@ -172,22 +195,10 @@ def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: s
         if len(tofs) < 3 or (sid, seq) not in t0_of:
             continue
         rx = np.array(sorted(tofs))
-        tof_s = np.array([tofs[i] for i in rx]) / TICK_HZ
-        if len(r.tx) == 1:
-            source = layout.positions[r.tx[0]]
-            paths = c * tof_s
-        else:  # phased group: the wave leaves the virtual source min|c_j - s|/c before t0
-            source = np.asarray(r.source, float)
-            paths = c * tof_s + np.min(np.linalg.norm(layout.positions[r.tx] - source, axis=1))
-        cls = geometry.classify(layout.positions[rx], paths, source=source)
-        t = t0_of[(sid, seq)] / TICK_HZ
-        if cls.kind == "wall" and cls.wall.valid:
-            foot, ph = _world(scene, t, cls.wall.foot)
-            err = _truth_distance(foot, scene, walls=True, points=False)
-            fixes.append(Fix(t, r.name, "wall", *foot, cls.wall.normal_angle + ph, err))
-        elif cls.kind == "edge" and cls.point.valid:
-            p, _ = _world(scene, t, cls.point.position)
-            fixes.append(Fix(t, r.name, "edge", *p, 0.0, _truth_distance(p, scene, walls=True, points=True)))
+        source, paths = sensor_paths(layout, r, np.array([tofs[i] for i in rx]), c)
+        fix = _host_fix(scene, r.name, t0_of[(sid, seq)] / TICK_HZ, rx, paths, source)
+        if fix is not None:
+            fixes.append(fix)
     ev = {k: np.array([getattr(e, k) for e in events]) for k in
           ("tick", "sensor", "seq", "rx", "tof", "in_window", "first_echo", "window_empty", "init_ping")}
     return DemoRun("golden", duration, wall_s, list(resolved),
@@ -199,9 +210,10 @@ def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: s
 
 
 def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, usbip: bool = True,
-             progress: bool = True, sensors: str = "demo") -> DemoRun:
+             progress: bool = True, sensors: str = "demo", echo_source: Any = None) -> DemoRun:
     """The full-system twin on the demo's sensors: configured, started and streamed through the
-    driver; fixes are the firmware's geometry records (robot frame) placed with the pose at t0."""
+    driver; fixes are the firmware's geometry records (robot frame) placed with the pose at t0.
+    ``echo_source``: the echoes in place of the scene's (multisonar.fastfiring sources)."""
     from . import protocol as P
     from .device import RECORDING_FORMAT, RecordingWriter
     from .twin import open_twin
@@ -211,7 +223,7 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
     notes: list[str] = []
     if progress:
         sys.stderr.write("demo: building / loading the twin (make twin: Verilator, about 1-2 min the first time)\n")
-    with open_twin(scene, usbip=usbip, fst=fst) as tw:
+    with open_twin(scene, usbip=usbip, fst=fst, echo_source=echo_source) as tw:
         t_boot = time.time()
         dev = tw.device
         sched = dev.configure(demo_sensors(sensors), temperature_c=scene.temperature_c)
@@ -269,6 +281,10 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
         if cycles:
             notes.append("Firmware worst cycles per path (FW_STATS): " + ", ".join(
                 f"{k.replace('_max', '')} {v:,}" for k, v in cycles.items()) + ".")
+        busy_win = int(counters.get("fw_busy_window_max", 0))
+        notes.append(f"Firmware busy budget: the busiest 10 ms window was {busy_win / BUSY_WINDOW_TICKS:.1%} busy "
+                     f"({busy_win:,} cycles; the budget keeps it at most half plus one job); "
+                     f"{len(commit) / duration:.0f} ToF frames per second of sonar time.")
         fixed = geo_what == 0
         notes.append(f"Geometry jobs: {int(fixed.sum())} fixes (cycles per fix with its frame: median "
                      f"{np.median(geo_cycles[fixed]) if fixed.any() else 0:.0f}, max "
@@ -280,6 +296,7 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
         if harness["echoes_late"] or harness["trig_orphans"] or harness["fires_incomplete"]:
             notes.append("**Warning: the harness clipped echoes or could not attribute triggers (see counters).**")
         fw_host = _fw_vs_host(scene, resolved, frames, scene.speed_of_sound)
+        host_fixes = _host_fixes_of_frames(scene, resolved, frames, tw.scene_time)
         fixes: list[Fix] = []
         for f in frames:
             t = tw.scene_time(f.t0)
@@ -319,6 +336,8 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
                        "max": round(float(lat_us.max()), 1) if len(lat_us) else None},
         "busy_cycles_max": int(busy.max()) if len(busy) else 0,
         "busy_cycles_p99": _pct(busy, 99),
+        # the firmware's busy budget (firmware/README.md "Busy budget"): its busiest 10 ms window
+        "busy_share_max": round(int(counters.get("fw_busy_window_max", 0)) / BUSY_WINDOW_TICKS, 3),
         # the firmware's worst cycles per bounded path (FW_STATS; firmware/README.md)
         "firmware_cycles": cycles,
         "reaims": reaims, "fw_vs_host": fw_host["summary"],
@@ -327,11 +346,38 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
                    pulses={r.id: int(np.sum(vs == r.id)) for r in resolved},
                    init_pings={r.id: int(np.sum(init & (vs == r.id))) for r in resolved},
                    samples={r.id: int(np.sum(samples & (ev["sensor"] == r.id))) for r in resolved},
-                   fixes=fixes, events=ev, notes=notes + fw_host["notes"], metrics=metrics)
+                   fixes=fixes, events=ev, notes=notes + fw_host["notes"], metrics=metrics,
+                   host_fixes=host_fixes)
 
 
 def _pct(v: np.ndarray, q: float) -> float | None:
     return round(float(np.percentile(v, q)), 1) if len(v) else None
+
+
+def _host_fixes_of_frames(scene: Any, resolved: list[Any], frames: list[Any], scene_time: Any) -> list[Fix]:
+    """The host geometry on the twin's own ToF frames: a fix from every pulse with at least three
+    first echoes in its windows (not lost), as the golden run makes them from its events. Set
+    against the firmware's fixes of the same run, it separates what the firmware computes from
+    what the data holds (echoes of other pulses that line up, re-aimed groups)."""
+    from . import protocol as P
+    from .georecord import sensor_paths
+
+    layout, n, c = scene.layout, scene.layout.n, scene.speed_of_sound
+    fixes: list[Fix] = []
+    for f in frames:
+        if f.is_geometry or f.flags & P.FRAME_LOST or f.vs >= len(resolved):
+            continue
+        r = resolved[f.vs]
+        firsts = {int(x["rx"]): int(x["tof"]) for x in f.tof if int(x["flags"]) & 3 == 3}
+        rxs = sorted(firsts)
+        shift = next((k for k in range(n) if set(rxs) <= {(int(e) + k) % n for e in r.rx}), None)
+        if shift is None or len(rxs) < 3:
+            continue
+        source, paths = sensor_paths(layout, r, np.array([firsts[e] for e in rxs]), c, shift)
+        fix = _host_fix(scene, r.name, scene_time(f.t0), np.array(rxs), paths, source)
+        if fix is not None:
+            fixes.append(fix)
+    return fixes
 
 
 def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) -> dict[str, Any]:
@@ -403,7 +449,7 @@ TWIN_DEFAULT_SECONDS = 2.0
 
 def run_demo(scene_name: str = "corridor", out: str | Path = "build/demo", seconds: float | None = None, *,
              backend: str = "twin", fst: str | None = None, usbip: bool = True, compare: bool = True,
-             sensors: str = "demo") -> int:
+             sensors: str = "demo", echo_source: Any = None) -> int:
     from .scene import load_scene
 
     if backend not in BACKENDS:
@@ -411,6 +457,8 @@ def run_demo(scene_name: str = "corridor", out: str | Path = "build/demo", secon
     n_sensors = len(demo_sensors(sensors))
     if fst is not None and backend != "twin":
         raise ValueError("--fst needs the twin backend (the golden model has no waveforms)")
+    if echo_source is not None and (backend != "twin" or compare):
+        raise ValueError("an echo source other than the scene's runs on the twin alone (compare=False)")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     scene = load_scene(scene_name)
@@ -424,7 +472,7 @@ def run_demo(scene_name: str = "corridor", out: str | Path = "build/demo", secon
     print(f"demo: scene {scene.name!r} ({scene.n_reflectors} reflectors), {n_sensors} virtual sensors ({sensors}), "
           f"{duration:.2f} s of sonar time, {what}")
     if backend == "twin":
-        main = run_twin(scene, duration, out=out, fst=fst, usbip=usbip, sensors=sensors)
+        main = run_twin(scene, duration, out=out, fst=fst, usbip=usbip, sensors=sensors, echo_source=echo_source)
         ref = run_golden(scene, duration, sensors=sensors) if compare else None
     else:
         main, ref = run_golden(scene, duration, sensors=sensors), None
@@ -448,10 +496,10 @@ def run_demo(scene_name: str = "corridor", out: str | Path = "build/demo", secon
     return 0
 
 
-def _fix_errors(run: DemoRun) -> dict[str, Any]:
+def _fix_errors(fixes: list[Fix]) -> dict[str, Any]:
     out = {}
     for kind in ("wall", "edge"):
-        e = np.array([f.error for f in run.fixes if f.kind == kind]) * 1e3
+        e = np.array([f.error for f in fixes if f.kind == kind]) * 1e3
         out[kind] = {"count": int(len(e)), "median_mm": round(float(np.median(e)), 1) if len(e) else None,
                      "p95_mm": round(float(np.percentile(e, 95)), 1) if len(e) else None}
     return out
@@ -459,7 +507,8 @@ def _fix_errors(run: DemoRun) -> dict[str, Any]:
 
 def _summary_json(scene: Any, run: DemoRun, ref: DemoRun | None) -> dict[str, Any]:
     """summary.json: the run's figures, per-sensor rates and per fix kind the median and 95 %
-    error of the device's (twin: firmware) fixes and of the host geometry's (golden model)."""
+    error of the device's (twin: firmware) fixes, of the host geometry on the same run's ToF
+    frames (``host_same_run``, twin) and of the host geometry of the golden model (``host``)."""
     out: dict[str, Any] = {"scene": scene.name, "backend": run.backend, "sonar_s": run.duration,
                            "wall_s": round(run.wall_s, 3)}
     out.update(run.metrics)
@@ -467,9 +516,11 @@ def _summary_json(scene: Any, run: DemoRun, ref: DemoRun | None) -> dict[str, An
     out["sensors"] = {r.name: {"pulses": run.pulses[r.id], "init_pings": run.init_pings[r.id],
                                "samples_per_s_per_rx": round(run.samples[r.id] / len(r.rx) / run.duration, 2)}
                       for r in run.resolved}
-    out["fixes"] = {"firmware" if run.backend == "twin" else "host": _fix_errors(run)}
+    out["fixes"] = {"firmware" if run.backend == "twin" else "host": _fix_errors(run.fixes)}
+    if run.host_fixes is not None:
+        out["fixes"]["host_same_run"] = _fix_errors(run.host_fixes)
     if ref is not None:
-        out["fixes"]["host"] = _fix_errors(ref)
+        out["fixes"]["host"] = _fix_errors(ref.fixes)
     return out
 
 
@@ -498,10 +549,14 @@ def _summary(scene: Any, run: DemoRun, ref: DemoRun | None, fst: str | None) -> 
         lines.append(row)
     lines += ["", "| fix kind | source | count | median error [mm] | 95% error [mm] | max error [mm] |",
               "|---|---|---:|---:|---:|---:|"]
+    sources = [("firmware (twin)" if run.backend == "twin" else "host geometry (golden)", run.fixes)]
+    if run.host_fixes is not None:
+        sources.append(("host geometry (twin's ToF frames)", run.host_fixes))
+    if ref is not None:
+        sources.append(("host geometry (golden)", ref.fixes))
     for kind in ("wall", "edge"):
-        for src in [run] + ([ref] if ref is not None else []):
-            label = "firmware (twin)" if src.backend == "twin" else "host geometry (golden)"
-            errs = np.array([f.error for f in src.fixes if f.kind == kind])
+        for label, fixes in sources:
+            errs = np.array([f.error for f in fixes if f.kind == kind])
             if len(errs):
                 lines.append(f"| {kind} | {label} | {len(errs)} | {np.median(errs) * 1e3:.1f} | "
                              f"{np.percentile(errs, 95) * 1e3:.1f} | {errs.max() * 1e3:.1f} |")

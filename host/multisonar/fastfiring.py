@@ -215,13 +215,21 @@ class SyntheticEchoSource:
     positive = approaching: tof = 2 (r0 - v t0) / (c + v)), a step change at ``step_tick``
     (pulses fired at or after it see ``step_ranges_m``; ``occlude`` hides the old ranges) and a
     ring-down pulse on each firing element. Receivers not in ``ranges_m`` get no echo.
+    ``spurious_rate_hz``: Poisson comparator pulses per receiver (``spurious_width_ticks``
+    wide) from a generator seeded with ``seed``, as the scenes' noise model has them.
     """
 
     def __init__(self, ranges_m: float | Mapping[int, float | Sequence[float]], *, receivers: Iterable[int] = range(24),
                  temperature_c: float = 20.0, velocity_mps: float = 0.0, step_tick: int | None = None,
                  step_ranges_m: float | Mapping[int, float | Sequence[float]] | None = None, occlude: bool = True,
-                 width_ticks: int = 9600, ringdown_ticks: int = 0) -> None:
+                 width_ticks: int = 9600, ringdown_ticks: int = 0, spurious_rate_hz: float = 0.0,
+                 spurious_width_ticks: int = 2400, seed: int = 0) -> None:
+        if spurious_rate_hz < 0:
+            raise ValueError(f"spurious_rate_hz must be >= 0, got {spurious_rate_hz}")
         self.c = speed_of_sound(temperature_c)
+        self.receivers = sorted(int(r) for r in receivers)
+        self.spurious_rate, self.spurious_width = float(spurious_rate_hz), int(spurious_width_ticks)
+        self._rng = np.random.default_rng(seed)
         self.ranges = self._norm(ranges_m, receivers)
         self.step_ranges = self._norm(step_ranges_m, receivers) if step_ranges_m is not None else None
         self.v, self.step_tick, self.occlude = velocity_mps, step_tick, occlude
@@ -250,6 +258,17 @@ class SyntheticEchoSource:
                     if tof > 0:
                         out.append((rx, t0_tick + tof, self.width))
         return out
+
+    def noise(self, t_start_tick: int, t_end_tick: int) -> np.ndarray:
+        """Spurious comparator pulses (rx, start tick, width) in [t_start_tick, t_end_tick)."""
+        span = max(0, int(t_end_tick) - int(t_start_tick))
+        if not self.spurious_rate or not span:
+            return np.zeros((0, 3), dtype=np.int64)
+        n = self._rng.poisson(self.spurious_rate * span / TICK_HZ, len(self.receivers))
+        rx = np.repeat(np.asarray(self.receivers, dtype=np.int64), n)
+        start = int(t_start_tick) + self._rng.integers(0, span, len(rx))
+        rows = np.stack([rx, start, np.full(len(rx), self.spurious_width, dtype=np.int64)], axis=1)
+        return rows[np.argsort(rows[:, 1], kind="stable")]
 
 
 class PointEchoSource:

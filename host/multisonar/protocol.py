@@ -156,12 +156,12 @@ COUNTERS = struct.Struct("<" + "I" * len(COUNTERS_FIELDS))
 #: many frames took over 1 ms; then the worst cycles of each bounded firmware path
 #: (firmware/README.md, "Cycles per path"): one event word (frames it closed excluded), one ToF
 #: frame, one geometry job, one re-aim slice, one command while running, the longest slice away
-#: from the event FIFO, and the main loop's busy cycles per pulse (between two ToF frames)
+#: from the event FIFO, and the main loop's busy cycles in its busiest 10 ms window
 FW_STATS_FIELDS: tuple[str, ...] = ("geo_fixes", "geo_skipped", "geo_declined", "geo_stale", "frames_cut",
                                     "frames_lost", "latency_max_ticks", "latency_over_1ms",
                                     "cycles_word_max", "cycles_frame_max", "cycles_geo_max",
                                     "cycles_reaim_max", "cycles_command_max", "cycles_slice_max",
-                                    "busy_per_pulse_max")
+                                    "busy_window_max")
 FW_STATS_MIN_FIELDS: int = 8  #: a device from before the cycle fields answers the first 8
 FW_STATS = struct.Struct("<" + "I" * len(FW_STATS_FIELDS))
 

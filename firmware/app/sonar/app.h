@@ -25,7 +25,12 @@
 #endif
 
 /* ---------------------------------------------------------------- tunables */
-#define MAX_GROUPS 32        /* pulses being collected at once: 8 sensors, up to 4 in flight each */
+/* pulses of one sensor being collected at once: the order's N in flight, the next one whose
+ * record is popped before the oldest one's last terminal event, and one popped late (the
+ * twin's maximum-load run has N + 1 open per sensor at order 4). Each sensor has its own
+ * slots, so one sensor's backlog never cuts another's pulses. */
+#define GROUP_SLOTS (APP_MAX_ORDER + 2)
+#define MAX_GROUPS (APP_NUM_VS * GROUP_SLOTS)
 #define MAX_EV 16            /* ToF records per frame kept (protocol allows 64) */
 #define REAIM_DEG 10         /* 2/3 of the 15 deg element pitch: after a one-element move the */
                              /* reflector is ~5 deg off the new axis, so it stays (no ping-pong) */
@@ -85,7 +90,8 @@ typedef struct {
     uint32_t t_done;   /* detection tick of the last terminal event so far */
     uint32_t t_pop;    /* timer at the last word taken for it */
     int32_t first_tof[APP_MAX_GROUP]; /* per receiver index of the sensor */
-    uint32_t rec[MAX_EV][2];          /* ToF records as they go on the wire */
+    uint32_t rec[MAX_EV]; /* ToF records: tof (24 bits) | rx << 24 | event flags 2:0 << 29 (in
+                           * window, first echo, window empty; the init flag is the pulse's) */
 } group_t;
 
 typedef struct {
@@ -104,7 +110,7 @@ typedef struct {
  * latency; then the worst cycles of each bounded path (the firmware's cycle table) */
 enum { FW_GEO_FIXES, FW_GEO_SKIPPED, FW_GEO_DECLINED, FW_GEO_STALE, FW_CUT, FW_LOST, FW_LAT_MAX,
        FW_LAT_OVER_1MS, FW_CYC_WORD, FW_CYC_FRAME, FW_CYC_GEO, FW_CYC_REAIM, FW_CYC_CMD,
-       FW_CYC_SLICE, FW_BUSY_PULSE, FW_NSTATS };
+       FW_CYC_SLICE, FW_BUSY_WINDOW, FW_NSTATS };
 extern uint32_t fw_stats[FW_NSTATS];
 static inline void stat_max(int i, uint32_t v)
 {
@@ -134,7 +140,7 @@ void cut_open(int vs, uint32_t tick);     /* open pulses of vs (< 0: all) go out
 void scan_timeouts(uint32_t now);
 void groups_clear(void);
 void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_t n_tof,
-                 const uint32_t (*tof)[2], uint32_t n_geo, const uint32_t *geo);
+                 const uint32_t *tof, uint32_t n_geo, const uint32_t *geo);
 /* geo.c */
 void geo_enqueue(const group_t *g);       /* a complete pulse's fix, or its no-fix outcome */
 int geo_step(void);                       /* one job, if any; returns 1 when one ran */

@@ -2,7 +2,7 @@
  *
  * A pulse record (bit 62: sensor, 16-bit pulse id, the exact t0, the number of windows; written
  * by the scheduler before any event of its pulse) opens the pulse's group, keyed (sensor, pulse
- * id mod 256); a ToF event goes into its group. A group is complete when each of its windows has
+ * id mod 256) in the sensor's GROUP_SLOTS slots; a ToF event goes into its group. A group is complete when each of its windows has
  * its terminal event (first echo or window_empty). A cancel record (bits 62, 61) or an init
  * ping's record closes the open pulses of its sensor (their windows were cancelled: CUT); a
  * group also goes when the sensor's maximum time of flight plus 1 ms has passed since t0 (CUT).
@@ -19,7 +19,7 @@ uint32_t word_aside; /* cycles of frames and a re-aim's hand-over, taken out of 
  * link appends the CRC-32 at the commit and drops the frame whole (FRAMES_DROPPED) if the frame
  * queue has no room for it */
 APP_HOT void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_t n_tof,
-                 const uint32_t (*tof)[2], uint32_t n_geo, const uint32_t *geo)
+                 const uint32_t *tof, uint32_t n_geo, const uint32_t *geo)
 {
     uint32_t *w = fbuf;
     uint32_t plen = 20u + 8u * n_tof + 16u * n_geo;
@@ -33,9 +33,10 @@ APP_HOT void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq,
     w[6] = MS_SOC(FRAMES_DROPPED);
     w[7] = (MS_SONAR(OVERFLOWS) & 0xFFFFu) | (((MS_SOC(WDT_RESETS) - wdt_base) & 0xFFFFu) << 16);
     uint32_t *p = &w[8];
-    for (uint32_t i = 0; i < n_tof; i++) {
-        *p++ = tof[i][0];
-        *p++ = tof[i][1];
+    uint32_t word1 = (seq << 8) | (vs << 16) | ((flags & FRAME_INIT) ? (8u << 24) : 0u);
+    for (uint32_t i = 0; i < n_tof; i++) { /* group_t.rec -> the wire's two words */
+        *p++ = tof[i] & 0xFFFFFFu;
+        *p++ = word1 | ((tof[i] >> 24) & 0x1Fu) | ((tof[i] >> 29) << 24);
     }
     for (uint32_t i = 0; i < 4u * n_geo; i++)
         *p++ = geo[i];
@@ -64,15 +65,14 @@ APP_HOT static void close_group(group_t *g)
     word_aside += now - t;
     /* mailbox 0x4: the main loop's busy cycles since the previous ToF frame */
     ms_report(0x40000000u | (busy_acc & 0x0FFFFFFFu));
-    stat_max(FW_BUSY_PULSE, busy_acc);
     busy_acc = 0;
 }
 
 APP_HOT static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int init)
 {
     group_t *free_g = 0, *oldest = 0;
-    for (int i = 0; i < MAX_GROUPS; i++) {
-        group_t *g = &groups[i];
+    for (int i = 0; i < GROUP_SLOTS; i++) {
+        group_t *g = &groups[vs * GROUP_SLOTS + i];
         if (g->used) {
             if (g->vs == vs && g->seq == seq)
                 return g;
@@ -82,7 +82,7 @@ APP_HOT static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int in
             free_g = g;
         }
     }
-    if (!free_g) { /* no room: the oldest pulse goes out as it is */
+    if (!free_g) { /* no room: the sensor's oldest pulse goes out as it is */
         oldest->flags |= FRAME_CUT;
         close_group(oldest);
         free_g = oldest;
@@ -113,9 +113,10 @@ APP_HOT static int group_complete(const group_t *g)
  * table's first record, reaim.c) or STOP drops them all. */
 APP_HOT void cut_open(int vs, uint32_t tick)
 {
-    for (int i = 0; i < MAX_GROUPS; i++) {
+    int from = vs < 0 ? 0 : vs * GROUP_SLOTS, to = vs < 0 ? MAX_GROUPS : from + GROUP_SLOTS;
+    for (int i = from; i < to; i++) {
         group_t *o = &groups[i];
-        if (o->used && (vs < 0 || o->vs == (uint32_t)vs)) {
+        if (o->used) {
             o->flags |= FRAME_CUT;
             o->t_done = tick;
             close_group(o);
@@ -170,9 +171,7 @@ APP_HOT static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
     }
     g->t_pop = now;
     if (g->n_ev < MAX_EV) {
-        g->rec[g->n_ev][0] = tof;
-        g->rec[g->n_ev][1] = rx | (seq << 8) | (vs << 16) | (fl << 24);
-        g->n_ev++;
+        g->rec[g->n_ev++] = tof | (rx << 24) | ((fl & 7u) << 29);
     } else {
         g->flags |= FRAME_TRUNC;
     }
@@ -199,9 +198,9 @@ APP_HOT static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
  * overflow) cannot be completed by count: they go first */
 APP_HOT static void finish(group_t *g)
 {
-    for (int i = 0; i < MAX_GROUPS; i++) {
-        group_t *o = &groups[i];
-        if (o->used && !o->has_rec && o != g && o->vs == g->vs && (int8_t)(uint8_t)(g->seq - o->seq) > 0)
+    for (int i = 0; i < GROUP_SLOTS; i++) {
+        group_t *o = &groups[g->vs * GROUP_SLOTS + i];
+        if (o->used && !o->has_rec && o != g && (int8_t)(uint8_t)(g->seq - o->seq) > 0)
             close_group(o);
     }
     close_group(g);

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..layout import Layout, load_layout
 from ..regmap import schedule_writes
-from ..schedule import Schedule, VirtualSensor
+from ..schedule import MAX_ORDER, NUM_VS, Schedule, VirtualSensor
 
 #: air temperature of the compiled-in configurations, degC (APP_TEMPERATURE_CC)
 TEMPERATURE_C = 20.0
@@ -115,7 +115,9 @@ def header(config: str = "scene", temperature_c: float = TEMPERATURE_C) -> str:
          f"#define APP_NUM_SENSORS {len(res)}",
          f"#define APP_NUM_WRITES {len(writes)}",
          f"#define APP_RING_N {n}",
-         "#define APP_MAX_GROUP 8", "",
+         "#define APP_MAX_GROUP 8",
+         f"#define APP_MAX_ORDER {MAX_ORDER}  /* the scheduler's highest fast-firing order (CAPS) */",
+         f"#define APP_NUM_VS {NUM_VS}", "",
          "/* schedule_writes(): sonar-block byte offset, value; then CTRL.apply | CTRL.enable */",
          "static const uint32_t app_writes[APP_NUM_WRITES][2] = {"]
     L += [f"    {{0x{a:03X}u, 0x{v:08X}u}}," for a, v in writes]
