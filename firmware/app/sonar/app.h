@@ -35,6 +35,7 @@
 #define REAIM_DEG 10         /* 2/3 of the 15 deg element pitch: after a one-element move the */
                              /* reflector is ~5 deg off the new axis, so it stays (no ping-pong) */
 #define LOST_PINGS 3         /* init pings in a row without a fix = track lost */
+#define REAIM_HOLDOFF 4800000u /* 100 ms between moves: each restarts every sensor's track */
 #define CLOSE_MARGIN 48000u  /* 1 ms after the last window can close */
 #define CMD_WORDS 272u       /* ms_link_cmd_rx keeps 1088 bytes of a transfer */
 #define START_WAIT 200000u   /* cycles for the scheduler to validate + start the table */

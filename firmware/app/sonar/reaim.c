@@ -4,7 +4,10 @@
  * An edge / wall fix whose bearing (wall: normal) is more than REAIM_DEG off the sensor's axis
  * requests a move of its tx and rx groups one element toward the reflector; LOST_PINGS init
  * pings in a row without a fix request one toward the side of its last fix. One move at a
- * time; a request while one is under way is dropped (the next fix asks again).
+ * time; a request while one is under way, or within REAIM_HOLDOFF of the last move taken, is
+ * dropped (the next fix asks again). A move restarts the whole table: every sensor loses its
+ * track and fires init pings, so the hold-off bounds what re-aiming costs the other sensors,
+ * and the restart's init pings do not count as lost tracks (the counters restart with it).
  *
  *   APPLY    (not while a pulse id is within ID_WRAP_MARGIN of its 16-bit wrap) the moved
  *            groups placed, the sensor's VS entry and delay memory rewritten, CTRL.apply;
@@ -33,6 +36,8 @@ static struct {
  * hand-over are solved on them (the next move is prepared only when the job queue is empty) */
 static sensor_t prev;
 static int prev_si = -1;
+static uint32_t t_taken; /* when the last move was taken */
+static int taken_any;
 
 APP_HOT const sensor_t *placement_of(int si, int shift)
 {
@@ -45,7 +50,7 @@ APP_HOT const sensor_t *placement_of(int si, int shift)
 
 static void request(int si, int dir, int why)
 {
-    if (ra.state != RA_IDLE)
+    if (ra.state != RA_IDLE || (taken_any && now32() - t_taken < REAIM_HOLDOFF))
         return;
     ra.state = RA_APPLY;
     ra.si = si;
@@ -116,7 +121,11 @@ static void take_over(uint32_t now)
     word_aside += t;
     ra.nw.last_side = s->last_side;
     ra.nw.last_dev = 0;
+    for (int i = 0; i < n_sens; i++)
+        sens[i].init_misses = 0;
     ra.nw.init_misses = 0;
+    t_taken = now;
+    taken_any = 1;
     prev = *s;
     prev_si = ra.si;
     *s = ra.nw;
