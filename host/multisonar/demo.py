@@ -354,27 +354,40 @@ def _pct(v: np.ndarray, q: float) -> float | None:
     return round(float(np.percentile(v, q)), 1) if len(v) else None
 
 
+def _first_echo_paths(layout: Any, resolved: list[Any], frame: Any, c: float) -> tuple[Any, ...] | None:
+    """A ToF frame's first echoes in their windows as geometry input: its sensor, receivers
+    (ascending), the source and the path lengths (m), with the sensor's groups moved by the
+    re-aim shift that maps its configured receivers onto the frame's; None with fewer than
+    three or for a sensor not in ``resolved``."""
+    from .georecord import sensor_paths
+
+    if frame.vs >= len(resolved):
+        return None
+    sensor, n = resolved[frame.vs], layout.n
+    firsts = {int(x["rx"]): int(x["tof"]) for x in frame.tof if int(x["flags"]) & 3 == 3}
+    rxs = sorted(firsts)
+    shift = next((k for k in range(n) if set(rxs) <= {(int(e) + k) % n for e in sensor.rx}), None)
+    if shift is None or len(rxs) < 3:
+        return None
+    source, paths = sensor_paths(layout, sensor, np.array([firsts[e] for e in rxs]), c, shift)
+    return sensor, np.array(rxs), source, paths
+
+
 def _host_fixes_of_frames(scene: Any, resolved: list[Any], frames: list[Any], scene_time: Any) -> list[Fix]:
     """The host geometry on the twin's own ToF frames: a fix from every pulse with at least three
     first echoes in its windows (not lost), as the golden run makes them from its events. Set
     against the firmware's fixes of the same run, it separates what the firmware computes from
     what the data holds (echoes of other pulses that line up, re-aimed groups)."""
     from . import protocol as P
-    from .georecord import sensor_paths
 
-    layout, n, c = scene.layout, scene.layout.n, scene.speed_of_sound
+    layout, c = scene.layout, scene.speed_of_sound
     fixes: list[Fix] = []
     for f in frames:
-        if f.is_geometry or f.flags & P.FRAME_LOST or f.vs >= len(resolved):
+        got = None if f.is_geometry or f.flags & P.FRAME_LOST else _first_echo_paths(layout, resolved, f, c)
+        if got is None:
             continue
-        r = resolved[f.vs]
-        firsts = {int(x["rx"]): int(x["tof"]) for x in f.tof if int(x["flags"]) & 3 == 3}
-        rxs = sorted(firsts)
-        shift = next((k for k in range(n) if set(rxs) <= {(int(e) + k) % n for e in r.rx}), None)
-        if shift is None or len(rxs) < 3:
-            continue
-        source, paths = sensor_paths(layout, r, np.array([firsts[e] for e in rxs]), c, shift)
-        fix = _host_fix(scene, r.name, scene_time(f.t0), np.array(rxs), paths, source)
+        r, rxs, source, paths = got
+        fix = _host_fix(scene, r.name, scene_time(f.t0), rxs, paths, source)
         if fix is not None:
             fixes.append(fix)
     return fixes
@@ -390,10 +403,9 @@ def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) ->
     counts as uncertain. The pulse's groups may have been moved by re-aiming: the shift is the
     rotation that maps the configured receivers onto the ToF records'."""
     from . import protocol as P
-    from .georecord import geo_records, sensor_paths
+    from .georecord import geo_records
 
     layout = scene.layout
-    n = layout.n
     last_tof: dict[tuple[int, int], Any] = {}
     compared = mismatches = 0
     max_mm = uncertain_max_mm = 0.0
@@ -404,16 +416,11 @@ def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) ->
             last_tof[key] = f
             continue
         tf = last_tof.get(key)
-        if tf is None or tf.t0 != f.t0 or f.vs >= len(resolved):
+        got = None if tf is None or tf.t0 != f.t0 else _first_echo_paths(layout, resolved, tf, c)
+        if got is None:
             continue
-        r = resolved[f.vs]
-        firsts = {int(x["rx"]): int(x["tof"]) for x in tf.tof if int(x["flags"]) & 3 == 3}
-        rxs = sorted(firsts)
-        shift = next((k for k in range(n) if set(rxs) <= {(int(e) + k) % n for e in r.rx}), None)
-        if shift is None or len(rxs) < 3:
-            continue
-        source, paths = sensor_paths(layout, r, np.array([[firsts[e] for e in rxs]]), c, shift)
-        want = geo_records(layout.positions[np.array(rxs)], paths, source)[0]
+        r, rxs, source, paths = got
+        want = geo_records(layout.positions[rxs], paths[None, :], source)[0]
         for g in f.geo:
             compared += 1
             if want is None:
