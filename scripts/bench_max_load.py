@@ -27,18 +27,16 @@ import tempfile
 import time
 from pathlib import Path
 
-from multisonar.demo import run_demo
-from multisonar.fastfiring import SyntheticEchoSource
+from multisonar.demo import max_load_echoes, run_demo
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def one(range_m: float, seconds: float) -> dict:
-    src = SyntheticEchoSource({rx: range_m + 0.01 * (rx % 3) for rx in range(24)}, velocity_mps=1.0,
-                              ringdown_ticks=50_000, spurious_rate_hz=2.0, seed=1)
     t = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        run_demo("empty", tmp, seconds=seconds, sensors="ring8", compare=False, echo_source=src)
+        run_demo("empty", tmp, seconds=seconds, sensors="ring8", compare=False,
+                 echo_source=max_load_echoes(range_m))
         js = json.loads((Path(tmp) / "summary.json").read_text())
     pulses = sum(s["pulses"] for s in js["sensors"].values())
     jobs = js["geo_fixes"] + js["geo_skipped"] + js["geo_declined"]

@@ -230,8 +230,8 @@ class SyntheticEchoSource:
         self.receivers = sorted(int(r) for r in receivers)
         self.spurious_rate, self.spurious_width = float(spurious_rate_hz), int(spurious_width_ticks)
         self._rng = np.random.default_rng(seed)
-        self.ranges = self._norm(ranges_m, receivers)
-        self.step_ranges = self._norm(step_ranges_m, receivers) if step_ranges_m is not None else None
+        self.ranges = self._norm(ranges_m, self.receivers)
+        self.step_ranges = self._norm(step_ranges_m, self.receivers) if step_ranges_m is not None else None
         self.v, self.step_tick, self.occlude = velocity_mps, step_tick, occlude
         self.width, self.ringdown = int(width_ticks), int(ringdown_ticks)
 

@@ -17,8 +17,9 @@
  * and every busy cycle spends one; the optional work (a geometry job, an idle re-aim slice)
  * starts only with a job's worth of credit (BUSY_RESERVE). So over any stretch of time the loop
  * is busy at most 7/16 of it plus BUSY_CREDIT_MAX (in a 10 ms window: 43.75 % + 3.3 %), unless
- * the ToF path alone needs more. Jobs wait in their queue meanwhile; a full queue skips (geo_skipped).
- * FW_BUSY_WINDOW: the busiest 10 ms window (fixed windows) since CLEAR_COUNTERS.
+ * the ToF path alone needs more. Jobs wait in their queue meanwhile; a full queue skips
+ * (geo_skipped). FW_BUSY_WINDOW: the busiest 10 ms window (fixed windows) since
+ * CLEAR_COUNTERS.
  *
  * Mailbox (SIM_OUT), tag in bits 31:28:
  *   0x1  boot: sensors << 16 | watchdog resets (low 16)
@@ -55,7 +56,8 @@ APP_HOT static void busy_account(uint32_t busy, uint32_t now)
     if (elapsed > 4u * BUSY_CREDIT_MAX) /* the credit is full by then anyway */
         elapsed = 4u * BUSY_CREDIT_MAX;
     busy_credit += (int32_t)((elapsed * 7u) >> 4);
-    busy_credit -= (int32_t)(busy > (uint32_t)BUSY_CREDIT_MAX * 4u ? (uint32_t)BUSY_CREDIT_MAX * 4u : busy);
+    /* a running pass is bounded by its slices (<= ~32 k); the clamp keeps the int32 sums safe */
+    busy_credit -= (int32_t)(busy > 4u * BUSY_CREDIT_MAX ? 4u * BUSY_CREDIT_MAX : busy);
     if (busy_credit > BUSY_CREDIT_MAX)
         busy_credit = BUSY_CREDIT_MAX;
     window_busy += busy;

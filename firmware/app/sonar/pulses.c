@@ -2,10 +2,11 @@
  *
  * A pulse record (bit 62: sensor, 16-bit pulse id, the exact t0, the number of windows; written
  * by the scheduler before any event of its pulse) opens the pulse's group, keyed (sensor, pulse
- * id mod 256) in the sensor's GROUP_SLOTS slots; a ToF event goes into its group. A group is complete when each of its windows has
- * its terminal event (first echo or window_empty). A cancel record (bits 62, 61) or an init
- * ping's record closes the open pulses of its sensor (their windows were cancelled: CUT); a
- * group also goes when the sensor's maximum time of flight plus 1 ms has passed since t0 (CUT).
+ * id mod 256) in the sensor's GROUP_SLOTS slots; a ToF event goes into its group. A group is
+ * complete when each of its windows has its terminal event (first echo or window_empty). A
+ * cancel record (bits 62, 61) or an init ping's record closes the open pulses of its sensor
+ * (their windows were cancelled: CUT); a group also goes when the sensor's maximum time of
+ * flight plus 1 ms has passed since t0 (CUT).
  * An overflow flag on a word marks every open group LOST (no fix); an event whose record was
  * lost gets an estimated t0 (pop time - tof - edge latency) and LOST. A complete group becomes
  * its ToF frame at once and, with its first echoes, a geometry job (geo.c). */
@@ -74,7 +75,7 @@ APP_HOT static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int in
     for (int i = 0; i < GROUP_SLOTS; i++) {
         group_t *g = &groups[vs * GROUP_SLOTS + i];
         if (g->used) {
-            if (g->vs == vs && g->seq == seq)
+            if (g->seq == seq) /* the sensor's own slots */
                 return g;
             if (!oldest || (int32_t)(g->t0 - oldest->t0) < 0)
                 oldest = g;
