@@ -126,7 +126,7 @@ include $(sort $(wildcard mk/*.mk))
 help:
 	@echo "make demo       run the main simulation on the default scene, results in build/demo/"
 	@echo "make test       lint and run every test (CI runs this)"
-	@echo "make lint       Verilator --lint-only -Wall on all our RTL"
+	@echo "make lint       Verilator --lint-only -Wall and slang (strict IEEE 1800) on all our RTL"
 	@echo "make regs       regenerate register block, C header and Python constants"
 	@echo "make coverage   RTL line/branch coverage of the cocotb tests (Verilator), per file"
 	@echo "make bench      run every benchmark (scripts/bench_*.py): tables and plots in build/bench/"
@@ -158,6 +158,10 @@ lint: $(STAMPS)/gen
 	    --top-module ms_ram_sp_bytes -GWORDS=15360 -GINIT_FILE='"ram.hex"' \
 	    || { echo "lint: ms_ram_sp_bytes (WORDS=15360) has warnings" >&2; exit 1; }
 	@echo "lint: clean ($(words $(LINT_TOPS)) modules: $(LINT_TOPS); ms_sonar_core reduced; ms_ram_sp_bytes banked)"
+	@# strict IEEE 1800 front end (slang): the whole design with the ULX3S board top, no errors
+	@# anywhere, no warnings in rtl/ beyond the kinds rtl/lint/slang_waivers.txt justifies
+	@$(VPY) scripts/lint_slang.py --waivers rtl/lint/slang_waivers.txt -v $(SYNTH_SHARE)/ecp5/cells_bb.v \
+	    $(RTL_SOURCES) $(shell sed -e 's/\#.*//' -e '/^[[:space:]]*$$/d' rtl/board/ulx3s.f)
 
 # Test files run on TEST_JOBS workers (pytest-xdist; one worker per file, so a cocotb build
 # and its tests stay together): the 2-core CI machine finishes in about half the time.

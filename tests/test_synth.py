@@ -6,7 +6,7 @@ committed synth/ecp5_report.txt: every placer seed must route the 48 MHz system 
 52.8 MHz (1.1x margin at every placement) and LUT use must not grow by more than 10 %. The
 differences are always printed.
 After an intended change, commit the new report: cp build/synth/ecp5/report.txt synth/ecp5_report.txt
-The full flow takes 10-15 minutes on a 2-core machine (docs/synthesis.md). CI runs it as
+The full flow takes 20-30 minutes on a 2-core machine (docs/synthesis.md). CI runs it as
 `make synth-check` (.ci/run) with the same seeds (SYNTH_CHECK_SEEDS in mk/synth.mk) and the same
 floor; this test is opt-in (MS_SYNTH=1), the report comparison itself is always tested.
 """

@@ -96,7 +96,8 @@ def build_parser() -> argparse.ArgumentParser:
     from .experiments import EXPERIMENTS
 
     p = sub.add_parser("experiment", help="the paper's experiments and the speed/accuracy report (golden model)",
-                       description="Run one experiment; writes NAME.md, NAME.csv and NAME.png into --out. "
+                       description="Run one experiment; writes NAME.md, NAME.csv and NAME.png (fig3, ring: also NAME.json) "
+                       "into --out. "
                        + "; ".join(f"{k}: {d}" for k, (_, d) in EXPERIMENTS.items()))
     p.add_argument("name", nargs="?", choices=list(EXPERIMENTS), metavar="NAME", help=" | ".join(EXPERIMENTS))
     p.add_argument("--out", default=None, help="output folder [build/experiments/NAME]")
@@ -105,8 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the sweep on a Dask distributed cluster, e.g. tcp://10.0.0.5:8786 (needs 'distributed')")
     p.add_argument("--rtl", action="store_true",
-                   help="fig3: add the RTL scheduler column; simspeed: time the full-system twin and the RTL system "
-                        "test (Verilator)")
+                   help="fig3: add the RTL scheduler column; ring: run the goal distances on the RTL scheduler too; "
+                        "simspeed: time the full-system twin and the RTL system test (Verilator)")
     p.add_argument("--twin", action="store_true",
                    help="fig3: add a column measured on the full-system twin (the whole device in Verilator)")
     p.set_defaults(func=_cmd_experiment)
@@ -132,8 +133,8 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     opts = {"rtl": True} if args.rtl else {}
-    if args.rtl and args.name not in ("fig3", "simspeed"):
-        raise ValueError("--rtl applies to fig3 and simspeed only (the others run on the golden model for now)")
+    if args.rtl and args.name not in ("fig3", "simspeed", "ring"):
+        raise ValueError("--rtl applies to fig3, ring and simspeed only (the others run on the golden model for now)")
     if args.twin:
         if args.name != "fig3":
             raise ValueError("--twin applies to fig3 only (simspeed --rtl times the twin; make demo runs it)")

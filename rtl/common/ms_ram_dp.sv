@@ -7,7 +7,7 @@
 // new data. With both read ports in use, that lets Yosys map the memory to one ECP5 DP16KD
 // (a read-first port B made it keep a copy per read port, two DP16KD); the bypass costs a
 // comparator and a multiplexer.
-// Written in the plain style Yosys maps to ECP5 DP16KD / iCE40 SB_RAM40_4K.
+// Written in the plain style Yosys maps to ECP5 DP16KD.
 module ms_ram_dp #(
   parameter int WIDTH         = 32,
   parameter int DEPTH         = 256,

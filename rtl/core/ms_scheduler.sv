@@ -498,6 +498,37 @@ module ms_scheduler #(
       lag_max_q <= lag_now;
   end
 
+  // ---- stages C and D (see ph_q): registered every clock from stage B / C and the state
+  logic [31:0]        w_start_c_q, w_end_c_q, w_close_c_q;  // WIN word: start, end, close tick
+  logic signed [8:0]  gap_c_q;        // RXS word's pulse gap (EDGE: to the window's pulse, CAND: to seq_q)
+  logic signed [26:0] pred_d_q;       // RXS word: tof + gap * v (stage D: the gap and the multiply need a clock each)
+  logic [23:0]        lo_c_q, hi_c_q; // prediction clamp of the sensor (EDGE: the window's, else s_q)
+  logic [23:0]        h_tof_c_q;      // HIT: the edge's time of flight in the window
+  logic [23:0]        c_wso_c_q, c_weo_c_q;  // CONF / IEL: window offsets of receiver rel
+  logic [31:0]        ta_c_q, tb_c_q, tws_c_q, twe_c_q;  // t0 + blank a / b, t0 + window offsets
+  logic signed [24:0] h_dv_d_q;
+  logic [24:0]        h_abs_d_q;
+  logic [31:0]        iw_close_c_q;    // IEL: close tick of the new window, t_q + p_weo - 1 + lat (stage C)
+  logic               iw_first_d_q, bu_later_d_q, tu_later_d_q;
+  logic               sw_lt_hd_d_q, sw_lt_min_d_q;  // IEL: its compares with the element's head, blank, tx_until
+  logic [23:0]        te_d_q;          // CAND: the clamped prediction
+  logic [31:0]        t_cand_q;        // cur_tick_q + P (the candidate t0 of a SCHED decision)
+  logic [31:0]        due_isu_q, nxt_isu_q, due_ini_q, nxt_ini_q, nxt_early_q, nxt_quiet_q, nxt_retry_q, quiet_isu_q;
+  logic [31:0]        tba_q, tbb_q, tws_q, twe_q;  // S_CSLOT: the CONF element's t0 + offsets
+  logic [31:0]        due_s_q, nxt_s_q, quiet_s_q, due_o_q, quiet_o_q;  // per-sensor words of s_q, o_q
+  // engine registers and write strobes whose drivers follow further down (declared here,
+  // before the views and the FSM that read them)
+  logic [NUM_VS-1:0] reinit_due_q;
+  logic [NUM_CH-1:0] s_tx_q, s_xt_q;
+  logic              nx_go, ps_live, hit_go_q, cls_go_q, start_go_q;
+  logic [NUM_VS-1:0] isu_go_q, sch_go_q, edf_go_q, ini_go_q, cnf_go_q;
+  logic                      el_clr, wv_we, wh_we, wsid_we, bu_we, tu_we, hd_we, hdv_we, hdv_wd;
+  logic [WSLOTS-1:0]         wv_wd, wh_wd, wr_wd, sid_mask;
+  logic [WSLOTS-1:0][VW-1:0] wsid_wd;
+  logic [31:0]               bu_wd, hd_close_wd;
+  logic [KW-1:0]             hd_slot_wd;
+  logic [VW-1:0]             sid_kill;
+
   // ---- per-element / per-slot views
   logic [RW-1:0] er, clr, rel;
   assign er  = lsb_ch(edges_q);
@@ -686,7 +717,6 @@ module ms_scheduler #(
   end
   // reinit_every reached, per sensor in parallel (a clock behind trk_pulses_q, which changes
   // only in ISSUE, long before the sensor's next SCHED)
-  logic [NUM_VS-1:0] reinit_due_q;
   always_ff @(posedge clk_i)
     for (int s = 0; s < NUM_VS; s++)
       reinit_due_q[s] <= sh_reinit_q[s] != 8'd0 && trk_pulses_q[s] >= sh_reinit_q[s];
@@ -704,7 +734,6 @@ module ms_scheduler #(
   logic [23:0]       s_rmax_q, s_dbl_q, s_phase_q, s_tvd_q;  // s_tvd_q = T_V + D (two clocks after s_q)
   logic [15:0]       s_tv_q, s_tn_q;
   logic [31:0]       s_rmd_q;   // max ToF - D, 32-bit (two clocks after s_q)
-  logic [NUM_CH-1:0] s_tx_q, s_xt_q;
   logic [7:0]        s_burst_q, s_tpc_q;
   logic [15:0]       s_pid_q;   // the sensor's pulse id (seq_q)
   logic [7:0]        s_seq_q;
@@ -1061,24 +1090,6 @@ module ms_scheduler #(
   end
 
 
-  // ---- stages C and D (see ph_q): registered every clock from stage B / C and the state
-  logic [31:0]        w_start_c_q, w_end_c_q, w_close_c_q;  // WIN word: start, end, close tick
-  logic signed [8:0]  gap_c_q;        // RXS word's pulse gap (EDGE: to the window's pulse, CAND: to seq_q)
-  logic signed [26:0] pred_d_q;       // RXS word: tof + gap * v (stage D: the gap and the multiply need a clock each)
-  logic [23:0]        lo_c_q, hi_c_q; // prediction clamp of the sensor (EDGE: the window's, else s_q)
-  logic [23:0]        h_tof_c_q;      // HIT: the edge's time of flight in the window
-  logic [23:0]        c_wso_c_q, c_weo_c_q;  // CONF / IEL: window offsets of receiver rel
-  logic [31:0]        ta_c_q, tb_c_q, tws_c_q, twe_c_q;  // t0 + blank a / b, t0 + window offsets
-  logic signed [24:0] h_dv_d_q;
-  logic [24:0]        h_abs_d_q;
-  logic [31:0]        iw_close_c_q;    // IEL: close tick of the new window, t_q + p_weo - 1 + lat (stage C)
-  logic               iw_first_d_q, bu_later_d_q, tu_later_d_q;
-  logic               sw_lt_hd_d_q, sw_lt_min_d_q;  // IEL: its compares with the element's head, blank, tx_until
-  logic [23:0]        te_d_q;          // CAND: the clamped prediction
-  logic [31:0]        t_cand_q;        // cur_tick_q + P (the candidate t0 of a SCHED decision)
-  logic [31:0]        due_isu_q, nxt_isu_q, due_ini_q, nxt_ini_q, nxt_early_q, nxt_quiet_q, nxt_retry_q, quiet_isu_q;
-  logic [31:0]        tba_q, tbb_q, tws_q, twe_q;  // S_CSLOT: the CONF element's t0 + offsets
-  logic [31:0]        due_s_q, nxt_s_q, quiet_s_q, due_o_q, quiet_o_q;  // per-sensor words of s_q, o_q
   logic signed [8:0]  p_gap;
   logic [VW-1:0]      p_s, p_s_q;
   logic               c_due_lt_q;
@@ -1765,8 +1776,6 @@ module ms_scheduler #(
   // reset; the reset net itself stays out of these enables (it crosses the chip): a strobe of
   // the clock before a reset may still write in the reset's first clock, and S_START writes
   // every sensor's state (quiet_q behind quiet_vld_q) before the engine reads any of it.
-  logic              nx_go, ps_live, hit_go_q, cls_go_q, start_go_q;
-  logic [NUM_VS-1:0] isu_go_q, sch_go_q, edf_go_q, ini_go_q, cnf_go_q;
   assign nx_go   = !go && (ph_q + 3'd1 == need);
   assign ps_live = !(!en_q && started_q);
   always_ff @(posedge clk_i) begin
@@ -1839,12 +1848,6 @@ module ms_scheduler #(
 
   // ---- per-element arrays: one write per clock, at element ei (the FSM's states above say
   // when); valid bits and heads are cleared at once by reset, stop, S_STOP and S_START
-  logic                      el_clr, wv_we, wh_we, wsid_we, bu_we, tu_we, hd_we, hdv_we, hdv_wd;
-  logic [WSLOTS-1:0]         wv_wd, wh_wd, wr_wd, sid_mask;
-  logic [WSLOTS-1:0][VW-1:0] wsid_wd;
-  logic [31:0]               bu_wd, hd_close_wd;
-  logic [KW-1:0]             hd_slot_wd;
-  logic [VW-1:0]             sid_kill;
   assign el_clr = rst_i || (!en_q && started_q) || (st_q == S_STOP) || (st_q == S_START);
   // ew_q[e]: the next clock is the go clock of a state working on element e (ei_q is valid
   // from a state's second clock and stable to its go clock; the states that write these

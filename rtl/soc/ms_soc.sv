@@ -4,7 +4,7 @@
 // pipelined RV32IM, 4 KiB D cache and a 16 KiB I cache derived by scripts/gen_vex_icache.py so the
 // per-pulse geometry meets its cycle budget, firmware/README.md; ms_vex_bridge, see the g_vex
 // block) or "picorv32" (RV32IM: ENABLE_FAST_MUL or ENABLE_MUL, ENABLE_DIV; pythondata-cpu-picorv32;
-// CPI ~5 with its one-wait-state RAM; smaller, for the iCE40), with
+// CPI ~5 with its one-wait-state RAM; smaller), with
 //   0x0000_0000  RAM_WORDS x 32 bit of block RAM holding the firmware image (INIT_FILE)
 //   0x1000_0000  the sonar core's registers (passthrough master port sonar_*; ms_csr)
 //   0x2000_0000  SoC peripherals (soc_regs.rdl): cycle timer, watchdog, host link, mailbox
@@ -27,8 +27,8 @@ module ms_soc #(
   parameter string INIT_FILE  = "",
   parameter int    SONAR_AW   = 11,
   parameter int    FAST_MUL   = 1,      // (PicoRV32 only) 1: PicoRV32 ENABLE_FAST_MUL (ECP5: 4 MULT18X18D, ~200 LUT4
-                                        // fewer than the iterative multiplier); 0: ENABLE_MUL (iCE40:
-                                        // the single-cycle multiplier would cost ~3 k SB_LUT4 more)
+                                        // fewer than the iterative multiplier); 0: ENABLE_MUL (for a
+                                        // device without DSP blocks)
   parameter string CPU        = "vexriscv"  // "vexriscv" or "picorv32" (see above)
 ) (
   input  logic                clk_i,

@@ -8,11 +8,13 @@ fig10      map building while localising on known walls (corridor scene)
 person     person crossing: occluder detection latency, track, velocity, predicted path
 tradeoff   firing order, window, receivers, arithmetic -> rate, latency, miss rate, errors
 simspeed   sonar-seconds per wall-second: golden model cases (``--rtl``: the RTL system test)
+ring       full-ring refresh: 8 sensors over all 24 directions, static room, orders 1..MAX_ORDER
+           (``--rtl``: the goal distances on the RTL scheduler, Verilator)
 =========  ==============================================================================
 
 Each writes ``NAME.md`` (tables), ``NAME.csv`` (one row per measured point) and ``NAME.png``
-into the output folder (default ``build/experiments/NAME``). Sweeps run on a
-``concurrent.futures`` executor (:mod:`.executor`): local processes, or a Dask cluster.
+(``fig3`` and ``ring`` also ``NAME.json``, machine-readable figures) into the output folder (default
+``build/experiments/NAME``). Sweeps run on a ``concurrent.futures`` executor (:mod:`.executor`): local processes, or a Dask cluster.
 The backend today is the golden model; the RTL twin joins per experiment as it lands.
 """
 
@@ -46,6 +48,7 @@ EXPERIMENTS: dict[str, tuple[Callable[..., ExperimentResult], str]] = {
     "person": (_runner("person"), "person crossing: detection latency, track, velocity"),
     "tradeoff": (_runner("tradeoff"), "speed/accuracy trade: order, window, receivers, arithmetic"),
     "simspeed": (_runner("simspeed"), "simulation speed: sonar-seconds per wall-second per fidelity"),
+    "ring": (_runner("ring"), "full-ring refresh: 8 sensors, all 24 directions, 2 m and 5.7 m (issue #27)"),
 }
 
 

