@@ -25,14 +25,11 @@ def main() -> None:
     ap.add_argument("--plot", help="write a bar chart PNG")
     args = ap.parse_args()
     from cocotb_run import run_cocotb
+    from test_ms_scheduler import PARAMETERS, SOURCES
 
     out = ROOT / "build" / "bench" / "rtl_sample_rate.json"
-    # same sources and parameters as tests/rtl/test_ms_scheduler.py, so the build is shared
-    run_cocotb("ms_scheduler_tb", "tb_bench_rate",
-               sources=[ROOT / "rtl/common/ms_ram_dp.sv", ROOT / "rtl/rx/ms_rx_conditioner.sv",
-                        ROOT / "rtl/core/ms_sched_workq.sv", ROOT / "rtl/core/ms_scheduler.sv",
-                        ROOT / "tests/rtl/ms_scheduler_tb.sv"],
-               parameters={"NUM_CH": 24, "LEAD": 4096}, icarus_ok=False,
+    # the scheduler test's sources and parameters, so the build is shared
+    run_cocotb("ms_scheduler_tb", "tb_bench_rate", sources=SOURCES, parameters=PARAMETERS, icarus_ok=False,
                extra_env={"RATE_CASES": args.cases, "RATE_OUT": str(out)})
     rows = json.loads(out.read_text())
     print("| distance (m) | order asked | order used | RTL (Hz) | golden model (Hz) | identical pulse ticks |")

@@ -8,18 +8,20 @@ from cocotb_run import ROOT, run_cocotb
 
 SOURCES = [ROOT / "rtl/common/ms_ram_dp.sv", ROOT / "rtl/rx/ms_rx_conditioner.sv", ROOT / "rtl/core/ms_sched_workq.sv",
            ROOT / "rtl/core/ms_scheduler.sv", ROOT / "tests/rtl/ms_scheduler_tb.sv"]
+# the full scheduler; the benches (scripts/bench_*, experiments --rtl) build the same, so one
+# Verilator build serves them all
+PARAMETERS = {"NUM_CH": 24, "LEAD": 4096}
 
 
 @pytest.mark.sim
 def test_ms_scheduler():
-    run_cocotb("ms_scheduler_tb", "tb_ms_scheduler", sources=SOURCES,
-               parameters={"NUM_CH": 24, "LEAD": 4096}, icarus_ok=False)
+    run_cocotb("ms_scheduler_tb", "tb_ms_scheduler", sources=SOURCES, parameters=PARAMETERS, icarus_ok=False)
 
 
 @pytest.mark.sim
 def test_ms_scheduler_reduced():
     run_cocotb("ms_scheduler_tb", "tb_ms_scheduler", sources=SOURCES, variant="vs4-ws8",
-               parameters={"NUM_CH": 24, "LEAD": 4096, "SCHED_VS": 4, "WSLOTS": 8}, icarus_ok=False,
+               parameters={**PARAMETERS, "SCHED_VS": 4, "WSLOTS": 8}, icarus_ok=False,
                extra_env={"SCHED_VS": "4", "SCHED_WSLOTS": "8"},
                testcase=["step_occlusion_kmiss", "four_sensors_shared_elements", "window_slots_full",
                          "corridor_scene_three_sensors", "apply_refusals_leave_the_schedule_running"])

@@ -292,10 +292,10 @@ def batch_fixes(layout: Any, resolved: list[Any], echoes: list[PulseEchoes], c: 
     return out
 
 
-def run_scheduler_bench(tb_module: str, out_name: str, extra_env: dict[str, str]) -> Any:
+def run_scheduler_bench(tb_module: str, out_name: str, out_env: str, extra_env: dict[str, str]) -> Any:
     """Run a cocotb bench of the RTL scheduler (tests/rtl/<tb_module>.py on ms_scheduler_tb;
     needs Verilator and the repository's tests/rtl) that writes its results as JSON to the file
-    named by extra_env's ``*_OUT`` key; returns them. ``out_name``: the file under
+    its environment variable ``out_env`` names; returns them. ``out_name``: that file, under
     build/experiments/ (removed first, so a failed run cannot return stale results)."""
     import os
     import shutil
@@ -310,15 +310,12 @@ def run_scheduler_bench(tb_module: str, out_name: str, extra_env: dict[str, str]
     if str(rtl_dir) not in sys.path:
         sys.path.insert(0, str(rtl_dir))
     from cocotb_run import run_cocotb  # type: ignore[import-not-found]
+    from test_ms_scheduler import PARAMETERS, SOURCES  # type: ignore[import-not-found]
 
     out = root / "build" / "experiments" / out_name
     out.parent.mkdir(parents=True, exist_ok=True)
     out.unlink(missing_ok=True)
-    env = {k: (str(out) if v == "{out}" else v) for k, v in extra_env.items()}
-    # same sources and parameters as tests/rtl/test_ms_scheduler.py, so the Verilator build is shared
-    run_cocotb("ms_scheduler_tb", tb_module,
-               sources=[root / "rtl/common/ms_ram_dp.sv", root / "rtl/rx/ms_rx_conditioner.sv",
-                        root / "rtl/core/ms_sched_workq.sv", root / "rtl/core/ms_scheduler.sv",
-                        root / "tests/rtl/ms_scheduler_tb.sv"],
-               parameters={"NUM_CH": 24, "LEAD": 4096}, icarus_ok=False, extra_env=env)
+    # the scheduler test's sources and parameters, so the Verilator build is shared
+    run_cocotb("ms_scheduler_tb", tb_module, sources=SOURCES, parameters=PARAMETERS, icarus_ok=False,
+               extra_env={**extra_env, out_env: str(out)})
     return json.loads(out.read_text())

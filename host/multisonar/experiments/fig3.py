@@ -219,5 +219,5 @@ def _max_order(v: Any) -> int:
 
 def rtl_rates(cases: list[tuple[float, int]]) -> list[dict[str, Any]]:
     """Run the RTL scheduler rate bench (tests/rtl/tb_bench_rate.py)."""
-    return run_scheduler_bench("tb_bench_rate", "fig3_rtl_rates.json",
-                               {"RATE_CASES": ",".join(f"{d:g}:{n}" for d, n in cases), "RATE_OUT": "{out}"})
+    return run_scheduler_bench("tb_bench_rate", "fig3_rtl_rates.json", "RATE_OUT",
+                               {"RATE_CASES": ",".join(f"{d:g}:{n}" for d, n in cases)})

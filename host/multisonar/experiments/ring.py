@@ -486,6 +486,6 @@ def rtl_ring(cases: list[tuple[float, int]], duration_s: float, temperature_c: f
     repository's tests/rtl): per case its event words, start tick, word-for-word comparison."""
     if temperature_c != 20.0:
         raise ExperimentError("--rtl runs the ring at 20 degC (the RTL bench's schedule)")
-    return run_scheduler_bench("tb_bench_ring", "ring_rtl.json",
-                               {"RING_CASES": ",".join(f"{d:g}:{n}" for d, n in cases), "RING_OUT": "{out}",
+    return run_scheduler_bench("tb_bench_ring", "ring_rtl.json", "RING_OUT",
+                               {"RING_CASES": ",".join(f"{d:g}:{n}" for d, n in cases),
                                 "RING_DURATION_S": repr(float(duration_s))})
