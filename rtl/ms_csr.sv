@@ -250,7 +250,7 @@ module ms_csr
   function automatic logic [31:0] vs_fields(input int r);  // implemented bits of register r
     unique case (r)
       0, 1:    vs_fields = 32'((64'd1 << NUM_CH) - 64'd1);  // TX_MASK, RX_MASK: mask[NUM_CH-1:0]
-      2:       vs_fields = 32'h000F_FF73;                   // MODE: reinit_every[19:12] miss_limit[11:8] order[6:4] mode[1:0]
+      2:       vs_fields = 32'h000F_FFF3;                   // MODE: reinit_every[19:12] miss_limit[11:8] order[7:4] mode[1:0]
       3:       vs_fields = 32'hFFFF_FFFF;                   // WINDOW: t_n[31:16] t_v[15:0]
       4:       vs_fields = 32'h0007_FFFF;                   // T_DEAD: ticks[18:0]
       5:       vs_fields = 32'h00FF_FFFF;                   // MAX_TOF: ticks[23:0]

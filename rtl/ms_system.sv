@@ -62,10 +62,14 @@ module ms_system #(
   logic                req, req_is_wr, stall_wr, stall_rd, rd_ack, rd_err, wr_ack, wr_err;
   logic [SONAR_AW-1:0] addr;
   logic [31:0]         wr_data, wr_biten, rd_data;
+  logic                rst_soc, rst_sonar;
+
+  ms_reset_copy u_rst_soc (.clk_i, .rst_i, .rst_o (rst_soc));
+  ms_reset_copy u_rst_sonar (.clk_i, .rst_i, .rst_o (rst_sonar));
 
   ms_soc #(.RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE), .SONAR_AW(SONAR_AW), .CPU(CPU),
            .FAST_MUL(FAST_MUL)) u_soc (
-    .clk_i, .rst_i,
+    .clk_i, .rst_i (rst_soc),
     .sonar_req_o (req), .sonar_req_is_wr_o (req_is_wr), .sonar_addr_o (addr),
     .sonar_wr_data_o (wr_data), .sonar_wr_biten_o (wr_biten),
     .sonar_req_stall_wr_i (stall_wr), .sonar_req_stall_rd_i (stall_rd),
@@ -77,7 +81,7 @@ module ms_system #(
   );
 
   ms_sonar_core #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .WSLOTS(WSLOTS)) u_sonar (
-    .clk_i, .rst_i,
+    .clk_i, .rst_i (rst_sonar),
     .bus_req_i (req), .bus_req_is_wr_i (req_is_wr), .bus_addr_i (addr),
     .bus_wr_data_i (wr_data), .bus_wr_biten_i (wr_biten),
     .bus_req_stall_wr_o (stall_wr), .bus_req_stall_rd_o (stall_rd),

@@ -6,6 +6,7 @@ $GEN/rtl/ms_layout_pkg.sv
 $GEN/sv/sonar_regs_pkg.sv
 $GEN/sv/sonar_regs.sv
 rtl/common/ms_ram_dp.sv
+rtl/common/ms_reset_copy.sv
 rtl/rx/ms_rx_conditioner.sv
 rtl/ms_csr.sv
 rtl/event/ms_event_fifo.sv

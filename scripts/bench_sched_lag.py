@@ -26,13 +26,15 @@ OUT = ROOT / "build" / "bench" / "sched_lag.json"
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ms", type=int, default=300, help="simulated milliseconds per scenario")
-    ap.add_argument("--lead", type=int, default=4096,
+    ap.add_argument("--lead", type=int, default=None,
                     help="decision lead P in ticks (RTL parameter and model option; default the product's)")
     ap.add_argument("--plot", help="write a bar chart PNG")
     args = ap.parse_args()
     from cocotb_run import run_cocotb
     from test_ms_scheduler import PARAMETERS, SOURCES
 
+    if args.lead is None:
+        args.lead = PARAMETERS["LEAD"]
     product_lead = args.lead == PARAMETERS["LEAD"]
     out = OUT if product_lead else OUT.with_name(f"sched_lag_lead{args.lead}.json")
     out.unlink(missing_ok=True)

@@ -452,6 +452,60 @@ def best_seed(runs: list[tuple[int, Path]]) -> tuple[int, list[str], list[str]]:
     return chosen, lines, problems
 
 
+def block_trellis_comb(stat: dict) -> int:
+    """TRELLIS_COMB of a block synthesised alone, from its yosys cells: one per LUT4, two per
+    CCU2C, four per TRELLIS_DPR16X4 (nextpnr's packing; carry feed-in cells not counted)."""
+    cells = yosys_cells(stat)
+    return cells.get("LUT4", 0) + 2 * cells.get("CCU2C", 0) + 4 * cells.get("TRELLIS_DPR16X4", 0)
+
+
+def sweep_report(runs: list[tuple[int, Path]], device: str, num_vs: int, wslots: int,
+                 sched_stat: dict | None, require_mhz: float = 48.0,
+                 goals: dict[str, float] | None = None) -> dict:
+    """The placer-seed sweep of one netlist as a dict (written as JSON): the device, the
+    scheduler's size, TRELLIS_COMB and DP16KD use (nextpnr's utilisation, the same for every
+    seed of one netlist), the scheduler alone, and per seed whether it routed and its Fmax
+    (slowest clock); then worst / median over the seeds and the goals met (issue #27)."""
+    goals = goals or {"max_comb_pct": 80.0, "max_dp16kd": 56, "min_worst_mhz": 52.8, "min_median_mhz": 60.0}
+    seeds: list[dict] = []
+    util: dict = {}
+    for seed, d in runs:
+        rc_file, pnr_file = d / "rc", d / "pnr.json"
+        rc = int(rc_file.read_text().strip() or "1") if rc_file.exists() else 1
+        fmax = None
+        if rc == 0 and pnr_file.exists():
+            pnr = _load_json(pnr_file, "nextpnr report")
+            util = util or pnr.get("utilization", {})
+            clocks = [float(f["achieved"]) for f in pnr.get("fmax", {}).values()]
+            fmax = round(min(clocks), 2) if clocks else None
+        seeds.append({"seed": seed, "routed": fmax is not None, "fmax_mhz": fmax,
+                      "timeout": rc == 124})
+    if not util:
+        raise SynthReportError("no seed was placed and routed: " + ", ".join(str(d) for _, d in runs))
+    comb, bram = util.get("TRELLIS_COMB", {}), util.get("DP16KD", {})
+    routed = sorted(x["fmax_mhz"] for x in seeds if x["routed"])
+    worst = routed[0] if len(routed) == len(seeds) else None  # an unrouted seed has no Fmax
+    median = (routed[len(routed) // 2] + routed[(len(routed) - 1) // 2]) / 2 if routed else None
+    comb_pct = 100.0 * comb.get("used", 0) / comb["available"] if comb.get("available") else None
+    met = {
+        "trellis_comb": comb_pct is not None and comb_pct <= goals["max_comb_pct"],
+        "dp16kd": bram.get("used", 10**9) <= goals["max_dp16kd"],
+        "every_seed_meets_clock": worst is not None and worst >= require_mhz,
+        "worst_seed": worst is not None and worst >= goals["min_worst_mhz"],
+        "median": median is not None and median >= goals["min_median_mhz"],
+    }
+    return {
+        "device": device, "num_vs": num_vs, "wslots": wslots, "require_mhz": require_mhz,
+        "trellis_comb": {"used": comb.get("used"), "avail": comb.get("available"),
+                         "pct": None if comb_pct is None else round(comb_pct, 1)},
+        "dp16kd": {"used": bram.get("used"), "avail": bram.get("available")},
+        "scheduler_trellis_comb": None if sched_stat is None else block_trellis_comb(sched_stat),
+        "seeds": seeds,
+        "worst_mhz": worst, "median_mhz": None if median is None else round(median, 2),
+        "goals": goals, "goals_met": met, "all_goals_met": all(met.values()),
+    }
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -483,6 +537,15 @@ def main() -> int:
     bs.add_argument("seeds", type=int, nargs="+")
     bs.add_argument("--files", nargs="+", default=["pnr.json", "nextpnr.log"],
                     help="files copied from the chosen run into DIR")
+    sw = sub.add_parser("sweep", help="JSON report of a placer-seed sweep (make synth-sweep)")
+    sw.add_argument("dir", type=Path, help="synthesis directory holding seed-N/ run directories")
+    sw.add_argument("seeds", type=int, nargs="+")
+    sw.add_argument("--device", required=True)
+    sw.add_argument("--num-vs", type=int, required=True)
+    sw.add_argument("--wslots", type=int, required=True)
+    sw.add_argument("--sched-stat", type=Path, help="yosys `stat -json` of ms_scheduler synthesised alone")
+    sw.add_argument("--require-mhz", type=float, default=48.0)
+    sw.add_argument("--out", type=Path, required=True)
     ar = sub.add_parser("area", help="logic area charged to the registers it feeds, from a mapped ECP5 netlist")
     ar.add_argument("netlist", type=Path, help="Yosys write_json output after synth_ecp5")
     ar.add_argument("--module", help="module to read (default: the netlist's top)")
@@ -503,6 +566,21 @@ def main() -> int:
             summary = f"{chosen} (best of {', '.join(lines)})" if len(lines) > 1 else str(chosen)
             (args.dir / "seed.txt").write_text(summary + "\n")
             print(f"synth: seed {summary}")
+            return 0
+        if args.cmd == "sweep":
+            sched = _load_json(args.sched_stat, "scheduler statistics") if args.sched_stat else None
+            rep = sweep_report([(sd, args.dir / f"seed-{sd}") for sd in args.seeds], args.device, args.num_vs,
+                               args.wslots, sched, args.require_mhz)
+            args.out.write_text(json.dumps(rep, indent=1) + "\n")
+            print("| seed | routed | Fmax (MHz) |\n|---:|---|---:|")
+            for x in rep["seeds"]:
+                print(f"| {x['seed']} | {'yes' if x['routed'] else 'no'} | {x['fmax_mhz'] or '-'} |")
+            print(f"\n{rep['device']}: TRELLIS_COMB {rep['trellis_comb']['used']} / {rep['trellis_comb']['avail']} "
+                  f"({rep['trellis_comb']['pct']} %), DP16KD {rep['dp16kd']['used']} / {rep['dp16kd']['avail']}, "
+                  f"scheduler alone {rep['scheduler_trellis_comb']} TRELLIS_COMB; worst {rep['worst_mhz']} MHz, "
+                  f"median {rep['median_mhz']} MHz; goals met: "
+                  + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in rep["goals_met"].items()))
+            print(f"synth-sweep: wrote {args.out}")
             return 0
         if args.cmd == "area":
             total, cost, ffs = area_by_register(_load_json(args.netlist, "netlist"), args.module)

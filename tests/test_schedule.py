@@ -28,8 +28,8 @@ def test_defaults_resolve_to_ticks():
     assert r.blank == 72000 and r.vmax == 24000
     assert list(r.xtalk_elements) == [1, 23]
     # int = ticks, float = seconds
-    r2 = sched(VirtualSensor("a", tx=[0], rx=[0], t_v=1000, t_n=0.25e-3)).validate()[0]
-    assert (r2.t_v, r2.t_n) == (1000, 12000)
+    r2 = sched(VirtualSensor("a", tx=[0], rx=[0], t_v=5000, t_n=0.25e-3)).validate()[0]
+    assert (r2.t_v, r2.t_n) == (5000, 12000)
 
 
 @pytest.mark.parametrize("source", [(0.0, 0.0), (0.2, 0.1), (-0.3, 0.05), (1.0, -0.4)])
@@ -61,7 +61,7 @@ def test_wraparound_tx_group_is_adjacent():
     (VirtualSensor("s", tx=[0, 1, 2, 3, 4, 5, 6], rx=[0], source=(0.35, 0.0)), "phasing delay"),
     (VirtualSensor("s", tx=[0], rx=[0], order=4, max_range_m=1.5), "order 4 too high for the range"),
     (VirtualSensor("s", tx=[0], rx=[0], order=1, nominal_range_m=0.6), "order 1 too high for the range"),
-    (VirtualSensor("s", tx=[0], rx=[0], order=9), "order 9 outside 0..4"),
+    (VirtualSensor("s", tx=[0], rx=[0], order=9), "order 9 outside 0..8"),
     (VirtualSensor("s", tx=[0], rx=[0], nominal_range_m=0.3), "window inside dead zone"),
     (VirtualSensor("s", tx=[0], rx=[0], max_range_m=0.3), "window inside dead zone"),
     (VirtualSensor("s", tx=[0], rx=[0], miss_limit=0), "miss limit K=0"),

@@ -235,3 +235,37 @@ def test_25k_profile_settings():
     assert rep.values["device"] == "LFE5U-25F-CABGA381"
     assert rep.number("fmax_mhz") >= 48.0 and rep.number("bram") <= 56
     assert "25F profile: NUM_VS 4, WSLOTS 8" in (ROOT / "synth/ecp5_25k_report.txt").read_text()
+
+
+def test_sweep_report_lists_every_seed_and_the_goals(tmp_path):
+    """`synth_report.py sweep` (make synth-sweep): one entry per seed (unrouted and timed-out
+    seeds included, with no Fmax), utilisation from nextpnr, the scheduler alone from its yosys
+    cells, worst over all seeds (none when one did not route), median over the routed ones,
+    and each goal of issue #27 checked against those figures."""
+    rep = _report_module()
+    util = {"TRELLIS_COMB": {"used": 19000, "available": 24288}, "DP16KD": {"used": 50, "available": 56}}
+
+    def run(seed: int, rc: int, fmax: float | None = None) -> tuple[int, Path]:
+        d = tmp_path / f"seed-{seed}"
+        d.mkdir()
+        (d / "rc").write_text(f"{rc}\n")
+        if fmax is not None:
+            (d / "pnr.json").write_text(json.dumps({"utilization": util, "fmax": {"clk": {"achieved": fmax}}}))
+        return seed, d
+
+    sched = {"design": {"num_cells_by_type": {"LUT4": 2000, "CCU2C": 300, "TRELLIS_DPR16X4": 50, "TRELLIS_FF": 900}}}
+    runs = [run(1, 0, 61.0), run(2, 0, 55.0), run(3, 0, 66.0)]
+    r = rep.sweep_report(runs, "LFE5U-25F-CABGA381", 8, 16, sched)
+    assert r["trellis_comb"] == {"used": 19000, "avail": 24288, "pct": 78.2} and r["dp16kd"] == {"used": 50, "avail": 56}
+    assert r["scheduler_trellis_comb"] == 2000 + 2 * 300 + 4 * 50
+    assert [(s["seed"], s["routed"], s["fmax_mhz"]) for s in r["seeds"]] == [(1, True, 61.0), (2, True, 55.0),
+                                                                             (3, True, 66.0)]
+    assert r["worst_mhz"] == 55.0 and r["median_mhz"] == 61.0
+    assert r["goals_met"] == {"trellis_comb": True, "dp16kd": True, "every_seed_meets_clock": True,
+                              "worst_seed": True, "median": True} and r["all_goals_met"]
+    r = rep.sweep_report(runs + [run(4, 124)], "LFE5U-25F-CABGA381", 8, 16, None)
+    assert r["seeds"][3] == {"seed": 4, "routed": False, "fmax_mhz": None, "timeout": True}
+    assert r["worst_mhz"] is None and not r["goals_met"]["worst_seed"] and not r["all_goals_met"]
+    assert r["median_mhz"] == 61.0 and r["scheduler_trellis_comb"] is None
+    with pytest.raises(rep.SynthReportError, match="no seed"):
+        rep.sweep_report([runs[0][0:1] + (tmp_path / "none",)], "x", 8, 16, None)

@@ -33,8 +33,8 @@ from .layout import Layout
 NUM_VS: int = 8  #: virtual-sensor table entries (CAPS.num_vs)
 VS_ID_W: int = 3  #: sensor id in events
 ELEM_W: int = 5  #: element / receiver index
-ORDER_W: int = 3  #: MODE.order field
-MAX_ORDER: int = 4  #: highest order this build supports (CAPS.max_order)
+ORDER_W: int = 4  #: MODE.order field
+MAX_ORDER: int = 8  #: highest order this build supports (CAPS.max_order)
 MISS_W: int = 4  #: MODE.miss_limit and the per-receiver miss counter (saturating)
 REINIT_W: int = 8  #: MODE.reinit_every (tracking-pulse counter saturates at 2**REINIT_W - 1)
 TV_W: int = 16  #: WINDOW.t_v, WINDOW.t_n

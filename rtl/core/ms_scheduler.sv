@@ -56,12 +56,12 @@
 // reading (ph_q counts them) and decides in its last clock (go); reads and arithmetic go
 // through registered stages A-D (see ph_q below), so a decision never follows a RAM read, a
 // second RAM read or more than one carry chain in the same clock. A state costs 1-6 clocks per
-// item; lag_max_q (the engine's worst lateness) stays far below the LEAD / 2 budget.
+// item; lag_max_q (the engine's worst lateness) is measured by scripts/bench_sched_lag.py.
 module ms_scheduler #(
   parameter int NUM_CH  = 24,   // ms_layout_pkg::NUM_CH, passed by the top (<= 32)
   parameter int NUM_VS  = 8,    // table entries (<= 8: 3-bit sensor id)
   parameter int DELAY_W = 16,
-  parameter int LEAD    = 4096, // decision lead P, ticks (FastFiringModel decision_lead)
+  parameter int LEAD    = 4096, // decision lead P, ticks (constants.DEVICE_DECISION_LEAD)
   parameter int WSLOTS  = 16,   // window slots per element (FastFiringModel win_slots)
   parameter int QDEPTH  = 32    // work-queue entries (ticks with edges/closes pending)
 ) (
@@ -105,6 +105,8 @@ module ms_scheduler #(
   localparam int DW  = 19;                 // T_dead / T_xtalk (VS_T_DEAD.ticks, VS_XTALK.t_xtalk)
   localparam int BW  = 20;                 // blank end offset width (delay + T_dead): BLK words of 36 bits, one DP16KD
   localparam logic [31:0] LEAD32 = 32'(LEAD);
+  localparam int MAX_ORDER = 8;            // highest fast-firing order (CAPS.max_order)
+  localparam int OW  = 4;                  // order width (VS_MODE.order)
   // Sensor indices are VW bits wide everywhere (event fields, pulse_vs_o); the per-sensor
   // storage has NUM_VS entries, addressed by the low SW bits (si): a reduced build (NUM_VS
   // 4 on the 25F) only ever counts sensors up to NUM_VS - 1.
@@ -183,7 +185,7 @@ module ms_scheduler #(
   logic [NUM_CH-1:0] sh_xt_m  [NUM_VS];  // crosstalk neighbours (xt_of)
   logic [NUM_CH-1:0] sh_use_m [NUM_VS];  // tx | xt | rx: every element a pulse touches
   logic              sh_track_m [NUM_VS];  // mode == track
-  logic [2:0]        sh_order_m [NUM_VS];
+  logic [OW-1:0]     sh_order_m [NUM_VS];
   logic [3:0]        sh_k_m     [NUM_VS];
   logic [15:0]       sh_tv_m    [NUM_VS];
   logic [15:0]       sh_tn_m    [NUM_VS];
@@ -351,7 +353,7 @@ module ms_scheduler #(
   logic              blk_on_q, win_on_q;
   logic [23:0]       te_min_q, te_max_q, cws_q, period_q;
   logic [DELAY_W-1:0] cba_q;
-  logic [2:0]        n_q;
+  logic [OW-1:0]     n_q;
   logic [7:0]        kseq_q;
 
   // validation / copy
@@ -730,7 +732,7 @@ module ms_scheduler #(
   logic              s_trk_q;
   logic [NUM_CH-1:0] s_rx_q, s_all_q;  // receivers; every element the pulse touches (tx | xt | rx)
   logic [5:0]        s_nrx_q;   // two clocks after s_q: the mask, then its popcount
-  logic [2:0]        s_order_q;
+  logic [OW-1:0]     s_order_q;
   logic [23:0]       s_rmax_q, s_dbl_q, s_phase_q, s_tvd_q;  // s_tvd_q = T_V + D (two clocks after s_q)
   logic [15:0]       s_tv_q, s_tn_q;
   logic [31:0]       s_rmd_q;   // max ToF - D, 32-bit (two clocks after s_q)
@@ -824,37 +826,45 @@ module ms_scheduler #(
   end
 
   // ORDER: T_s = floor((te_min - T_V - D) / n), feasible if T_s > 0 and (n+1) T_s >= te_max + T_N
-  logic [23:0] o_x, o_ts, o_x_q, o_ts_q, o_div3_q;
-  logic [49:0] o_mul3;
-  logic [26:0] o_lhs, o_lhs_q, o_rhs_q;
+  // floor(x / n) for x < 2^24 is floor(x * m_n / 2^27) with m_n = ceil(2^27 / n), exact for every
+  // n <= 8 (m_n n - 2^27 < n <= 2^(27 - 24)); n = 1, 2, 4, 8 are shifts
+  logic [23:0] o_x, o_ts, o_x_q, o_ts_q, o_div_q;
+  logic [25:0] o_rcp, o_rcp_q;
+  logic [49:0] o_mul;
+  logic [26:0] o_lhs_q, o_rhs_q;
   logic        o_feas;
-  assign o_x    = te_min_q - s_tvd_q;  // te_min - T_V - D
-  assign o_mul3 = 50'(o_x_q) * 50'd11184811;  // ceil(2^25 / 3): exact floor(x / 3) for x < 2^25
+  assign o_x   = te_min_q - s_tvd_q;  // te_min - T_V - D
   always_comb begin
     unique case (n_q)
-      3'd1:    o_ts = o_x_q;
-      3'd2:    o_ts = o_x_q >> 1;
-      3'd3:    o_ts = o_div3_q;
-      default: o_ts = o_x_q >> 2;
+      4'd3:    o_rcp = 26'd44739243;  // ceil(2^27 / 3)
+      4'd5:    o_rcp = 26'd26843546;
+      4'd6:    o_rcp = 26'd22369622;
+      4'd7:    o_rcp = 26'd19173962;
+      default: o_rcp = '0;            // a shift
     endcase
   end
-  // registered: o_x in the state's first clock, x / 3 (the multiplier and its adders) in its
-  // second, o_ts in its third, (n + 1) o_ts in its fourth; o_x does not depend on n
-  always_ff @(posedge clk_i) begin
-    o_x_q    <= o_x;
-    o_div3_q <= o_mul3[48:25];
-    o_ts_q   <= o_ts;
-  end
-  always_comb begin  // (n + 1) T_s for n = 1..4 (the validated orders) without a multiplier
+  assign o_mul = 50'(o_x_q) * 50'(o_rcp_q);
+  always_comb begin
     unique case (n_q)
-      3'd1:    o_lhs = {2'd0, o_ts_q, 1'b0};
-      3'd2:    o_lhs = 27'(o_ts_q) + {2'd0, o_ts_q, 1'b0};
-      3'd3:    o_lhs = {1'd0, o_ts_q, 2'b0};
-      default: o_lhs = 27'(o_ts_q) + {1'd0, o_ts_q, 2'b0};
+      4'd1:    o_ts = o_x_q;
+      4'd2:    o_ts = o_x_q >> 1;
+      4'd4:    o_ts = o_x_q >> 2;
+      4'd8:    o_ts = o_x_q >> 3;
+      default: o_ts = o_div_q;  // 3, 5, 6, 7
     endcase
+  end
+  // registered: o_x and the reciprocal in the state's first clock, x / n (the multiplier and
+  // its adders) in its second, o_ts in its third, (n + 1) o_ts in its fourth; o_x does not
+  // depend on n, and n_q holds for the whole try
+  always_ff @(posedge clk_i) begin
+    o_x_q   <= o_x;
+    o_rcp_q <= o_rcp;
+    o_div_q <= 24'(o_mul[49:27]);  // < 2^23: n >= 3
+    o_ts_q  <= o_ts;
   end
   always_ff @(posedge clk_i) begin  // fourth clock: (n + 1) T_s and T_max + T_N, then the decision
-    o_lhs_q <= o_lhs;
+    // (n + 1) T_s <= 2 x < 2^25: the validated orders keep it within 27 bits
+    o_lhs_q <= 27'(o_ts_q) * 27'({1'b0, n_q} + 5'd1);
     o_rhs_q <= 27'(te_max_q) + 27'(s_tn_q);
   end
   assign o_feas = (o_ts_q != 24'd0) && (o_lhs_q >= o_rhs_q);
@@ -921,7 +931,7 @@ module ms_scheduler #(
   // flops across the chip), registered before any compare
   logic [1:0]         v0_mode_q;
   logic [NUM_CH-1:0]  v0_tx_q, v0_rx_q;
-  logic [2:0]         v0_order_q;
+  logic [OW-1:0]      v0_order_q;
   logic [3:0]         v0_k_q;
   logic [7:0]         v0_burst_q;
   logic [15:0]        v0_tv_q, v0_tn_q;
@@ -951,7 +961,7 @@ module ms_scheduler #(
         4'd1: v0_rx_q <= vs_rdata_i[NUM_CH-1:0];
         4'd2: begin
           v0_mode_q   <= vs_rdata_i[1:0];
-          v0_order_q  <= vs_rdata_i[6:4];
+          v0_order_q  <= vs_rdata_i[7:4];
           v0_k_q      <= vs_rdata_i[11:8];
           v0_reinit_q <= vs_rdata_i[19:12];
           v_any_q     <= (vs != '0 && v_any_q) || vs_rdata_i[1:0] != 2'd0;  // over entries 0..vs
@@ -972,7 +982,7 @@ module ms_scheduler #(
     v1_mode_q   <= v0_mode_q;
     v1_tx_q     <= v0_tx_q;
     v1_rx0_q    <= v0_rx_q == '0;
-    v1_order_q  <= v0_order_q > 3'd4;
+    v1_order_q  <= v0_order_q > OW'(MAX_ORDER);
     v1_k0_q     <= v0_k_q == 4'd0;
     v1_b0_q     <= v0_burst_q == 8'd0;
     v1_w0_q     <= v0_tv_q == '0 || v0_tn_q == '0 || v0_xt_q == '0;
@@ -1192,7 +1202,7 @@ module ms_scheduler #(
   // its go clock (need 2).
   logic [NUM_CH-1:0] ld_tx_q, ld_rx_q, ld_xt_q;
   logic              ld_act_q, ld_track_q;
-  logic [2:0]        ld_order_q;
+  logic [OW-1:0]     ld_order_q;
   logic [3:0]        ld_k_q;
   logic [15:0]       ld_tv_q, ld_tn_q, ld_vmax_q;
   logic [23:0]       ld_rmax_q, ld_phase_q, ld_dbl_q, ld_lo_q, ld_hi_q;
@@ -1594,14 +1604,14 @@ module ms_scheduler #(
             if (!s_trk_q) begin
               period_q <= s_rmax_q;
               st_q     <= S_CONF;
-            end else if (n_q == 3'd0) begin
+            end else if (n_q == '0) begin
               period_q <= o_rhs_q[23:0];  // te_max + T_N
               st_q     <= S_CONF;
             end else if (o_feas) begin
               period_q <= o_ts_q;
               st_q     <= S_CONF;
             end else begin
-              n_q <= n_q - 3'd1;
+              n_q <= n_q - OW'(1);
             end
           end
           S_CONF: begin  // next element the candidate touches: blank_until, then its slots
@@ -2074,5 +2084,5 @@ module ms_scheduler #(
   logic unused_ok;
   assign unused_ok = ^{grx.trk, grx.tof, grx.v, grx.miss, grx.init, grx.vel, irx.trk, irx.vel, irx.tof, irx.v, hw.ws, hw.we,
                        hw.t0, hrx.tof[23:1], hrx.seq, hrx.v, hrx.miss, cw.ws, cw.t0, irx.miss, irx.init,
-                       o_mul3[49], o_mul3[24:0], v_pa[8]};
+                       o_mul[26:0], v_pa[8]};
 endmodule

@@ -52,10 +52,14 @@ module ms_system_usb #(
   logic       out_valid, out_end, out_zlp, out_ready, in_valid, in_ready, in_flush;
   logic       unused_bus_reset, unused_last;
   logic [7:0] out_data, in_data;
+  logic       rst_sys, rst_usb;
+
+  ms_reset_copy u_rst_sys (.clk_i, .rst_i, .rst_o (rst_sys));
+  ms_reset_copy u_rst_usb (.clk_i, .rst_i, .rst_o (rst_usb));
 
   ms_system #(.NUM_CH(NUM_CH), .RAM_WORDS(RAM_WORDS), .INIT_FILE(INIT_FILE), .STRETCH_W(STRETCH_W),
               .CPU(CPU), .FAST_MUL(FAST_MUL), .NUM_VS(NUM_VS), .WSLOTS(WSLOTS)) u_sys (
-    .clk_i, .rst_i, .echo_i, .drive_o,
+    .clk_i, .rst_i (rst_sys), .echo_i, .drive_o,
     .cmd_valid_i (out_valid), .cmd_data_i (out_data), .cmd_end_i (out_end), .cmd_zlp_i (out_zlp),
     .cmd_ready_o (out_ready),
     .host_rd_i (in_ready), .host_rvalid_o (in_valid), .host_rdata_o (in_data), .host_flush_o (in_flush),
@@ -63,7 +67,7 @@ module ms_system_usb #(
   );
 
   ms_usb_device #(.SERIAL(SERIAL)) u_usb (
-    .clk_i, .rst_i,
+    .clk_i, .rst_i (rst_usb),
     .usb_dp_i, .usb_dn_i, .usb_dp_o, .usb_dn_o, .usb_oe_o, .usb_pullup_o,
     .configured_o (usb_configured_o), .bus_reset_o (unused_bus_reset),
     .out_data_o (out_data), .out_valid_o (out_valid), .out_last_o (unused_last), .out_end_o (out_end),

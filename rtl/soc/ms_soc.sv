@@ -329,8 +329,10 @@ module ms_soc #(
   assign frm_wr = hwif_out.HOST_TX.req & hwif_out.HOST_TX.req_is_wr;
   assign rep_wr = hwif_out.REPLY_TX.req & hwif_out.REPLY_TX.req_is_wr;
   assign cmd_rd = hwif_out.CMD_DATA.req & ~hwif_out.CMD_DATA.req_is_wr;
+  logic rst_link;
+  ms_reset_copy u_rst_link (.clk_i, .rst_i, .rst_o (rst_link));
   ms_link u_link (
-    .clk_i (clk_i), .rst_i (rst_i),
+    .clk_i (clk_i), .rst_i (rst_link),
     .out_valid_i (cmd_valid_i), .out_data_i (cmd_data_i), .out_end_i (cmd_end_i),
     .out_zlp_i (cmd_zlp_i), .out_ready_o (cmd_ready_o),
     .in_valid_o (host_rvalid_o), .in_data_o (host_rdata_o), .in_ready_i (host_rd_i),

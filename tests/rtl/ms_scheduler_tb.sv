@@ -26,7 +26,7 @@ module ms_scheduler_tb #(
   input  logic [8*NUM_CH-1:0]  tx_mask_i,
   input  logic [8*NUM_CH-1:0]  rx_mask_i,
   input  logic [8*2-1:0]       mode_i,
-  input  logic [8*3-1:0]       order_i,
+  input  logic [8*4-1:0]       order_i,
   input  logic [8*4-1:0]       miss_limit_i,
   input  logic [8*8-1:0]       reinit_every_i,
   input  logic [8*16-1:0]      t_v_i,
@@ -93,7 +93,7 @@ module ms_scheduler_tb #(
 
   logic [NUM_VS-1:0][NUM_CH-1:0] vs_tx, vs_rx;
   logic [NUM_VS-1:0][1:0]        vs_mode, vs_nb;
-  logic [NUM_VS-1:0][2:0]        vs_order;
+  logic [NUM_VS-1:0][3:0]        vs_order;
   logic [NUM_VS-1:0][3:0]        vs_k;
   logic [NUM_VS-1:0][15:0]       vs_tv, vs_tn, vs_vmax;
   logic [NUM_VS-1:0][19:0]       vs_dead, vs_xt;
@@ -119,7 +119,7 @@ module ms_scheduler_tb #(
       unique case (r)
         0:       vs_word = 32'(vs_tx[e]);
         1:       vs_word = 32'(vs_rx[e]);
-        2:       vs_word = {12'd0, vs_reinit[e], vs_k[e], 1'b0, vs_order[e], 2'b0, vs_mode[e]};
+        2:       vs_word = {12'd0, vs_reinit[e], vs_k[e], vs_order[e], 2'b0, vs_mode[e]};
         3:       vs_word = {vs_tn[e], vs_tv[e]};
         4:       vs_word = 32'(vs_dead[e]);
         5:       vs_word = 32'(vs_rmax[e]);

@@ -28,14 +28,14 @@ from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge, Timer
 from cocotb.utils import get_sim_time
 
 from multisonar.fastfiring import DEFAULT_MISS_GATE, FastFiringModel, SceneEchoSource, SyntheticEchoSource, _rows
-from multisonar.constants import speed_of_sound
+from multisonar.constants import DEVICE_DECISION_LEAD, speed_of_sound
 from multisonar.layout import load_layout
 from multisonar.protocol import CfgError
 from multisonar.schedule import Schedule, VirtualSensor
 from echo_driver import EchoDriver
 from tbutil import CLK_PERIOD_PS, start_clock
 
-LEAD = int(os.environ.get("SCHED_LEAD", "4096"))
+LEAD = int(os.environ.get("SCHED_LEAD", str(DEVICE_DECISION_LEAD)))
 WSLOTS = int(os.environ.get("SCHED_WSLOTS", "16"))  # the wrapper's WSLOTS parameter
 SCHED_VS = int(os.environ.get("SCHED_VS", "8"))     # the wrapper's SCHED_VS parameter
 MS = 48_000
@@ -44,7 +44,7 @@ LAYOUT = load_layout()
 QUARTER = CLK_PERIOD_PS // 4
 NUM_VS = 8
 TABLE = {  # field -> (tb port, width)
-    "tx_mask": ("tx_mask_i", 24), "rx_mask": ("rx_mask_i", 24), "mode": ("mode_i", 2), "order": ("order_i", 3),
+    "tx_mask": ("tx_mask_i", 24), "rx_mask": ("rx_mask_i", 24), "mode": ("mode_i", 2), "order": ("order_i", 4),
     "miss_limit": ("miss_limit_i", 4), "t_v": ("t_v_i", 16), "t_n": ("t_n_i", 16), "t_dead": ("t_dead_i", 20),
     "max_tof": ("max_tof_i", 24), "t_xtalk": ("t_xtalk_i", 20), "xtalk_nb": ("xtalk_nb_i", 2),
     "vmax": ("vmax_i", 16), "burst_cycles": ("burst_cycles_i", 8), "phase": ("phase_i", 24),
@@ -307,6 +307,22 @@ async def approaching_order3(dut):
     st = await scoreboard(dut, "approaching order 3", VirtualSensor("front", order=3, **FRONT),
                           lambda: SyntheticEchoSource(3.0, velocity_mps=2.0), 110 * MS)
     assert st["init"] == 1 and 3 in st["orders"]
+
+
+@cocotb.test()
+async def orders_5_to_8_far(dut):
+    """Orders 5..8 (one sensor each) on reflectors at 3.6-4.4 m, one of them approaching at
+    2 m/s: every divisor of T_s = (T_E - T_V - D) / n (the reciprocal multiplies for 3, 5, 6, 7,
+    the shifts for 1, 2, 4, 8) is tried as the effective order falls back, and the highest
+    orders run at their full rate (order 8 at 4 m: 375 Hz)."""
+    sensors = [VirtualSensor(f"o{n}", tx=[6 * k], rx=[6 * k], order=n, max_range_m=4.8)
+               for k, n in enumerate((5, 6, 7, 8))]
+    sensors.append(VirtualSensor("o8near", tx=[3], rx=[3], order=8, max_range_m=4.8))  # 1.8 m: falls back to 3
+    src = lambda: SyntheticEchoSource({0: 3.6, 6: 4.4, 12: 3.9, 18: 4.0, 3: 1.8})  # noqa: E731
+    st = await scoreboard(dut, "orders 5-8", sensors, src, 110 * MS, min_pulses=40)
+    assert {3, 5, 6, 7, 8} <= set(st["orders"]), st["orders"]
+    await scoreboard(dut, "order 8 approaching", VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=8, max_range_m=4.8),
+                     lambda: SyntheticEchoSource(4.4, velocity_mps=2.0), 90 * MS, min_pulses=10)
 
 
 @cocotb.test()
@@ -708,7 +724,7 @@ BAD_TABLES = [  # (what, sensor field changes on entry 1, expected code)
     ("tx empty", {"tx_mask": 0}, CfgError.TX_MASK),
     ("tx not adjacent", {"tx_mask": 0b101}, CfgError.TX_MASK),
     ("rx empty", {"rx_mask": 0}, CfgError.RX_MASK),
-    ("order 5", {"order": 5}, CfgError.ORDER),
+    ("order 9", {"order": 9}, CfgError.ORDER),
     ("K = 0", {"miss_limit": 0}, CfgError.MISS_LIMIT),
     ("burst 0", {"burst_cycles": 0}, CfgError.BURST),
     ("dead zone shorter than the burst", {"t_dead": 1000}, CfgError.WINDOW),
@@ -757,7 +773,7 @@ async def apply_refusals_leave_the_schedule_running(dut):
     assert int(dut.overrun_o.value) == 0
     # stopped: a refused apply reports the same way
     bad = [dict(f) for f in sched.to_registers()["sensors"]]
-    bad[0]["order"] = 7
+    bad[0]["order"] = 9
     for port, v in table_values(bad).items():
         getattr(dut, port).value = v
     dut.apply_i.value = 1

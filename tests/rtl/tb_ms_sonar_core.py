@@ -14,6 +14,7 @@ import cocotb
 from cocotb.triggers import ReadOnly, RisingEdge, Timer, ValueChange
 from cocotb.utils import get_sim_time
 
+from multisonar.constants import DEVICE_DECISION_LEAD
 from multisonar.fastfiring import FastFiringModel, SceneEchoSource, SyntheticEchoSource, _rows, unpack_word
 from multisonar.generated import sonar_regs as R
 from multisonar.layout import load_layout
@@ -23,7 +24,7 @@ from echo_driver import EchoDriver
 from passthrough_bfm import PassthroughMaster
 from tbutil import CLK_PERIOD_PS, reset, start_clock
 
-LEAD = 4096  # ms_scheduler's LEAD parameter default
+LEAD = DEVICE_DECISION_LEAD  # ms_scheduler's LEAD parameter default
 MS = 48_000
 LAYOUT = load_layout()
 

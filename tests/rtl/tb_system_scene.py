@@ -15,7 +15,7 @@ Checks:
 * frames parse (protocol.StreamParser: magic, version, CRC-32), consecutive frame seq, type
   and layout (decode_frame), no host-FIFO drop flag;
 * the ToF records of every frame are exactly the golden model's events of that pulse
-  (FastFiringModel, decision_lead 4096, start tick = running_o rise - 1), per table segment:
+  (FastFiringModel, decision_lead DEVICE_DECISION_LEAD, start tick = running_o rise - 1), per table segment:
   a re-aim restarts the schedule (old windows dropped, the old pulses' late echoes still
   arrive: fed to the next segment's model as noise), as tests/rtl/tb_ms_scheduler.py does;
   every model pulse that closed well before the end has its frame;
@@ -44,7 +44,7 @@ from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge, Timer
 from cocotb.utils import get_sim_time
 
 from multisonar import protocol as P
-from multisonar.constants import TICK_HZ, speed_of_sound
+from multisonar.constants import DEVICE_DECISION_LEAD, TICK_HZ, speed_of_sound
 from multisonar.fastfiring import DEFAULT_MISS_GATE, FastFiringModel, _rows
 from multisonar.georecord import geo_records
 from multisonar.layout import load_layout
@@ -53,7 +53,7 @@ from echo_driver import EchoDriver
 from link_reader import LinkReader, send_command
 from tbutil import CLK_PERIOD_PS, reset, start_clock
 
-LEAD = 4096
+LEAD = DEVICE_DECISION_LEAD
 MS = 48_000
 LAYOUT = load_layout()
 C_SOUND = speed_of_sound(TEMPERATURE_C)

@@ -34,7 +34,7 @@ from cocotb.triggers import RisingEdge, ReadOnly, Timer
 from cocotb.utils import get_sim_time
 
 from multisonar import protocol as P
-from multisonar.constants import TICK_HZ, speed_of_sound
+from multisonar.constants import DEVICE_DECISION_LEAD, TICK_HZ, speed_of_sound
 from multisonar.device import Device, DeviceDisconnected
 from multisonar.fastfiring import FastFiringModel, _rows
 from multisonar.generated import sonar_regs as R
@@ -48,7 +48,7 @@ from tbutil import CLK_PERIOD_PS, reset, start_clock
 from usb_host import PID_ACK, PID_DATA0, PID_DATA1, PID_NAK, UsbHost
 from usb_rtl_function import ADDR, RtlUsbFunction
 
-LEAD = 4096
+LEAD = DEVICE_DECISION_LEAD
 LAYOUT = load_layout()
 TEMP_C = 20.0
 C_SOUND = speed_of_sound(TEMP_C)

@@ -17,9 +17,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..constants import TICK_HZ
+from ..constants import DEVICE_DECISION_LEAD, TICK_HZ
 
-LEAD = 4096  # ms_scheduler's decision lead (ticks), FastFiringModel(decision_lead=)
+LEAD = DEVICE_DECISION_LEAD  # ms_scheduler's decision lead (ticks), FastFiringModel(decision_lead=)
 
 
 class TwinMismatch(AssertionError):
