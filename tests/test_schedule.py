@@ -28,8 +28,8 @@ def test_defaults_resolve_to_ticks():
     assert r.blank == 72000 and r.vmax == 24000
     assert list(r.xtalk_elements) == [1, 23]
     # int = ticks, float = seconds
-    r2 = sched(VirtualSensor("a", tx=[0], rx=[0], t_v=5000, t_n=0.25e-3)).validate()[0]
-    assert (r2.t_v, r2.t_n) == (5000, 12000)
+    r2 = sched(VirtualSensor("a", tx=[0], rx=[0], t_v=1000, t_n=0.25e-3)).validate()[0]
+    assert (r2.t_v, r2.t_n) == (1000, 12000)
 
 
 @pytest.mark.parametrize("source", [(0.0, 0.0), (0.2, 0.1), (-0.3, 0.05), (1.0, -0.4)])

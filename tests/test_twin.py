@@ -4,7 +4,7 @@ reached by the unchanged pyusb driver.
 
 * scoreboard (multisonar.twin.check): with a noise-free scene, every pulse the RTL fires and every
   ToF record of every frame the driver receives equal the golden model's (FastFiringModel from
-  the scheduler's start tick, decision lead DEVICE_DECISION_LEAD), and the firmware's geometry lies on the
+  the scheduler's start tick, decision lead 4096), and the firmware's geometry lies on the
   corridor's walls;
 * property (issue #9): random tables the host validator accepts are accepted by the device and
   run without conflict, equal to the model;
@@ -234,12 +234,7 @@ def test_max_load_at_the_schedulers_limit(tmp_path):
     assert js["latency_us"]["p99"] <= 1000, js["latency_us"]
     assert js["fw_vs_host"]["compared"] >= 50 and js["fw_vs_host"]["mismatches"] == 0, js["fw_vs_host"]
     assert 0.2 <= js["busy_share_max"] <= 0.5, js["busy_share_max"]
-    # every pulse is accounted for: a fix, skipped (no time), declined (no fast solution), or
-    # cut (its frame went out incomplete: a cancel or a full group table); the rest are init
-    # pings (no geometry) and the pulses still in flight when the run ends
-    accounted = js["geo_fixes"] + js["geo_skipped"] + js["geo_declined"] + js["frames_cut"]
-    init_pings = sum(s["init_pings"] for s in js["sensors"].values())
-    assert accounted + init_pings >= 0.9 * pulses, js
+    assert js["geo_fixes"] + js["geo_skipped"] + js["geo_declined"] >= 0.9 * pulses, js
     _assert_bounded_slices(js)
 
 
