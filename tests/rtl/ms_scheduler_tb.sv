@@ -130,10 +130,10 @@ module ms_scheduler_tb #(
   endfunction
   always_ff @(posedge clk_i) vs_rdata <= vs_word(int'(vs_raddr));
 
-  // After the scheduler loaded a table (S_COPY's first clock), its per-sensor state equals
+  // After the scheduler loaded a table (ms_sched_cfg's load done), its per-sensor state equals
   // the table: the fields, the crosstalk neighbours (within nb of a tx element, not tx), the
-  // blanking max(T_dead, T_xtalk) + the largest tx delay (vdmax_q, measured by S_VREAD), the
-  // prediction clamp bounds.
+  // blanking max(T_dead, T_xtalk) + the largest tx delay (from the delay RAM), the prediction
+  // clamp bounds, every blank interval (BLK) of a tx or crosstalk element, and the share matrix.
   function automatic logic [NUM_CH-1:0] xt_expect(input logic [NUM_CH-1:0] tx, input logic [1:0] nb);
     logic [NUM_CH-1:0] m;
     m = '0;
@@ -141,23 +141,49 @@ module ms_scheduler_tb #(
       m = m | ((tx << k) | (tx >> (NUM_CH - k))) | ((tx >> k) | (tx << (NUM_CH - k)));
     xt_expect = m & ~tx;
   endfunction
+  function automatic logic [NUM_CH-1:0] use_expect(input int s);
+    use_expect = vs_tx[s] | vs_rx[s] | xt_expect(vs_tx[s], vs_nb[s]);
+  endfunction
   always_ff @(posedge clk_i)
     if (u_sched.dbg_loaded)
       for (int s = 0; s < SCHED_VS; s++) begin
-        automatic logic [23:0] dbl = 24'((vs_dead[s] > vs_xt[s]) ? vs_dead[s] : vs_xt[s]) + 24'(u_sched.vdmax_q[s]);
-        if (u_sched.sh_tx_m[s] != vs_tx[s] || u_sched.sh_rx_m[s] != vs_rx[s] || u_sched.sh_nb_m[s] != vs_nb[s]
-            || u_sched.sh_xt_m[s] != xt_expect(vs_tx[s], vs_nb[s])
-            || u_sched.sh_use_m[s] != (vs_tx[s] | vs_rx[s] | xt_expect(vs_tx[s], vs_nb[s]))
+        automatic logic [15:0] dmax = '0;
+        automatic logic [23:0] dbl;
+        automatic logic [NUM_CH-1:0] xt = xt_expect(vs_tx[s], vs_nb[s]);
+        for (int e = 0; e < NUM_CH; e++)
+          if (vs_tx[s][e] && u_dly.mem_q[s * 32 + e] > dmax) dmax = u_dly.mem_q[s * 32 + e];
+        dbl = 24'((vs_dead[s] > vs_xt[s]) ? vs_dead[s] : vs_xt[s]) + 24'(dmax);
+        if (u_sched.sh_tx_m[s] != vs_tx[s] || u_sched.sh_rx_m[s] != vs_rx[s]
+            || u_sched.sh_xt_m[s] != xt || u_sched.sh_use_m[s] != use_expect(s)
             || u_sched.sh_track_m[s] != (vs_mode[s] == 2'd1) || u_sched.sh_act_q[s] != (vs_mode[s] != 2'd0)
             || u_sched.sh_order_m[s] != vs_order[s] || u_sched.sh_k_m[s] != vs_k[s]
-            || u_sched.sh_reinit_q[s] != vs_reinit[s]
+            || u_sched.sh_reinit_m[s] != vs_reinit[s]
             || u_sched.sh_tv_m[s] != vs_tv[s] || u_sched.sh_tn_m[s] != vs_tn[s]
             || u_sched.sh_vmax_m[s] != vs_vmax[s] || u_sched.sh_rmax_m[s] != vs_rmax[s]
             || u_sched.sh_phase_m[s] != vs_phase[s] || u_sched.sh_burst_m[s] != vs_burst[s]
-            || u_sched.sh_dead_m[s] != vs_dead[s] || u_sched.sh_xtk_m[s] != vs_xt[s]
             || u_sched.sh_dbl_m[s] != dbl || u_sched.sh_lo_m[s] != dbl + 24'(vs_tv[s])
             || u_sched.sh_hi_m[s] != vs_rmax[s] - 24'(vs_tn[s]))
-          $error("ms_scheduler_tb: sensor %0d's per-sensor state differs from its table entry after S_LOAD", s);
+          $error("ms_scheduler_tb: sensor %0d's per-sensor state differs from its table entry after the load", s);
+        for (int o = 0; o < SCHED_VS; o++)
+          if (u_sched.sh_share_q[s][o] != |(use_expect(s) & use_expect(o)))
+            $error("ms_scheduler_tb: share matrix (%0d, %0d) wrong after the load", s, o);
+        for (int e = 0; e < NUM_CH; e++) begin
+          // [a, b): a tx element its own delay + T_dead, a crosstalk neighbour the first and last
+          // delay of the tx elements within nb of it, the last + T_xtalk
+          automatic logic [15:0] lo = '1, hi = '0;
+          automatic logic [19:0] b;
+          for (int k = -3; k <= 3; k++) begin
+            automatic int j = (e + k + NUM_CH) % NUM_CH;
+            if (vs_tx[s][j] && ((k == 0 && vs_tx[s][e]) || (k != 0 && xt[e] && (k < 0 ? -k : k) <= int'(vs_nb[s])))) begin
+              if (u_dly.mem_q[s * 32 + j] < lo) lo = u_dly.mem_q[s * 32 + j];
+              if (u_dly.mem_q[s * 32 + j] > hi) hi = u_dly.mem_q[s * 32 + j];
+            end
+          end
+          b = vs_tx[s][e] ? 20'(lo) + 20'(vs_dead[s]) : 20'(hi) + 20'(vs_xt[s]);
+          if ((vs_tx[s][e] || xt[e]) && (u_sched.blk_q[s * 32 + e].a != lo || u_sched.blk_q[s * 32 + e].b != b))
+            $error("ms_scheduler_tb: blank interval of sensor %0d element %0d: [%0d, %0d), expected [%0d, %0d)",
+                   s, e, u_sched.blk_q[s * 32 + e].a, u_sched.blk_q[s * 32 + e].b, lo, b);
+        end
       end
 
   logic             trig_valid;

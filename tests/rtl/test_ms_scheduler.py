@@ -8,7 +8,7 @@ from cocotb_run import ROOT, run_cocotb
 from multisonar.constants import DEVICE_DECISION_LEAD
 
 SOURCES = [ROOT / "rtl/common/ms_ram_dp.sv", ROOT / "rtl/rx/ms_rx_conditioner.sv", ROOT / "rtl/core/ms_sched_workq.sv",
-           ROOT / "rtl/core/ms_scheduler.sv", ROOT / "tests/rtl/ms_scheduler_tb.sv"]
+           ROOT / "rtl/core/ms_sched_cfg.sv", ROOT / "rtl/core/ms_scheduler.sv", ROOT / "tests/rtl/ms_scheduler_tb.sv"]
 # the full scheduler; the benches (scripts/bench_*, experiments --rtl) build the same, so one
 # Verilator build serves them all
 PARAMETERS = {"NUM_CH": 24, "LEAD": DEVICE_DECISION_LEAD}
