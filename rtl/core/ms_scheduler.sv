@@ -122,8 +122,6 @@ module ms_scheduler #(
     $error("ms_scheduler: NUM_CH = %0d, the pulse record's n_win holds 0..31", NUM_CH);
   end
 
-  // cfg_error codes (docs/protocol.md section 5): ms_sched_cfg
-
   // ------------------------------------------------------------------ helpers
   // index of the lowest set bit (0 when none): the bit isolated by v & -v (a carry chain)
   // and encoded by OR trees, not a priority chain of one LUT level per bit
@@ -705,7 +703,7 @@ module ms_scheduler #(
   logic [31:0]       s_rmd_q;   // max ToF - D, 32-bit (two clocks after s_q)
   logic [7:0]        s_burst_q, s_tpc_q, s_rein_q;
   logic              s_rdue_q;
-  logic [15:0]       s_pid_q;   // the sensor's pulse id (seq_q)
+  logic [15:0]       s_pid_q;   // the sensor's pulse id (seq_m)
   logic [7:0]        s_seq_q;
   assign s_seq_q = s_pid_q[7:0];
   logic              s_ep_q;
@@ -732,7 +730,7 @@ module ms_scheduler #(
     s_rdue_q  <= s_rein_q != 8'd0 && 9'(s_tpc_q) + 9'd1 >= 9'(s_rein_q);
     s_ep_q    <= epoch_q[si(s_q)];
   end
-  logic s_early, s_quiet;  // not due yet / still quiet: wait (nxt = due - P / quiet - P)
+  logic s_early, s_quiet;  // not due yet / still quiet: wait (nxt_m = due / quiet, as t0)
   assign s_early = s_eval && sc_early_q;
   assign s_quiet = s_eval && !s_early && !sc_trk_q && sc_qv_q && sc_quiet_q;
   logic s_reinit;  // forced re-initialisation (RX_FILTER.reinit_every): cancel, then evaluate as an init ping
