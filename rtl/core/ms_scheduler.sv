@@ -57,7 +57,7 @@
 // reading (ph_q counts them) and decides in its last clock (go); reads and arithmetic go
 // through registered stages A-D (see ph_q below), so a decision never follows a RAM read, a
 // second RAM read or more than one carry chain in the same clock. A state costs 1-6 clocks per
-// item; lag_max_q (the engine's worst lateness) is measured by scripts/bench_sched_lag.py.
+// item, except the slot scans (S_HEAD, S_CSLOT), which stream one slot per clock; lag_max_q (the engine's worst lateness) is measured by scripts/bench_sched_lag.py.
 module ms_scheduler #(
   parameter int NUM_CH  = 24,   // ms_layout_pkg::NUM_CH, passed by the top (<= 32)
   parameter int NUM_VS  = 8,    // table entries (<= 8: 3-bit sensor id)
@@ -271,8 +271,8 @@ module ms_scheduler #(
   // ------------------------------------------------------------------ engine
   typedef enum logic [4:0] {
     S_OFF, S_CHECK, S_STOP, S_LOAD, S_START, S_SETTLE, S_IDLE, S_DISP,
-    S_EDGE, S_HIT, S_CLOSE, S_HEAD, S_SCHED, S_NEXT, S_EDF, S_CAND, S_ORDER, S_CONF, S_CSLOT,
-    S_ISSUE, S_IEL, S_SAFE, S_INIT
+    S_EDGE, S_HIT, S_CLOSE, S_HEAD, S_HWR, S_SCHED, S_NEXT, S_EDF, S_CAND, S_ORDER, S_CONF,
+    S_CSLOT, S_CFULL, S_ISSUE, S_IEL, S_SAFE, S_INIT
   } state_t;
   state_t st_q;
   // Each engine state reads in its first clocks and decides in its last one (the go clock).
@@ -287,14 +287,17 @@ module ms_scheduler #(
   logic       go;
   always_comb begin
     unique case (st_q)
+      S_EDGE, S_HEAD, S_CSLOT:                need = 3'd0;  // slot streams: one slot per clock
       S_ISSUE:                                need = 3'd1;  // per-sensor words
+      S_HWR, S_CFULL:                         need = 3'd1;  // the stream's result, registered
       S_STOP:                                 need = 3'd1;  // the miss gate latch's registered enable
       S_INIT:                                 need = 3'd2;  // the sensor's phase, then start + phase
       S_SCHED, S_EDF:                         need = 3'd2;  // per-sensor words, then their compares
       S_DISP, S_SAFE:                         need = 3'd2;  // stage A; two registered steps of arithmetic
       S_ORDER:                                need = 3'd4;  // four registered steps of arithmetic
-      S_EDGE, S_CAND:                         need = 3'd4;  // stage C: window ticks, prediction
-      S_HIT, S_CLOSE, S_HEAD, S_CONF, S_CSLOT, S_IEL:
+      S_CAND:                                 need = 3'd4;  // stage C: window ticks, prediction
+      S_HIT:                                  need = 3'd6;  // prediction (stage D), gate, decision
+      S_CLOSE, S_CONF, S_IEL:
                                               need = 3'd5;  // stage D: compares on stage C
       default:                                need = 3'd0;
     endcase
@@ -477,7 +480,6 @@ module ms_scheduler #(
   logic [24:0]        h_abs_d_q;
   logic [31:0]        iw_close_c_q;    // IEL: close tick of the new window, t_q + p_weo - 1 + lat (stage C)
   logic               iw_first_d_q, bu_later_d_q, tu_later_d_q;
-  logic               sw_lt_hd_d_q, sw_lt_min_d_q;  // IEL: its compares with the element's head, blank, tx_until
   logic [23:0]        te_d_q;          // CAND: the clamped prediction
   logic [31:0]        t_cand_q;        // cur_tick_q + P (the candidate t0 of a SCHED decision)
   logic [31:0]        due_isu_q, due_ini_q, quiet_isu_q;
@@ -512,7 +514,8 @@ module ms_scheduler #(
     unique case (st_q)
       S_DISP, S_EDGE, S_HIT: ei = er;
       S_CLOSE:               ei = clr;
-      S_HEAD, S_CSLOT:       ei = el_q;
+      S_HEAD, S_HWR, S_CSLOT, S_CFULL:
+                             ei = el_q;
       S_SAFE:                ei = sf_e_q;
       default:               ei = rel;  // S_CONF, S_IEL
     endcase
@@ -546,7 +549,7 @@ module ms_scheduler #(
     rel_te_e   <= cand_te_q[rel_q];
   end
 
-  // EDGE: slot sk of receiver er
+  // EDGE: the stream's stage-C slot of receiver er holds the edge's timestamp n
   logic [31:0] n_edge, n_edge_q, e_ws, e_we;
   logic        e_match;
   assign n_edge  = n_edge_q;
@@ -554,15 +557,13 @@ module ms_scheduler #(
   assign e_ws    = w_start_c_q;
   assign e_we    = w_end_c_q;
   assign e_match = ($signed(n_edge - e_ws) >= 0) && ($signed(n_edge - e_we) < 0);
-  // gated miss rule, step 1 (EDGE): the prediction for slot sk's pulse from its sensor's
-  // tracking state of receiver er (model _predict(s, st, w.seq), signed pulse gap), registered
-  // for HIT (nothing writes RXS in between)
-  logic [VW-1:0]      g_s;
+  // gated miss rule, step 1 (HIT): the prediction for window fslot_q's pulse from its
+  // sensor's tracking state of receiver er (model _predict(s, st, w.seq), signed pulse gap),
+  // from the WIN and RXS words HIT reads (stages B-D), registered (g_te_q) for step 2
   rxs_t               grx;
   logic signed [7:0]  g_gap;
   logic signed [26:0] g_pred;
   logic [23:0]        g_lo, g_hi, g_te, g_te_q;
-  assign g_s    = wsid_e[sk];
   assign grx    = rxs_rd;
   assign g_gap  = $signed(win_rd.seq - grx.seq);
   assign g_pred = pred_d_q;
@@ -573,9 +574,7 @@ module ms_scheduler #(
     else if (g_pred > $signed({3'd0, g_hi})) g_te = g_hi;
     else                                     g_te = g_pred[23:0];
   end
-  always_ff @(posedge clk_i) begin
-    if (st_q == S_EDGE && go) g_te_q <= g_te;
-  end
+  always_ff @(posedge clk_i) g_te_q <= g_te;  // in S_HIT final from its fourth clock (need)
 
   // HIT: window fslot_q of receiver er, its sensor's tracking state. The sensor h_s addresses
   // RXS (stage B); the decision reads only registers derived from it (h_*_q, one clock each
@@ -661,9 +660,30 @@ module ms_scheduler #(
       $error("ms_scheduler: registered c_safety differs from its terms");
 `endif
 
-  // HEAD / conflict scan: slot sk of element el_q
-  logic [31:0] sw_close;
-  assign sw_close = w_close_c_q;
+  // ---- slot stream (S_EDGE, S_HEAD, S_CSLOT): one valid slot of the element per clock. The
+  // slot sk (lowest bit of srem_q) addresses WIN in the clock it leaves srem_q; its word passes
+  // stages B, C and D (sv_*_q: a slot's word is in that stage) and the state folds it into its
+  // result in the clock its stage-D flags are valid: the window holding the edge (EDGE, which
+  // stops there), the earliest close tick (minclose_q, its slot hk_q; found_q: any slot) and,
+  // in S_CSLOT, the conflicts' retry. No slot's result changes another slot's reads, so the
+  // reads go one per clock; a stream ends four clocks after its last slot (sv_idle).
+  logic              sv_b_q, sv_c_q, sv_d_q, sv_idle;
+  logic [KW-1:0]     sk_b_q, sk_c_q, sk_d_q, hk_q;
+  logic [31:0]       w_close_d_q;
+  logic              em_d_q;    // S_EDGE: the stage-D slot's window holds the edge
+  logic              sw_first;  // the stage-D slot closes before every slot folded so far
+  always_ff @(posedge clk_i) begin
+    sv_b_q      <= (st_q inside {S_EDGE, S_HEAD, S_CSLOT}) && srem_q != '0;
+    sk_b_q      <= sk;
+    sv_c_q      <= sv_b_q;
+    sk_c_q      <= sk_b_q;
+    sv_d_q      <= sv_c_q;
+    sk_d_q      <= sk_c_q;
+    w_close_d_q <= w_close_c_q;
+    em_d_q      <= sv_c_q && e_match;
+  end
+  assign sv_idle  = srem_q == '0 && !sv_b_q && !sv_c_q && !sv_d_q;
+  assign sw_first = !found_q || $signed(w_close_d_q - minclose_q) < 0;
 
   // SCHED: sensor s_q at logical tick cur_tick_q, candidate t0 = cur + P. The sensor's flags
   // and compares are registered (sc_*_q, one and two clocks after s_q; need 2), so the go
@@ -769,7 +789,6 @@ module ms_scheduler #(
       default: win_ra = $bits(win_ra)'(int'(el_q) * WSLOTS + int'(sk));  // S_HEAD, S_CSLOT
     endcase
     unique case (st_q)
-      S_EDGE:  rxs_ra = {si(g_s), er};
       S_HIT:   rxs_ra = {si(h_s), er};
       S_CLOSE: rxs_ra = {si(c_s), clr};
       default: rxs_ra = {si(s_q), rel};  // S_CAND, S_IEL
@@ -870,8 +889,9 @@ module ms_scheduler #(
   logic        rx_on_d_q, ry_on_d_q;
   logic [31:0] rx_d_q, ry_d_q;
   always_comb begin
-    rx_on  = (st_q == S_CONF || st_q == S_CSLOT) && rx_on_d_q;
-    ry_on  = (st_q == S_CONF || st_q == S_CSLOT) && ry_on_d_q;
+    // S_CSLOT folds a slot's flags in its stage-D clock only (its first clock still sees S_CONF's)
+    rx_on  = (st_q == S_CONF || (st_q == S_CSLOT && sv_d_q)) && rx_on_d_q;
+    ry_on  = (st_q == S_CONF || (st_q == S_CSLOT && sv_d_q) || st_q == S_CFULL) && ry_on_d_q;
     rz_on  = retry_vld_q;
     r_xy   = !later(ry_d_q, rx_d_q);   // x >= y
     r_xz   = !later(retry_q, rx_d_q);  // x >= retry
@@ -888,8 +908,8 @@ module ms_scheduler #(
   logic               c_due_lt_q;
   logic [31:0]        c_due_q;  // due_m[si(c_s_q)]
   logic [23:0]        p_te, p_wso, p_weo;
-  assign p_gap = (st_q == S_EDGE) ? 9'(g_gap) : $signed({1'b0, i_gap});
-  assign p_s   = (st_q == S_EDGE) ? g_s : s_q;
+  assign p_gap = (st_q == S_HIT) ? 9'(g_gap) : $signed({1'b0, i_gap});
+  assign p_s   = (st_q == S_HIT) ? h_s : s_q;
   assign p_te  = rel_te_e;
   // the candidate's t0 (t_q, fixed from SCHED to IEL) plus the sensor's window offsets,
   // registered long before CONF / IEL read them
@@ -936,19 +956,22 @@ module ms_scheduler #(
       rx_d_q    <= tu_e - 32'(cb.a);
       ry_on_d_q <= (rem_q != '0) && c_win && $signed(tws_c_q - bu_e) < 0;
       ry_d_q    <= bu_e - 32'(c_wso_c_q);
-    end else begin  // S_CSLOT (and don't-care elsewhere)
-      rx_on_d_q <= (srem_q != '0) && blk_on_q && $signed(tba_q - w_end_c_q) < 0 && $signed(w_start_c_q - tbb_q) < 0;
+    end else if (st_q == S_CFULL) begin  // after the element's slots: every slot taken
+      rx_on_d_q <= 1'b0;
       rx_d_q    <= w_end_c_q - 32'(cba_q);
-      ry_on_d_q <= win_on_q && ((srem_q != '0) ? ($signed(tws_q - w_end_c_q) < 0 && $signed(w_start_c_q - twe_q) < 0)
-                                               : (&wv_e));
-      ry_d_q    <= (srem_q != '0) ? w_end_c_q - 32'(cws_q) : minclose_q;
+      ry_on_d_q <= win_on_q && (&wv_e);
+      ry_d_q    <= minclose_q;
+    end else begin  // S_CSLOT: the stage-C slot of the stream (don't-care elsewhere)
+      rx_on_d_q <= sv_c_q && blk_on_q && $signed(tba_q - w_end_c_q) < 0
+                   && $signed(w_start_c_q - tbb_q) < 0;
+      rx_d_q    <= w_end_c_q - 32'(cba_q);
+      ry_on_d_q <= sv_c_q && win_on_q && $signed(tws_q - w_end_c_q) < 0
+                   && $signed(w_start_c_q - twe_q) < 0;
+      ry_d_q    <= w_end_c_q - 32'(cws_q);
     end
     iw_close_c_q <= s_trk_q ? t_ptnl_q + 32'(p_te) : t_prmaxl_q;  // twe_c_q - 1 + lat in one carry chain
     // IEL's per-element write enables: compares on stage C, so no write enable follows a carry chain
     iw_first_d_q <= !hd_vld_e || $signed(iw_close_c_q - hd_close_e) < 0;
-    // HEAD / CSLOT: the slot's close tick against the element's head / the running minimum
-    sw_lt_hd_d_q  <= $signed(w_close_c_q - hd_close_e) < 0;
-    sw_lt_min_d_q <= $signed(w_close_c_q - minclose_q) < 0;
     bu_later_d_q <= later(tb_c_q, bu_e);
     tu_later_d_q <= later(tb_c_q, tu_e);
     te_d_q       <= i_te;
@@ -1196,15 +1219,14 @@ module ms_scheduler #(
               st_q <= S_SCHED;
             end
           end
-          S_EDGE: begin  // the live window of receiver er holding n (windows never overlap)
-            if (srem_q == '0) begin
+          S_EDGE: begin  // the live window of receiver er holding n (slot stream; windows never overlap)
+            if (srem_q != '0) srem_q <= srem_q & (srem_q - 1'b1);
+            if (sv_d_q && em_d_q) begin
+              fslot_q <= sk_d_q;
+              st_q    <= S_HIT;  // the slots still in the stream are dropped
+            end else if (sv_idle) begin
               edges_q <= edges_q & (edges_q - 1'b1);  // outside every window: gated
-              st_q        <= S_DISP;
-            end else if (e_match) begin
-              fslot_q <= sk;
-              st_q    <= S_HIT;
-            end else begin
-              srem_q <= srem_q & (srem_q - 1'b1);
+              st_q    <= S_DISP;
             end
           end
           S_HIT: begin
@@ -1243,14 +1265,18 @@ module ms_scheduler #(
             end
             if (sf_e_q == RW'(NUM_CH - 1)) st_q <= sf_ret_q ? S_SCHED : S_HEAD;
           end
-          S_HEAD: begin  // next window of element el_q to close: the minimum close tick
-            if (srem_q == '0) begin
-              st_q       <= S_DISP;   // hd_vld = found_q (per-element writes)
-            end else begin
-              srem_q <= srem_q & (srem_q - 1'b1);
-              found_q    <= 1'b1;
+          S_HEAD: begin  // next window of element el_q to close: the earliest close (slot stream)
+            if (srem_q != '0) srem_q <= srem_q & (srem_q - 1'b1);
+            if (sv_d_q) begin
+              found_q <= 1'b1;
+              if (sw_first) begin
+                minclose_q <= w_close_d_q;
+                hk_q       <= sk_d_q;
+              end
             end
+            if (sv_idle) st_q <= S_HWR;
           end
+          S_HWR: st_q <= S_DISP;  // the head: slot hk_q if found_q (per-element writes)
           // ------------------------------------------------ SCHED phase: sensors ascending
           S_SCHED: begin
             // wake, hold, tracking: per-sensor writes
@@ -1344,15 +1370,17 @@ module ms_scheduler #(
               st_q     <= S_CSLOT;
             end
           end
-          S_CSLOT: begin  // one reserved window of element el_q per clock
-            if (srem_q == '0) begin
-              rem_q <= rem_q & (rem_q - 1'b1);
-              st_q        <= S_CONF;
-            end else begin
-              srem_q <= srem_q & (srem_q - 1'b1);
-              found_q    <= 1'b1;
-              if (!found_q || sw_lt_min_d_q) minclose_q <= sw_close;  // sw_close earlier than minclose_q
+          S_CSLOT: begin  // the reserved windows of element el_q (slot stream; retry: rn_new)
+            if (srem_q != '0) srem_q <= srem_q & (srem_q - 1'b1);
+            if (sv_d_q) begin
+              found_q <= 1'b1;
+              if (sw_first) minclose_q <= w_close_d_q;
             end
+            if (sv_idle) st_q <= S_CFULL;
+          end
+          S_CFULL: begin  // every slot taken: retry at the earliest close (rn_new)
+            rem_q <= rem_q & (rem_q - 1'b1);
+            st_q  <= S_CONF;
           end
           S_ISSUE: begin  // the pulse goes: sensor state now, then element by element
             kseq_q           <= s_seq_q;
@@ -1575,8 +1603,9 @@ module ms_scheduler #(
   assign el_clr = rst_i || (!en_q && started_q) || (st_q == S_STOP) || (st_q == S_START);
   // ew_q[e]: the next clock is the go clock of a state working on element e (ei_q is valid
   // from a state's second clock and stable to its go clock; the states that write these
-  // arrays, HIT, CLOSE, SAFE, HEAD and IEL, all need >= 2), so a per-element write enable is
-  // a flop and the state's write flag, not the go / st_q decode and a 5-bit compare
+  // arrays, HIT, CLOSE, SAFE and IEL, all need >= 2, and HWR follows HEAD on the same element),
+  // so a per-element write enable is a flop and the state's write flag, not the go / st_q
+  // decode and a 5-bit compare
   logic [NUM_CH-1:0] ew_q;
   always_ff @(posedge clk_i)
     for (int e = 0; e < NUM_CH; e++) ew_q[e] <= nx_go && ei_q == RW'(e);
@@ -1602,9 +1631,9 @@ module ms_scheduler #(
         wv_we_nx  = wv_e[c_slot] && w_close_c_q == cur_tick_q;
       end
       S_SAFE: wv_we_nx = 1'b1;
-      S_HEAD: begin
-        hdv_we_nx = srem_q == '0;
-        hd_we_nx  = srem_q != '0 && (!found_q || $signed(w_close_c_q - hd_close_e) < 0);
+      S_HWR: begin
+        hdv_we_nx = 1'b1;
+        hd_we_nx  = found_q;
       end
       S_IEL: begin
         hd_we_nx  = rem_q != '0 && c_win && (!hd_vld_e || $signed(iw_close_c_q - hd_close_e) < 0);
@@ -1667,8 +1696,8 @@ module ms_scheduler #(
     bu_wd       = tb_c_q;  // t0 + b
     tu_we       = 1'b0;
     hd_we       = 1'b0;
-    hd_close_wd = (st_q == S_IEL) ? iw_close : sw_close;
-    hd_slot_wd  = (st_q == S_IEL) ? free_slot : sk;
+    hd_close_wd = (st_q == S_IEL) ? iw_close : minclose_q;  // else S_HWR
+    hd_slot_wd  = (st_q == S_IEL) ? free_slot : hk_q;
     hdv_we      = 1'b0;
     hdv_wd      = 1'b0;
     unique case (st_q)
@@ -1691,13 +1720,10 @@ module ms_scheduler #(
         wv_we = 1'b1;
         wv_wd = wv_e & ~sid_mask;
       end
-      S_HEAD: begin
-        if (srem_q == '0) begin
-          hdv_we = 1'b1;
-          hdv_wd = found_q;
-        end else if (!found_q || sw_lt_hd_d_q) begin  // sw_close earlier than hd_close_e
-          hd_we = 1'b1;
-        end
+      S_HWR: begin  // the earliest close of the element's slots, or no head
+        hdv_we = 1'b1;
+        hdv_wd = found_q;
+        hd_we  = found_q;
       end
       S_IEL: begin
         if (rem_q != '0) begin
