@@ -287,7 +287,7 @@ module ms_scheduler #(
   logic       go;
   always_comb begin
     unique case (st_q)
-      S_EDGE, S_HEAD, S_CSLOT:                need = 3'd0;  // slot streams: one slot per clock
+      S_EDGE, S_HEAD, S_CSLOT, S_CAND:        need = 3'd0;  // streams: one slot / receiver per clock
       S_ISSUE:                                need = 3'd1;  // per-sensor words
       S_HWR, S_CFULL:                         need = 3'd1;  // the stream's result, registered
       S_STOP:                                 need = 3'd1;  // the miss gate latch's registered enable
@@ -295,7 +295,6 @@ module ms_scheduler #(
       S_SCHED, S_EDF:                         need = 3'd2;  // per-sensor words, then their compares
       S_DISP, S_SAFE:                         need = 3'd2;  // stage A; two registered steps of arithmetic
       S_ORDER:                                need = 3'd4;  // four registered steps of arithmetic
-      S_CAND:                                 need = 3'd4;  // stage C: window ticks, prediction
       S_HIT:                                  need = 3'd6;  // prediction (stage D), gate, decision
       S_CLOSE, S_CONF, S_IEL:
                                               need = 3'd5;  // stage D: compares on stage C
@@ -773,7 +772,24 @@ module ms_scheduler #(
   assign o_elig  = eo_act_q && !eo_init_q && eo_due_q && (eo_trk_q || !eo_qv_q || eo_quiet_q);
   assign o_first = eo_lt_q || (eo_eq_q && eo_idlt_q);
 
-  // CAND: prediction for receiver rel of sensor s_q's pulse seq_q[si(s_q)]
+  // CAND: prediction for receiver rel of sensor s_q's pulse seq_q[si(s_q)], a receiver stream
+  // like the slot streams: receiver rel reads RXS in the clock it leaves rem_q, its
+  // prediction (te_d_q) is ready four clocks later (cv_*_q: stages B-E), where S_CAND folds it
+  // into the candidate (receivers never depend on one another)
+  logic          cv_b_q, cv_c_q, cv_d_q, cv_e_q, ct_d_q, ct_e_q;
+  logic [RW-1:0] rl_b_q, rl_c_q, rl_d_q, rl_e_q;
+  always_ff @(posedge clk_i) begin
+    cv_b_q <= st_q == S_CAND && rem_q != '0;
+    cv_c_q <= cv_b_q;
+    cv_d_q <= cv_c_q;
+    cv_e_q <= cv_d_q;
+    rl_b_q <= rel;
+    rl_c_q <= rl_b_q;
+    rl_d_q <= rl_c_q;
+    rl_e_q <= rl_d_q;
+    ct_d_q <= rxs_c_q.trk;  // the receiver is tracked (stage C of its RXS word)
+    ct_e_q <= ct_d_q;
+  end
   rxs_t        irx;
   logic [7:0]  i_gap;
   logic signed [26:0] i_pred;
@@ -1091,8 +1107,8 @@ module ms_scheduler #(
     trig_valid_q <= 1'b0;
     pulse_q      <= 1'b0;
     // S_CAND's first clock clears the candidate set from a flop (S_EDF's go only sets
-    // cand_clr_q), so the clear is not behind EDF's decision logic; S_CAND writes it from its
-    // go clock on (need 4)
+    // cand_clr_q), so the clear is not behind EDF's decision logic; S_CAND's stream writes it
+    // from its fifth clock on
     cand_clr_q   <= 1'b0;
     if (cand_clr_q) begin
       nwin_q     <= '0;
@@ -1315,21 +1331,22 @@ module ms_scheduler #(
               o_q <= o_q + 1'b1;
             end
           end
-          S_CAND: begin  // one receiver per clock: does it get a window, where
-            if (rem_q == '0) begin
-              n_q  <= s_order_q;
-              st_q <= S_ORDER;
-            end else begin
-              rem_q           <= rem_q & (rem_q - 1'b1);
-              cand_act_m[rel] <= !s_trk_q || rxs_c_q.trk;
+          S_CAND: begin  // one receiver per clock (stream): does it get a window, where
+            if (rem_q != '0) rem_q <= rem_q & (rem_q - 1'b1);
+            if (cv_e_q) begin
+              cand_act_m[rl_e_q] <= !s_trk_q || ct_e_q;
               if (!s_trk_q) begin
-                nwin_q          <= nwin_q + 5'd1;
-              end else if (rxs_c_q.trk) begin
-                nwin_q          <= nwin_q + 5'd1;
-                cand_te_q[rel]  <= te_d_q;
+                nwin_q <= nwin_q + 5'd1;
+              end else if (ct_e_q) begin
+                nwin_q            <= nwin_q + 5'd1;
+                cand_te_q[rl_e_q] <= te_d_q;
                 if (te_d_q < te_min_q) te_min_q <= te_d_q;
                 if (te_d_q > te_max_q) te_max_q <= te_d_q;
               end
+            end
+            if (rem_q == '0 && !cv_b_q && !cv_c_q && !cv_d_q && !cv_e_q) begin
+              n_q  <= s_order_q;
+              st_q <= S_ORDER;
             end
           end
           S_ORDER: begin  // effective order: n = N, N-1, ..., 1, else 0 (one try per clock)
