@@ -337,8 +337,8 @@ _COMB_COST = {"LUT4": 1.0, "CCU2C": 2.0, "PFUMX": 0.0, "L6MUX21": 0.0}  # TRELLI
 
 def area_by_register(netlist: dict, module: str | None = None) -> tuple[float, dict[str, float], dict[str, int]]:
     """(total LUT4 + 2 CCU2C, cost per sink, flip-flops per register) of a mapped ECP5 netlist.
-    A sink is a register (named by its output net, bit index dropped) or `TYPE:PORT` of a RAM /
-    DSP input; logic that reaches no sink is charged to `<none>`."""
+    A sink is a register (named by its output net, bit index dropped) or `TYPE:PORT@CELL` of a
+    RAM / DSP input; logic that reaches no sink is charged to `<none>`."""
     mods = netlist.get("modules", {})
     if module is None:
         tops = [m for m, v in mods.items() if str(v.get("attributes", {}).get("top", "0")).strip("0") != ""]
@@ -393,7 +393,7 @@ def area_by_register(netlist: dict, module: str | None = None) -> tuple[float, d
                         elif rc["type"] == "TRELLIS_FF":
                             out.add(net_name.get(rc["connections"]["Q"][0], r))
                         else:
-                            out.add(f"{rc['type']}:{rp[:2]}")
+                            out.add(f"{rc['type']}:{rp[:2]}@{r}")
             memo[n] = frozenset(out)
         return memo[cname]
 
@@ -412,6 +412,22 @@ def area_by_register(netlist: dict, module: str | None = None) -> tuple[float, d
             q = net_name.get(c["connections"]["Q"][0], "?")
             ffs[q] = ffs.get(q, 0) + 1
     return total, cost, ffs
+
+
+def area_by_instance(cost: dict[str, float], ffs: dict[str, int],
+                     depth: int) -> list[tuple[str, tuple[float, int]]]:
+    """area_by_register's figures summed per instance path: the first `depth` dot-separated parts
+    of each sink's name (a RAM / DSP sink by its cell's name), the costliest first. A name with
+    fewer parts than `depth` + 1 is its own path's top level (`(top)`)."""
+    def path(name: str) -> str:
+        parts = name.split("@")[-1].lstrip("\\").split(".")
+        return ".".join(parts[:min(depth, len(parts) - 1)]) or "(top)"
+    out: dict[str, list] = {}
+    for name, v in cost.items():
+        out.setdefault(path(name), [0.0, 0])[0] += v
+    for name, n in ffs.items():
+        out.setdefault(path(name), [0.0, 0])[1] += n
+    return sorted(((k, (v[0], v[1])) for k, v in out.items()), key=lambda kv: -kv[1][0])
 
 
 def seed_run(d: Path) -> tuple[int, dict | None, float | None]:
@@ -555,6 +571,8 @@ def main() -> int:
     ar.add_argument("netlist", type=Path, help="Yosys write_json output after synth_ecp5")
     ar.add_argument("--module", help="module to read (default: the netlist's top)")
     ar.add_argument("--rows", type=int, default=40, help="registers listed, costliest first")
+    ar.add_argument("--depth", type=int, default=0,
+                    help="sum per instance path of this many levels instead (1: the top's instances)")
     args = ap.parse_args()
     try:
         if args.cmd == "make":
@@ -590,8 +608,16 @@ def main() -> int:
         if args.cmd == "area":
             total, cost, ffs = area_by_register(_load_json(args.netlist, "netlist"), args.module)
             print(f"{total:.0f} TRELLIS_COMB of logic (LUT4 + 2 CCU2C) in {args.netlist}\n")
+            if args.depth:
+                print(f"| instance path (depth {args.depth}) | TRELLIS_COMB | flip-flops |\n|---|---:|---:|")
+                for name, (v, n) in area_by_instance(cost, ffs, args.depth)[:args.rows]:
+                    print(f"| {name} | {v:.0f} | {n} |")
+                return 0
+            by_sink: dict[str, float] = {}
+            for name, v in cost.items():  # the RAM / DSP cells of one kind and port together
+                by_sink[name.split("@")[0]] = by_sink.get(name.split("@")[0], 0.0) + v
             print("| register / RAM port fed | TRELLIS_COMB | its flip-flops |\n|---|---:|---:|")
-            for name, v in sorted(cost.items(), key=lambda kv: -kv[1])[:args.rows]:
+            for name, v in sorted(by_sink.items(), key=lambda kv: -kv[1])[:args.rows]:
                 print(f"| {name} | {v:.0f} | {ffs.get(name, 0)} |")
             return 0
         if args.cmd == "late":

@@ -176,7 +176,7 @@ def test_area_charges_logic_to_the_registers_it_feeds():
 
     netlist = {"modules": {"top": {
         "attributes": {"top": "00000000000000000000000000000001"},
-        "netnames": {"a_q": {"bits": [10]}, "b_q[3]": {"bits": [11]}, "$auto$x": {"bits": [5]}},
+        "netnames": {"a_q": {"bits": [10]}, "u_m.b_q[3]": {"bits": [11]}, "$auto$x": {"bits": [5]}},
         "cells": {
             "l1": cell("LUT4", A=[1], Z=[2]),
             "l2": cell("LUT4", A=[2], Z=[3]),          # l1 -> l2 -> a_q
@@ -184,13 +184,15 @@ def test_area_charges_logic_to_the_registers_it_feeds():
             "fa": cell("TRELLIS_FF", DI=[3], M=[4], Q=[10]),
             "fb": cell("TRELLIS_FF", DI=[4], Q=[11]),
             "c1": cell("CCU2C", A0=[1], S0=[5]),       # -> RAM data input
-            "ram": cell("TRELLIS_DPR16X4", DI=[5], DO0=[6]),
+            "u_m.ram": cell("TRELLIS_DPR16X4", DI=[5], DO0=[6]),
             "l4": cell("LUT4", A=[6], Z=[7]),          # drives nothing we know
         }}}}
     total, cost, ffs = rep.area_by_register(netlist)
     assert total == 6.0
-    assert cost == {"a_q": 2.5, "b_q": 0.5, "TRELLIS_DPR16X4:DI": 2.0, "<none>": 1.0}
-    assert ffs == {"a_q": 1, "b_q": 1}
+    assert cost == {"a_q": 2.5, "u_m.b_q": 0.5, "TRELLIS_DPR16X4:DI@u_m.ram": 2.0, "<none>": 1.0}
+    assert ffs == {"a_q": 1, "u_m.b_q": 1}
+    # per instance path: u_m holds b_q and the RAM; a_q and the unconnected LUT are the top's
+    assert rep.area_by_instance(cost, ffs, 1) == [("(top)", (3.5, 1)), ("u_m", (2.5, 1))]
     with pytest.raises(rep.SynthReportError, match="not in the netlist"):
         rep.area_by_register(netlist, "nope")
 
