@@ -336,9 +336,10 @@ _COMB_COST = {"LUT4": 1.0, "CCU2C": 2.0, "PFUMX": 0.0, "L6MUX21": 0.0}  # TRELLI
 
 
 def area_by_register(netlist: dict, module: str | None = None) -> tuple[float, dict[str, float], dict[str, int]]:
-    """(total LUT4 + 2 CCU2C, cost per sink, flip-flops per register) of a mapped ECP5 netlist.
-    A sink is a register (named by its output net, bit index dropped) or `TYPE:PORT@CELL` of a
-    RAM / DSP input; logic that reaches no sink is charged to `<none>`."""
+    """(total LUT4 + 2 CCU2C, cost per sink, flip-flops) of a mapped ECP5 netlist. A sink is a
+    flip-flop, `NET@CELL` (its output net, bit index dropped, and its cell, whose name carries
+    the hierarchy), or a RAM / DSP input, `TYPE:PORT@CELL`; logic that reaches no sink (a top
+    port) is charged to `<none>`. `by_register` sums the figures per register."""
     mods = netlist.get("modules", {})
     if module is None:
         tops = [m for m, v in mods.items() if str(v.get("attributes", {}).get("top", "0")).strip("0") != ""]
@@ -365,35 +366,31 @@ def area_by_register(netlist: dict, module: str | None = None) -> tuple[float, d
                         readers.setdefault(b, []).append((cname, port))
     memo: dict[str, frozenset[str]] = {}
 
-    def sinks(cname: str) -> frozenset[str]:  # iterative depth-first walk over combinational cells
-        stack, order = [cname], []
+    def sinks(cname: str) -> frozenset[str]:  # iterative post-order walk over combinational cells
+        stack = [(cname, False)]
         while stack:
-            n = stack.pop()
-            if n in memo:
-                continue
-            memo[n] = frozenset()  # placeholder: cuts combinational loops
-            order.append(n)
+            n, readers_done = stack.pop()
             c = cells[n]
-            for port, bits in c["connections"].items():
-                if c.get("port_directions", {}).get(port) == "output":
-                    for b in bits:
-                        for r, _ in readers.get(b, []) if isinstance(b, int) else []:
-                            if cells[r]["type"] in _COMB_COST and r not in memo:
-                                stack.append(r)
-        for n in reversed(order):
-            c, out = cells[n], set()
-            for port, bits in c["connections"].items():
-                if c.get("port_directions", {}).get(port) != "output":
+            outs = [b for port, bits in c["connections"].items()
+                    if c.get("port_directions", {}).get(port) == "output" for b in bits if isinstance(b, int)]
+            if not readers_done:
+                if n in memo:
                     continue
-                for b in bits:
-                    for r, rp in readers.get(b, []) if isinstance(b, int) else []:
-                        rc = cells[r]
-                        if rc["type"] in _COMB_COST:
-                            out |= memo[r]
-                        elif rc["type"] == "TRELLIS_FF":
-                            out.add(net_name.get(rc["connections"]["Q"][0], r))
-                        else:
-                            out.add(f"{rc['type']}:{rp[:2]}@{r}")
+                memo[n] = frozenset()  # placeholder: cuts combinational loops
+                stack.append((n, True))
+                stack.extend((r, False) for b in outs for r, _ in readers.get(b, [])
+                             if cells[r]["type"] in _COMB_COST and r not in memo)
+                continue
+            out: set[str] = set()
+            for b in outs:
+                for r, rp in readers.get(b, []):
+                    rc = cells[r]
+                    if rc["type"] in _COMB_COST:
+                        out |= memo[r]
+                    elif rc["type"] == "TRELLIS_FF":
+                        out.add(f"{net_name.get(rc['connections']['Q'][0], r)}@{r}")
+                    else:
+                        out.add(f"{rc['type']}:{rp[:2]}@{r}")
             memo[n] = frozenset(out)
         return memo[cname]
 
@@ -407,18 +404,25 @@ def area_by_register(netlist: dict, module: str | None = None) -> tuple[float, d
         for x in s:
             cost[x] = cost.get(x, 0.0) + w / len(s)
     ffs: dict[str, int] = {}
-    for c in cells.values():
+    for cname, c in cells.items():
         if c["type"] == "TRELLIS_FF":
-            q = net_name.get(c["connections"]["Q"][0], "?")
-            ffs[q] = ffs.get(q, 0) + 1
+            ffs[f"{net_name.get(c['connections']['Q'][0], '?')}@{cname}"] = 1
     return total, cost, ffs
+
+
+def by_register(fig: dict[str, float]) -> dict[str, float]:
+    """area_by_register's per-sink figures summed per register / RAM port (`NAME@CELL` -> `NAME`)."""
+    out: dict[str, float] = {}
+    for name, v in fig.items():
+        out[name.split("@")[0]] = out.get(name.split("@")[0], 0) + v
+    return out
 
 
 def area_by_instance(cost: dict[str, float], ffs: dict[str, int],
                      depth: int) -> list[tuple[str, tuple[float, int]]]:
     """area_by_register's figures summed per instance path: the first `depth` dot-separated parts
-    of each sink's name (a RAM / DSP sink by its cell's name), the costliest first. A name with
-    fewer parts than `depth` + 1 is its own path's top level (`(top)`)."""
+    of each sink's cell name, the costliest first. A name with fewer parts than `depth` + 1 is
+    its own path's top level (`(top)`)."""
     def path(name: str) -> str:
         parts = name.split("@")[-1].lstrip("\\").split(".")
         return ".".join(parts[:min(depth, len(parts) - 1)]) or "(top)"
@@ -613,12 +617,10 @@ def main() -> int:
                 for name, (v, n) in area_by_instance(cost, ffs, args.depth)[:args.rows]:
                     print(f"| {name} | {v:.0f} | {n} |")
                 return 0
-            by_sink: dict[str, float] = {}
-            for name, v in cost.items():  # the RAM / DSP cells of one kind and port together
-                by_sink[name.split("@")[0]] = by_sink.get(name.split("@")[0], 0.0) + v
             print("| register / RAM port fed | TRELLIS_COMB | its flip-flops |\n|---|---:|---:|")
-            for name, v in sorted(by_sink.items(), key=lambda kv: -kv[1])[:args.rows]:
-                print(f"| {name} | {v:.0f} | {ffs.get(name, 0)} |")
+            reg_cost, reg_ffs = by_register(cost), by_register(ffs)
+            for name, v in sorted(reg_cost.items(), key=lambda kv: -kv[1])[:args.rows]:
+                print(f"| {name} | {v:.0f} | {reg_ffs.get(name, 0):.0f} |")
             return 0
         if args.cmd == "late":
             pnr = _load_json(args.pnr, "nextpnr report")

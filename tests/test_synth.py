@@ -167,7 +167,8 @@ def test_late_sources_trace_back_to_the_fanout():
 
 def test_area_charges_logic_to_the_registers_it_feeds():
     """`synth_report.py area`: a LUT feeding two registers is split between them, a chain of
-    LUTs is charged to the register at its end, a carry cell counts 2 and reaches a RAM port."""
+    LUTs is charged to the register at its end (also where paths reconverge), a carry cell
+    counts 2 and reaches a RAM port; the figures sum per register and per instance path."""
     rep = _report_module()
 
     def cell(t, **conns):
@@ -176,23 +177,30 @@ def test_area_charges_logic_to_the_registers_it_feeds():
 
     netlist = {"modules": {"top": {
         "attributes": {"top": "00000000000000000000000000000001"},
-        "netnames": {"a_q": {"bits": [10]}, "u_m.b_q[3]": {"bits": [11]}, "$auto$x": {"bits": [5]}},
+        "netnames": {"a_q": {"bits": [10]}, "u_m.b_q[3]": {"bits": [11]}, "$auto$x": {"bits": [5]}, "c_q": {"bits": [34]}},
         "cells": {
             "l1": cell("LUT4", A=[1], Z=[2]),
             "l2": cell("LUT4", A=[2], Z=[3]),          # l1 -> l2 -> a_q
             "l3": cell("LUT4", A=[1], Z=[4]),          # l3 -> a_q and b_q
             "fa": cell("TRELLIS_FF", DI=[3], M=[4], Q=[10]),
-            "fb": cell("TRELLIS_FF", DI=[4], Q=[11]),
+            "u_m.fb": cell("TRELLIS_FF", DI=[4], Q=[11]),
             "c1": cell("CCU2C", A0=[1], S0=[5]),       # -> RAM data input
             "u_m.ram": cell("TRELLIS_DPR16X4", DI=[5], DO0=[6]),
             "l4": cell("LUT4", A=[6], Z=[7]),          # drives nothing we know
+            "m1": cell("LUT4", A=[30], Z=[31]),        # m1 -> m2 -> m3 and m1 -> m3 -> c_q:
+            "m2": cell("LUT4", A=[31], Z=[32]),        # all three are c_q's, whichever path
+            "m3": cell("LUT4", A=[31], B=[32], Z=[33]),  # the walk takes first
+            "fc": cell("TRELLIS_FF", DI=[33], Q=[34]),
         }}}}
     total, cost, ffs = rep.area_by_register(netlist)
-    assert total == 6.0
-    assert cost == {"a_q": 2.5, "u_m.b_q": 0.5, "TRELLIS_DPR16X4:DI@u_m.ram": 2.0, "<none>": 1.0}
-    assert ffs == {"a_q": 1, "u_m.b_q": 1}
-    # per instance path: u_m holds b_q and the RAM; a_q and the unconnected LUT are the top's
-    assert rep.area_by_instance(cost, ffs, 1) == [("(top)", (3.5, 1)), ("u_m", (2.5, 1))]
+    assert total == 9.0
+    assert cost == {"a_q@fa": 2.5, "u_m.b_q@u_m.fb": 0.5, "TRELLIS_DPR16X4:DI@u_m.ram": 2.0, "<none>": 1.0,
+                    "c_q@fc": 3.0}
+    assert ffs == {"a_q@fa": 1, "u_m.b_q@u_m.fb": 1, "c_q@fc": 1}
+    assert rep.by_register(cost) == {"a_q": 2.5, "u_m.b_q": 0.5, "TRELLIS_DPR16X4:DI": 2.0, "<none>": 1.0,
+                                     "c_q": 3.0}
+    # per instance path: u_m holds b_q and the RAM; the rest is the top's
+    assert rep.area_by_instance(cost, ffs, 1) == [("(top)", (6.5, 2)), ("u_m", (2.5, 1))]
     with pytest.raises(rep.SynthReportError, match="not in the netlist"):
         rep.area_by_register(netlist, "nope")
 
