@@ -168,12 +168,13 @@ def _truth(ac: Any, pulses: list[Any]) -> list[dict[tuple[int, int], tuple[float
 def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: float = 0.8,
               duration: float = 1.6, margin_db: float = 6.0, tol_ticks: int = 600,
               params: dict[str, Any] | None = None, miss_gate: int | None = DEFAULT_MISS_GATE,
-              reinit_every: int | Literal["bound"] | None = None) -> TrialResult:
+              reinit_every: int | Literal["bound"] | None = None,
+              decision_lead: int = DEVICE_DECISION_LEAD) -> TrialResult:
     """One randomised person-crossing trial (see the module docstring). ``miss_gate``: the
     gated miss rule, ticks (RX_FILTER.miss_gate; default its reset value, 0 or None = off);
     ``reinit_every``: the sensor's forced re-initialisation after that many tracking pulses
     (``VirtualSensor.reinit_every``, MODE.reinit_every in the RTL; ``"bound"``: N + K + 1 of
-    this trial)."""
+    this trial); ``decision_lead``: the scheduler's lead P, ticks (default the device's)."""
     p = dict(params) if params is not None else random_trial_params(seed)
     layout = load_layout()
     scene = _scene(p, t_cross, duration, spurious_rate_hz)
@@ -183,7 +184,7 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
     if reinit:  # as a user configures it: on the sensor (the device's MODE.reinit_every)
         sched = Schedule(layout, [replace(sched.sensors[0], reinit_every=int(reinit))])
     src = SceneEchoSource(scene, rng=np.random.default_rng(p["seed"]))
-    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD, miss_gate=miss_gate)
+    model = FastFiringModel(sched, src, decision_lead=decision_lead, miss_gate=miss_gate)
     res = model.run(int(duration * TICK_HZ))
     pulses = [q for q in res.pulses if q.sensor == 0]
     ac = src.model
@@ -369,7 +370,7 @@ def run_false_fix_trial(seed: int, *, spurious_rate_hz: float | None = None, cro
     scene = _scene(p, t_cross, duration, spurious_rate_hz, crosstalk_level, person)
     sched = _schedule(layout, p["order"], p["miss_limit"], p["wall_y"])
     src = SceneEchoSource(scene, rng=np.random.default_rng(p["seed"]))
-    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD, miss_gate=miss_gate)
+    model = FastFiringModel(sched, src, decision_lead=decision_lead, miss_gate=miss_gate)
     res = model.run(int(duration * TICK_HZ))
     pulses = [q for q in res.pulses if q.sensor == 0]
     truth = _truth(src.model, pulses)

@@ -236,15 +236,16 @@ def analytic(distance_m: float, order: int, arrangement: str = "ring8", temperat
 
 
 def measure_ring(distance_m: float, order: int, arrangement: str = "ring8", duration_s: float = DURATION_S,
-                 temperature_c: float = 20.0) -> dict[str, Any]:
-    """One (distance, order) point on the golden model (with the device's decision lead)."""
+                 temperature_c: float = 20.0, decision_lead: int = DEVICE_DECISION_LEAD) -> dict[str, Any]:
+    """One (distance, order) point on the golden model (with the device's decision lead, unless
+    another is given)."""
     from ..fastfiring import FastFiringModel
     from ..layout import load_layout
     from ..schedule import Schedule
 
     sensors = ring_sensors(order, arrangement)
     model = FastFiringModel(Schedule(load_layout(), sensors, temperature_c=temperature_c),
-                            ring_source(distance_m, arrangement, temperature_c), decision_lead=DEVICE_DECISION_LEAD)
+                            ring_source(distance_m, arrangement, temperature_c), decision_lead=decision_lead)
     dur = int(round(duration_s * TICK_HZ))
     res = model.run(dur)
     m = ring_metrics(res.words, 0, dur, n_sensors=len(sensors))
