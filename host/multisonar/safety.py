@@ -370,7 +370,7 @@ def run_false_fix_trial(seed: int, *, spurious_rate_hz: float | None = None, cro
     scene = _scene(p, t_cross, duration, spurious_rate_hz, crosstalk_level, person)
     sched = _schedule(layout, p["order"], p["miss_limit"], p["wall_y"])
     src = SceneEchoSource(scene, rng=np.random.default_rng(p["seed"]))
-    model = FastFiringModel(sched, src, decision_lead=decision_lead, miss_gate=miss_gate)
+    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD, miss_gate=miss_gate)
     res = model.run(int(duration * TICK_HZ))
     pulses = [q for q in res.pulses if q.sensor == 0]
     truth = _truth(src.model, pulses)
