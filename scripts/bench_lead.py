@@ -79,12 +79,10 @@ def _sensors() -> dict[str, list[Any]]:
 def _worst_lag() -> int | None:
     if not LAG.exists():
         return None
-    rows = json.loads(LAG.read_text())
-    lags = [r.get("lag_max") for r in rows if isinstance(r, dict) and isinstance(r.get("lag_max"), int)]
-    return max(lags) if lags else None
+    return max((r["lag_max"] for r in json.loads(LAG.read_text())), default=None)
 
 
-def measure(lead: int, trials: int, seed: int, workers: int) -> dict[str, Any]:
+def measure(lead: int, trials: int, seed: int, workers: int, sensors: dict[str, list[Any]]) -> dict[str, Any]:
     row: dict[str, Any] = {"lead_ticks": lead, "lead_us": round(lead / TICK_HZ * 1e6, 1),
                            "engine_budget_ticks": lead // 2}
     for d in (2.0, 5.7):
@@ -104,7 +102,7 @@ def measure(lead: int, trials: int, seed: int, workers: int) -> dict[str, Any]:
     row.update(safety_trials=s["trials"], safety_within_bound=s["detected"], safety_late=s["late"],
                safety_missed=s["missed"], safety_worst_pulses=s["latency_pulses_max"],
                safety_worst_ms=round(s["latency_ms_max"], 2), safety_samples=s["samples"])
-    for name, rs in _sensors().items():
+    for name, rs in sensors.items():
         row[f"{name}_accepted"] = all(r.blank > lead and r.t_v + r.t_n > lead for r in rs)
     row["narrowest_window_mm"] = round(_mm(lead + 1), 1)  # also the shortest blanking D
     return row
@@ -123,9 +121,10 @@ def main() -> int:
     if any(x <= 0 for x in leads):
         ap.error(f"--leads {a.leads}: every P must be a positive tick count")
     t0 = time.time()
+    sens = _sensors()
     rows = []
     for lead in leads:
-        rows.append(measure(lead, a.trials, a.seed, a.workers))
+        rows.append(measure(lead, a.trials, a.seed, a.workers, sens))
         print(f"P = {lead}: done, {time.time() - t0:.0f} s", file=sys.stderr, flush=True)
     lag = _worst_lag()
     base, cbase = rows[0]["safety_samples"] or 1, rows[0]["corridor_tracking_samples"] or 1
@@ -134,7 +133,6 @@ def main() -> int:
         r["corridor_samples_rel"] = round(r["corridor_tracking_samples"] / cbase, 4)
         r["worst_lag_ticks"] = lag
         r["clocks_per_item_headroom"] = round(r["engine_budget_ticks"] / lag, 2) if lag else None
-    sens = _sensors()
     limits = {name: {"blank_ticks": min(int(r.blank) for r in rs), "window_ticks": min(int(r.t_v + r.t_n) for r in rs)}
               for name, rs in sens.items()}
     doc = {"product_lead_ticks": DEVICE_DECISION_LEAD, "ring_duration_s": RING_S, "trials": a.trials,

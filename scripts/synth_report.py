@@ -414,7 +414,8 @@ def by_register(fig: dict[str, float]) -> dict[str, float]:
     """area_by_register's per-sink figures summed per register / RAM port (`NAME@CELL` -> `NAME`)."""
     out: dict[str, float] = {}
     for name, v in fig.items():
-        out[name.split("@")[0]] = out.get(name.split("@")[0], 0) + v
+        reg = name.split("@")[0]
+        out[reg] = out.get(reg, 0) + v
     return out
 
 
