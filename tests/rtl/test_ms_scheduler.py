@@ -26,3 +26,11 @@ def test_ms_scheduler_reduced():
                extra_env={"SCHED_VS": "4", "SCHED_WSLOTS": "8"},
                testcase=["step_occlusion_kmiss", "four_sensors_shared_elements", "window_slots_full",
                          "corridor_scene_three_sensors", "apply_refusals_leave_the_schedule_running"])
+
+
+@pytest.mark.sim
+def test_ms_scheduler_overrun():
+    """A build whose lead (512 ticks) the engine cannot keep: the overrun must be reported."""
+    run_cocotb("ms_scheduler_tb", "tb_ms_scheduler", sources=SOURCES, variant="lead512",
+               parameters={**PARAMETERS, "LEAD": 512}, icarus_ok=False, extra_env={"SCHED_LEAD": "512"},
+               testcase=["overrun_reported"])
