@@ -235,14 +235,11 @@ module ms_scheduler #(
   logic [WSLOTS-1:0]                     wh_m [32];    // slot saw its first edge
   logic [WSLOTS-1:0]                     wr_m [32];    // that edge failed the miss gate (counts as a miss)
   logic [WSLOTS-1:0][VW-1:0]             wsid_m [32];  // sensor of the window
-  // blank_until and tx_until are the start tick until written (model: [now] * n): a start
-  // tick is earlier than every candidate t0, so an unwritten word conflicts with nothing and
-  // any t0 + b is later; the compares that read them are gated by the flags instead of
-  // multiplexing the start tick into the words
   logic [31:0]                           bu_m [32];    // blank_until (when bu_ok_q[e])
-  logic [NUM_CH-1:0]                     bu_ok_q;
+  logic [NUM_CH-1:0]                     bu_ok_q;      // else blank_until = bu_start_q
   logic [31:0]                           tu_m [32];    // tx_until: end of the dead zone of the last trigger (when tu_ok_q[e])
-  logic [NUM_CH-1:0]                     tu_ok_q;
+  logic [NUM_CH-1:0]                     tu_ok_q;      // else tx_until = bu_start_q
+  logic [31:0]                           bu_start_q;
   logic [NUM_CH-1:0]                     hd_vld_q;     // head: next window to close
   logic [KW-1:0]                         hd_slot_m [32];
   // Close tick of the element's head for close_eq_q: its low HCW bits (the engine reads the
@@ -308,7 +305,6 @@ module ms_scheduler #(
 
   logic [31:0]       eng_tick_q, cur_tick_q, t_q, retry_q, minclose_q, stop_at_q;
   logic              retry_vld_q, stop_req_q, started_q, ovr_q, found_q;
-  logic [1:0]        stop_age_q;  // clocks since stop_at_q was set (= tick_i - stop_at_q), up to 3
   logic [3:0]        settle_q;   // clocks until td_q is valid again
   // outputs
   logic              evt_valid_q, trig_valid_q, pulse_q, pulse_init_q;
@@ -408,25 +404,20 @@ module ms_scheduler #(
   localparam logic [3:0] TD_SETTLE = 4'(NUM_VS + 3);
   logic [VW-1:0] td_s_q;
   logic          td_on_q, td_wake_q, td_first_q, td_first1_q;
-  logic [31:0]   td_off_q, td_acc_q, td_q, engp_q;  // engp_q: eng_tick_q + P
+  logic [31:0]   td_nxt_q, td_off_q, td_acc_q, td_q, engp_q;  // engp_q: eng_tick_q + P
   logic          armed_q;
-  // nxt_m has one read port: the scan's sensor in S_SETTLE / S_IDLE, else s_q (S_SCHED reads
-  // it); nxt_rd_q is the word one clock later
-  logic [VW-1:0] nxt_ra;
-  logic [31:0]   nxt_rd_q;
-  assign nxt_ra = (st_q inside {S_SETTLE, S_IDLE}) ? td_s_q : s_q;
   always_ff @(posedge clk_i) begin
     td_s_q      <= (st_q inside {S_SETTLE, S_IDLE}) && td_s_q != VW'(NUM_VS - 1) ? td_s_q + 1'b1
                  : (st_q inside {S_SETTLE, S_IDLE}) ? td_s_q : '0;
     // the sensor's words
     td_on_q     <= sh_act_q[si(td_s_q)] && !in_init_q[si(td_s_q)] && (wake_q[si(td_s_q)] || !hold_q[si(td_s_q)]);
     td_wake_q   <= wake_q[si(td_s_q)];
-    nxt_rd_q    <= nxt_m[si(nxt_ra)];
+    td_nxt_q    <= nxt_m[si(td_s_q)];
     td_first_q  <= st_q == S_SETTLE;  // sensor 0 of a new scan
     // its offset
     engp_q      <= eng_tick_q + LEAD32;  // eng_tick_q changes at least two clocks before a scan reads it
     td_off_q    <= !td_on_q ? 32'hFFFF_FFFF
-                 : (td_wake_q || !later(nxt_rd_q, engp_q)) ? 32'd0 : nxt_rd_q - engp_q;
+                 : (td_wake_q || !later(td_nxt_q, engp_q)) ? 32'd0 : td_nxt_q - engp_q;
     td_first1_q <= td_first_q;
     // the running minimum, and td
     td_acc_q    <= (td_first1_q || td_off_q < td_acc_q) ? td_off_q : td_acc_q;
@@ -439,7 +430,7 @@ module ms_scheduler #(
   // A word not yet at the queue head when they were computed (the push is registered too) has
   // tick >= tick_i - 2 > td_q (sched_go needs three ticks of margin), so a stale "queue empty"
   // never lets a decision tick pass a queued edge or close.
-  logic take_c, sched_c, stop_c;
+  logic take_c, sched_c, stop_c, late_c;
   logic take_q;  // IDLE: the queue head comes no later than the next time-driven decision
   assign take_c = !q_empty && (!armed_q || ($signed(qh_tick - td_q) <= 0))
                   && (!stop_req_q || $signed(qh_tick - stop_at_q) < 0);
@@ -447,18 +438,16 @@ module ms_scheduler #(
   assign sched_c = armed_q && ($signed(tick_i - td_q) >= 3) && (q_empty || $signed(qh_tick - td_q) > 0)
                    && (!stop_req_q || $signed(td_q - stop_at_q) < 0);
   logic stop_ok;  // every logical tick before stop_at is done
-  assign stop_c = stop_req_q && stop_age_q == 2'd3
+  assign stop_c = stop_req_q && ($signed(tick_i - stop_at_q) >= 3)
                   && (q_empty || $signed(qh_tick - stop_at_q) >= 0)
                   && (!armed_q || $signed(td_q - stop_at_q) >= 0);
-  // A dispatch is late when real time is P/2 or more ahead of the logical tick it starts: checked
-  // in the clock after IDLE's go (disp_chk_q), where cur_tick_q holds that tick and tick_i is two
-  // ticks past the decisions' clock, on one subtraction (tick_i counts by one every clock)
-  logic disp_chk_q, lag_late;
-  assign lag_late = disp_chk_q && $signed(tick_i - cur_tick_q) >= LEAD / 2 + 2;
+  logic lag_late;  // real time is more than P/2 ahead of the work the engine starts now (tick_i + 1 when used)
+  assign late_c = take_c ? ($signed(tick_i - qh_tick) >= LEAD / 2) : ($signed(tick_i - td_q) >= LEAD / 2);
   always_ff @(posedge clk_i) begin
     take_q   <= take_c;
     sched_go <= sched_c;
     stop_ok  <= stop_c;
+    lag_late <= late_c;
   end
   assign q_pop  = (st_q == S_IDLE) && (settle_q == 4'd0) && !stop_ok && take_q;
   // engine headroom, for the benches (read through the hierarchy, no port): the largest
@@ -494,9 +483,7 @@ module ms_scheduler #(
   logic [31:0]        t_cand_q;        // cur_tick_q + P (the candidate t0 of a SCHED decision)
   logic [31:0]        due_isu_q, due_ini_q, quiet_isu_q;
   logic [31:0]        tba_q, tbb_q, tws_q, twe_q;  // S_CSLOT: the CONF element's t0 + offsets
-  // per-sensor words: due of s_q; due of o_q in S_EDF, of c_s_q in S_CLOSE (due_x_q); quiet of
-  // o_q in S_EDF, else of s_q (quiet_rd_q); one read port per address, the words one clock later
-  logic [31:0]        due_s_q, due_x_q, quiet_rd_q;
+  logic [31:0]        due_s_q, nxt_s_q, quiet_s_q, due_o_q, quiet_o_q;  // per-sensor words of s_q, o_q
   // engine registers and write strobes whose drivers follow further down (declared here,
   // before the views and the FSM that read them)
   logic [NUM_VS-1:0] reinit_due_q;
@@ -535,7 +522,6 @@ module ms_scheduler #(
   logic [WSLOTS-1:0]         wv_e, wh_e, wr_e;
   logic [WSLOTS-1:0][VW-1:0] wsid_e;
   logic [31:0]               bu_e, tu_e, hd_close_e;
-  logic                      bu_ok_e, tu_ok_e;  // bu_e / tu_e written since the start
   logic [KW-1:0]             hd_slot_e;
   logic [NUM_CH-1:0]         s_rx_q;  // sensor s_q's receivers (registered with its words below)
   logic                      hd_vld_e, rel_tx_e, rel_xt_e, rel_act_e;
@@ -551,10 +537,8 @@ module ms_scheduler #(
     wh_e       <= wh_m[ei_q];
     wr_e       <= wr_m[ei_q];
     wsid_e     <= wsid_m[ei_q];
-    bu_e       <= bu_m[ei_q];
-    tu_e       <= tu_m[ei_q];
-    bu_ok_e    <= bu_ok_q[ei_q];
-    tu_ok_e    <= tu_ok_q[ei_q];
+    bu_e       <= bu_ok_q[ei_q] ? bu_m[ei_q] : bu_start_q;
+    tu_e       <= tu_ok_q[ei_q] ? tu_m[ei_q] : bu_start_q;
     hd_vld_e   <= hd_vld_q[ei_q];
     hd_slot_e  <= hd_slot_m[ei_q];
     hd_close_e <= hd_close_m[ei_q];  // distributed RAM: no 24:1 multiplexer of the flops
@@ -716,9 +700,9 @@ module ms_scheduler #(
     sc_trk_q    <= tracking_q[si(s_q)];
     sc_qv_q     <= quiet_vld_q[si(s_q)];
     sc_reinit_q <= reinit_due_q[si(s_q)];
-    sc_nxt_q    <= $signed(t_cand - nxt_rd_q) >= 0;  // nxt_rd_q, due_s_q, quiet_rd_q: one clock after s_q
+    sc_nxt_q    <= $signed(t_cand - nxt_s_q) >= 0;  // nxt_s_q, due_s_q, quiet_s_q: one clock after s_q
     sc_early_q  <= $signed(t_cand - due_s_q) < 0;
-    sc_quiet_q  <= $signed(t_cand - quiet_rd_q) < 0;
+    sc_quiet_q  <= $signed(t_cand - quiet_s_q) < 0;
   end
   // reinit_every reached (reinit_due_q[s], flops): set by ISSUE with the sensor's new pulse
   // count, long before its next SCHED (the per-sensor writes)
@@ -780,10 +764,10 @@ module ms_scheduler #(
     eo_trk_q   <= tracking_q[si(o_q)];
     eo_qv_q    <= quiet_vld_q[si(o_q)];
     eo_idlt_q  <= o_q < s_q;
-    eo_due_q   <= $signed(t_cand - due_x_q) >= 0;  // due_x_q, quiet_rd_q: one clock after o_q
-    eo_quiet_q <= $signed(t_cand - quiet_rd_q) >= 0;
-    eo_lt_q    <= $signed(due_x_q - due_s_q) < 0;
-    eo_eq_q    <= due_x_q == due_s_q;
+    eo_due_q   <= $signed(t_cand - due_o_q) >= 0;  // due_o_q, quiet_o_q: one clock after o_q
+    eo_quiet_q <= $signed(t_cand - quiet_o_q) >= 0;
+    eo_lt_q    <= $signed(due_o_q - due_s_q) < 0;
+    eo_eq_q    <= due_o_q == due_s_q;
   end
   assign o_elig  = eo_act_q && !eo_init_q && eo_due_q && (eo_trk_q || !eo_qv_q || eo_quiet_q);
   assign o_first = eo_lt_q || (eo_eq_q && eo_idlt_q);
@@ -938,6 +922,7 @@ module ms_scheduler #(
   logic signed [8:0]  p_gap;
   logic [VW-1:0]      p_s, p_s_q;
   logic               c_due_lt_q;
+  logic [31:0]        c_due_q;  // due_m[si(c_s_q)]
   logic [23:0]        p_te, p_wso, p_weo;
   assign p_gap = (st_q == S_HIT) ? 9'(g_gap) : $signed({1'b0, i_gap});
   assign p_s   = (st_q == S_HIT) ? h_s : s_q;
@@ -957,8 +942,10 @@ module ms_scheduler #(
   assign p_weo = !s_trk_q ? s_rmax_q : p_te + 24'(s_tn_q);
   always_ff @(posedge clk_i) begin
     due_s_q     <= due_m[si(s_q)];
-    due_x_q     <= due_m[si(st_q == S_CLOSE ? c_s_q : o_q)];
-    quiet_rd_q  <= quiet_m[si(st_q == S_EDF ? o_q : s_q)];
+    nxt_s_q     <= nxt_m[si(s_q)];
+    quiet_s_q   <= quiet_m[si(s_q)];
+    due_o_q     <= due_m[si(o_q)];
+    quiet_o_q   <= quiet_m[si(o_q)];
     w_start_c_q <= win_rd.t0 + 32'(win_rd.ws);
     w_end_c_q   <= win_rd.t0 + 32'(win_rd.we);
     w_close_c_q <= win_rd.t0 + (32'(win_rd.we) + 32'(latm1_q));
@@ -966,7 +953,8 @@ module ms_scheduler #(
     p_s_q       <= p_s;  // (stage B) the sensor's clamp bounds one clock later
     lo_c_q      <= sh_lo_m[si(p_s_q)];
     hi_c_q      <= sh_hi_m[si(p_s_q)];
-    c_due_lt_q  <= $signed(cur_tick_q - due_x_q) < 0;  // CLOSE: a safety moves due earlier
+    c_due_q     <= due_m[si(c_s_q)];
+    c_due_lt_q  <= $signed(cur_tick_q - c_due_q) < 0;  // CLOSE: a safety moves due earlier
     h_tof_c_q   <= 24'(n_edge - win_rd.t0);
     c_wso_c_q   <= p_wso;
     c_weo_c_q   <= p_weo;
@@ -980,9 +968,9 @@ module ms_scheduler #(
     h_abs_d_q    <= ($signed({1'b0, h_tof_c_q}) < $signed({1'b0, g_te_q})) ? 25'(g_te_q) - 25'(h_tof_c_q)
                                                                          : 25'(h_tof_c_q) - 25'(g_te_q);
     if (st_q == S_CONF) begin
-      rx_on_d_q <= (rem_q != '0) && rel_tx_e && tu_ok_e && $signed(ta_c_q - tu_e) < 0;
+      rx_on_d_q <= (rem_q != '0) && rel_tx_e && $signed(ta_c_q - tu_e) < 0;
       rx_d_q    <= tu_e - 32'(cb.a);
-      ry_on_d_q <= (rem_q != '0) && c_win && bu_ok_e && $signed(tws_c_q - bu_e) < 0;
+      ry_on_d_q <= (rem_q != '0) && c_win && $signed(tws_c_q - bu_e) < 0;
       ry_d_q    <= bu_e - 32'(c_wso_c_q);
     end else if (st_q == S_CFULL) begin  // after the element's slots: every slot taken
       rx_on_d_q <= 1'b0;
@@ -1000,8 +988,8 @@ module ms_scheduler #(
     iw_close_c_q <= s_trk_q ? t_ptnl_q + 32'(p_te) : t_prmaxl_q;  // twe_c_q - 1 + lat in one carry chain
     // IEL's per-element write enables: compares on stage C, so no write enable follows a carry chain
     iw_first_d_q <= !hd_vld_e || $signed(iw_close_c_q - hd_close_e) < 0;
-    bu_later_d_q <= !bu_ok_e || later(tb_c_q, bu_e);
-    tu_later_d_q <= !tu_ok_e || later(tb_c_q, tu_e);
+    bu_later_d_q <= later(tb_c_q, bu_e);
+    tu_later_d_q <= later(tb_c_q, tu_e);
     te_d_q       <= i_te;
     // per-sensor ticks written by SCHED / CONF / ISSUE / INIT, computed while the state reads
     t_cand_q     <= cur_tick_q + LEAD32;
@@ -1118,8 +1106,6 @@ module ms_scheduler #(
     evt_valid_q  <= 1'b0;
     trig_valid_q <= 1'b0;
     pulse_q      <= 1'b0;
-    disp_chk_q   <= 1'b0;  // S_IDLE's dispatch sets it
-    if (stop_age_q != 2'd3) stop_age_q <= stop_age_q + 2'd1;  // S_CHECK restarts it
     // S_CAND's first clock clears the candidate set from a flop (S_EDF's go only sets
     // cand_clr_q), so the clear is not behind EDF's decision logic; S_CAND's stream writes it
     // from its fifth clock on
@@ -1150,7 +1136,7 @@ module ms_scheduler #(
       start_go_q <= 1'b0;  // S_LOAD sets it with its move to S_START
       cfg_chk_q  <= 1'b0;  // set with the move to S_CHECK / S_LOAD
       cfg_ld_q   <= 1'b0;
-      if (q_ovf || lag_late) ovr_q <= 1'b1;
+      if (q_ovf) ovr_q <= 1'b1;
       if (apply_i || (en_q && !en_prev_q)) apply_pend_q <= 1'b1;
       if (go) begin
         retry_q     <= rn_new;
@@ -1185,7 +1171,6 @@ module ms_scheduler #(
               end else if (started_q) begin
                 stop_req_q <= 1'b1;
                 stop_at_q  <= tick_i;
-                stop_age_q <= 2'd1;  // tick_i - stop_at_q, saturating at 3
                 st_q       <= S_SETTLE;  // the engine finishes every tick before stop_at
               end else begin
                 st_q <= S_STOP;
@@ -1230,7 +1215,7 @@ module ms_scheduler #(
             end else if (stop_ok) begin
               st_q <= S_STOP;
             end else if (take_q || sched_go) begin
-              disp_chk_q <= 1'b1;  // lag_late: closes could be missed
+              if (lag_late) ovr_q <= 1'b1;  // closes could be missed
               cur_tick_q <= take_q ? qh_tick : td_q;
               edges_q    <= take_q ? qh_edges : '0;
               closes_q   <= take_q ? qh_closes : '0;
@@ -1516,7 +1501,7 @@ module ms_scheduler #(
     // nxt_m holds the t0 of the next evaluation (its tick + P)
     if (isu_any_q)      nxt_wd = due_isu_q;    // t0 + period
     else if (cnf_any_q) nxt_wd = retry_q;
-    else if (sch_any_q) nxt_wd = s_early ? due_s_q : quiet_rd_q;
+    else if (sch_any_q) nxt_wd = s_early ? due_s_q : quiet_s_q;
     else                nxt_wd = due_ini_q;    // start tick + phase
     nxt_we = ps_live && (ini_any_q || (sch_any_q && (s_early || s_quiet)) || (cnf_any_q && rem_q == '0 && retry_vld_q)
                          || isu_any_q);
@@ -1792,6 +1777,7 @@ module ms_scheduler #(
       if (rst_i || (run_ok && st_q == S_START)) tu_ok_q[e] <= 1'b0;
       else if (ps_live && ew_q[e] && tu_we)     tu_ok_q[e] <= 1'b1;
     end
+    if (run_ok && st_q == S_START) bu_start_q <= tick_i;
   end
   always_ff @(posedge clk_i) begin
     if (ps_live && wvw_any_q) wv_m[ei_q]   <= wv_wd;  // as wv_ok_q[ei_q] (wvw_q)
