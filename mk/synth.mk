@@ -125,13 +125,23 @@ $(GEN)/cpu/VexRiscv_icache%k.v: scripts/gen_vex_icache.py $(STAMPS)/venv
 
 # slang reads the RTL as strict IEEE 1800 (no --allow-use-before-declare), as make lint does.
 # One file list for the slang frontend: rtl/sources.f resolved ($GEN, $PICORV32), then the board's.
-$(SYNTH_DIR)/sources.f: $(SYNTH_RTL) $(SYNTH_BOARDF) $(if $(SYNTH_VEX_ICACHE),$(SYNTH_VEX_FILE))
+# The synthesis settings as a file that changes only when they do (like pnr-settings.txt): a
+# build with another I-cache, scheduler size or mapping redoes the file list and synthesis
+# instead of reusing a netlist of other settings
+SYNTH_SETTINGS := $(SYNTH_DIR)/synth-settings.txt
+.PHONY: synth-settings-force
+$(SYNTH_SETTINGS): synth-settings-force
+	@mkdir -p $(@D)
+	@echo 'icache=$(SYNTH_VEX_ICACHE) params=$(SYNTH_PARAMS) abc_area=$(SYNTH_ABC_AREA)' > $@.tmp
+	@if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv $@.tmp $@; fi
+
+$(SYNTH_DIR)/sources.f: $(SYNTH_RTL) $(SYNTH_BOARDF) $(SYNTH_SETTINGS) $(if $(SYNTH_VEX_ICACHE),$(SYNTH_VEX_FILE))
 	@mkdir -p $(@D)
 	@$(SYNTH_REL) $(if $(SYNTH_VEX_ICACHE),$(patsubst %/VexRiscv_icache16k.v,$(SYNTH_VEX_FILE),$(RTL_SOURCES)),$(RTL_SOURCES)) > $@.tmp
 	@sed -e 's/#.*//' -e '/^[[:space:]]*$$/d' $(SYNTH_BOARDF) >> $@.tmp
 	@mv $@.tmp $@
 
-$(SYNTH_DIR)/synth.ys: $(SYNTH_DIR)/sources.f mk/synth.mk
+$(SYNTH_DIR)/synth.ys: $(SYNTH_DIR)/sources.f $(SYNTH_SETTINGS) mk/synth.mk
 	@printf '%s\n' \
 	    "read_slang --threads 1 --top $(SYNTH_TOP) $(SYNTH_PARAMS) -f $(SYNTH_DIR)/sources.f -v $(SYNTH_SHARE)/$(SYNTH_CELLS)" \
 	    '$(SYNTH_PREP)' \
