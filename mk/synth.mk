@@ -126,15 +126,20 @@ $(GEN)/cpu/VexRiscv_icache%k.v: scripts/gen_vex_icache.py $(STAMPS)/venv
 
 # slang reads the RTL as strict IEEE 1800 (no --allow-use-before-declare), as make lint does.
 # One file list for the slang frontend: rtl/sources.f resolved ($GEN, $PICORV32), then the board's.
-# The synthesis settings as a file that changes only when they do (like pnr-settings.txt): a
-# build with another I-cache, scheduler size or mapping redoes the file list and synthesis
-# instead of reusing a netlist of other settings
-SYNTH_SETTINGS := $(SYNTH_DIR)/synth-settings.txt
+# Settings files (synth-settings.txt, pnr-settings.txt): rebuilt on every run, but their date
+# changes only with their text, so the steps after them rerun exactly when a setting changed.
+# $(call write-if-changed,TEXT) in a recipe writes TEXT (no single quotes) to the target.
 .PHONY: synth-settings-force
-$(SYNTH_SETTINGS): synth-settings-force
+define write-if-changed
 	@mkdir -p $(@D)
-	@echo 'icache=$(SYNTH_VEX_ICACHE) params=$(SYNTH_PARAMS) abc_area=$(SYNTH_ABC_AREA)' > $@.tmp
+	@printf '%s\n' '$(1)' > $@.tmp
 	@if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv $@.tmp $@; fi
+endef
+# The synthesis settings: a build with another I-cache, scheduler size or mapping redoes the
+# file list and synthesis instead of reusing a netlist of other settings
+SYNTH_SETTINGS := $(SYNTH_DIR)/synth-settings.txt
+$(SYNTH_SETTINGS): synth-settings-force
+	$(call write-if-changed,icache=$(SYNTH_VEX_ICACHE) params=$(SYNTH_PARAMS) abc_area=$(SYNTH_ABC_AREA))
 
 $(SYNTH_DIR)/sources.f: $(SYNTH_RTL) $(SYNTH_BOARDF) $(SYNTH_SETTINGS) $(if $(SYNTH_VEX_ICACHE),$(SYNTH_VEX_FILE))
 	@mkdir -p $(@D)
@@ -170,11 +175,8 @@ SYNTH_PNR_TIMEOUT ?= 1800
 # place and route for another ECP5_DEVICE / SYNTH_SEEDS / placer instead of reporting the
 # previous run under the new name.
 SYNTH_PNR_SETTINGS := $(SYNTH_DIR)/pnr-settings.txt
-.PHONY: synth-pnr-settings-force
-$(SYNTH_PNR_SETTINGS): synth-pnr-settings-force
-	@mkdir -p $(@D)
-	@echo "$(SYNTH_DEVICE) seeds=$(SYNTH_SEEDS) placer=$(SYNTH_PLACER) detail=$(SYNTH_DETAIL) mhz=$(SYNTH_PNR_MHZ)" > $@.tmp
-	@if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv $@.tmp $@; fi
+$(SYNTH_PNR_SETTINGS): synth-settings-force
+	$(call write-if-changed,$(SYNTH_DEVICE) seeds=$(SYNTH_SEEDS) placer=$(SYNTH_PLACER) detail=$(SYNTH_DETAIL) mhz=$(SYNTH_PNR_MHZ))
 
 $(SYNTH_DIR)/pnr.lpf: $(SYNTH_PINS) $(SYNTH_PNR_SETTINGS)
 	@$(VPY) -c 'import re, sys; s = open(sys.argv[1]).read(); k = float(sys.argv[2]) / float(sys.argv[3]); \
