@@ -84,15 +84,15 @@ ifeq ($(TARGET),ecp5)
   SYNTH_CELLS  := ecp5/cells_bb.v
   SYNTH_YOSYS  := synth_ecp5 -top $(SYNTH_TOP)
   # ms_csr's VS table (72 words, two read ports) in distributed RAM, and with the 16 KiB
-  # I-cache also the USB IN endpoint's 128-byte buffer and VexRiscv's register file (32 x 32,
-  # two read ports): as block RAM they take three DP16KD, one and two, and the 25F has 56 (the
-  # register file costs ~320 LUT4 and 32 DPR16X4 instead). The reduced 25F profile (8 KiB
-  # I-cache) keeps both in block RAM: with the register file in LUT-RAM router2 diverged there
-  # at seed 1. Set here, not as attributes in the RTL: simulation and lint do not need them
+  # I-cache also the USB IN endpoint's 128-byte buffer: as block RAM they take three DP16KD
+  # and one. VexRiscv's register file (32 x 32, two read ports, two DP16KD) stays in block
+  # RAM: in LUT-RAM (~320 LUT4 and 32 DPR16X4 more) its read sat on the 45F's slowest paths
+  # (seed 3 at 52.27 MHz) and router2 diverged on the 25F profile. Set here, not as attributes
+  # in the RTL: simulation and lint do not need them
   # every block's reset copy (ms_reset_copy) stays a flop of its own, placed near its block:
   # without keep, Yosys merges the copies back into one flop that drives the whole chip
   SYNTH_PREP   := setattr -set ram_style "distributed" m:*vs_m \
-                  $(if $(SYNTH_VEX_ICACHE),,m:*RegFilePlugin_regFile m:*u_ep_in.mem_q); \
+                  $(if $(SYNTH_VEX_ICACHE),,m:*u_ep_in.mem_q); \
                   setattr -set keep 1 w:*rst_copy_q %ci1 c:* %i
   # router2: on the board top router1 had not converged after 50 min, router2 routes in 6
   # (docs/synthesis.md, "What keeps timing"). The electrostatic placer

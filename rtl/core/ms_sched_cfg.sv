@@ -18,10 +18,11 @@
 //   - check: per entry 10 clocks (its words), then, for an enabled entry, NUM_CH + 2 (delays)
 //     and 4 (the checks); done_o one clock after the last entry, err_o / err_vs_o (0 / 0:
 //     accepted) valid from done_o until the next check_i.
-//   - load: per entry 10 + NUM_CH + 2 clocks (words and delays), 4 (record: ld_we_o one clock,
-//     ld_* valid with it), entry + 1 (share_we_o for the pairs (entry, 0..entry)), 7 NUM_CH
-//     (blank intervals) and 4 (drain; blk_we_o one clock per element, the last one three
-//     clocks before the drain ends); done_o one clock after the last entry.
+//   - load: per entry 10 + NUM_CH + 2 clocks (words, each with word_we_o, and delays), 4
+//     (record: ld_we_o one clock, ld_* valid with it), entry + 1 (share_we_o for the pairs
+//     (entry, 0..entry)), 7 NUM_CH (blank intervals) and 4 (drain; blk_we_o one clock per
+//     element, the last one three clocks before the drain ends); done_o one clock after the
+//     last entry.
 //   - The table must not change between a check and the load that follows it.
 module ms_sched_cfg #(
   parameter int NUM_CH    = 24,   // elements (<= 31)
@@ -69,6 +70,9 @@ module ms_sched_cfg #(
   output logic [23:0]           ld_lo_o,     // dbl + T_V
   output logic [23:0]           ld_hi_o,     // max ToF - T_N
   output logic [7:0]            ld_burst_o,
+  // during a load, table word word_o of entry ld_vs_o is on vs_rdata_i (word_we_o)
+  output logic                  word_we_o,
+  output logic [3:0]            word_o,
   // blank interval of element blk_addr_o[4:0] of entry blk_addr_o[7:5]
   output logic                  blk_we_o,
   output logic [7:0]            blk_addr_o,
@@ -389,6 +393,8 @@ module ms_sched_cfg #(
   assign ld_lo_o     = p3_lo;
   assign ld_hi_o     = p1_hi;
   assign ld_burst_o  = burst_q;
+  assign word_we_o   = gv_q && load_q;
+  assign word_o      = gw_q;
 
   // ------------------------------------------------------------------ shared elements
   // every loaded entry's element set, read back for the pairs (e_q, 0..e_q)

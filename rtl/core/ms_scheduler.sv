@@ -41,8 +41,9 @@
 //     record (bits 62, 61) where a re-initialisation cancels a sensor's windows.
 //
 // Storage: per-element window slots (WIN: t0, offsets, seq, epoch, init), per (sensor,
-// receiver) tracking state (RXS), per (sensor, element) blank offsets (BLK), each with one
-// registered read and one write port (block RAM on the FPGA). Per element (one word each):
+// receiver) tracking state (RXS), per (sensor, element) blank offsets and the applied table's
+// words per sensor (BLK), each with one registered read and one write port (block RAM on
+// the FPGA). Per element (one word each):
 // slot valid, hit and gated bits, slot sensors, head slot, blank_until and tx_until in
 // distributed RAM (a flop per element says whether its valid bits, blank_until and tx_until
 // were written since the start, so a start clears them at once), the head's close tick in
@@ -151,37 +152,39 @@ module ms_scheduler #(
   endfunction
 
   // ------------------------------------------------------------------ shadow configuration
-  // Per-sensor fields the engine reads one sensor at a time live in distributed RAM (*_m: one
-  // write port, written by S_LOAD one sensor per clock; each read index is a copy of the RAM
-  // instead of an 8:1 multiplexer of flops). Flops hold what is read for all sensors at once.
-  logic [NUM_CH-1:0] sh_tx_m  [NUM_VS];
-  logic [NUM_CH-1:0] sh_rx_m  [NUM_VS];
-  logic [NUM_CH-1:0] sh_xt_m  [NUM_VS];  // crosstalk neighbours (ms_sched_cfg)
-  logic [NUM_CH-1:0] sh_use_m [NUM_VS];  // tx | xt | rx: every element a pulse touches
-  logic              sh_track_m [NUM_VS];  // mode == track
-  logic [OW-1:0]     sh_order_m [NUM_VS];
-  logic [3:0]        sh_k_m     [NUM_VS];
-  logic [15:0]       sh_tv_m    [NUM_VS];
-  logic [15:0]       sh_tn_m    [NUM_VS];
-  logic [15:0]       sh_vmax_m  [NUM_VS];
-  logic [23:0]       sh_rmax_m  [NUM_VS];
-  logic [23:0]       sh_phase_m [NUM_VS];
+  // The table fields the engine reads for sensor s_q from S_SCHED on (masks, window, max ToF,
+  // order, burst, re-init count) and its phase (S_INIT) are the applied table's words, kept in
+  // the upper half of the BLK RAM (the configuration words below) and fetched one per clock
+  // into the s_* registers. Derived fields and those read by another sensor index (HIT,
+  // CLOSE) live in distributed RAM (*_m: one write port, written by S_LOAD one sensor per
+  // clock; each read index is a copy of the RAM). Flops hold what is read for all sensors.
+  logic [NUM_CH-1:0] sh_xt_m    [NUM_VS];  // crosstalk neighbours (ms_sched_cfg)
   logic [23:0]       sh_dbl_m   [NUM_VS];  // blanking max(T_dead, T_xtalk) + max delay
+  logic              sh_track_m [NUM_VS];  // mode == track
+  logic [3:0]        sh_k_m     [NUM_VS];
+  logic [15:0]       sh_vmax_m  [NUM_VS];
   logic [23:0]       sh_lo_m    [NUM_VS];  // prediction clamp: dbl + T_V
   logic [23:0]       sh_hi_m    [NUM_VS];  // ... and max ToF - T_N
-  logic [7:0]        sh_burst_m [NUM_VS];
   logic [NUM_VS-1:0]             sh_act_q;  // mode != off
   logic [NUM_CH-1:0]             sh_rxany_q;  // receivers of the active sensors
   logic [NUM_VS-1:0][NUM_VS-1:0] sh_share_q;
   logic [15:0]                   sh_gate_q;  // gated miss rule (0 off)
-  logic [7:0]        sh_reinit_m [NUM_VS];  // forced re-initialisation after this many tracking pulses (0 off)
-  // per (sensor, element) blank interval offsets from t0: [a, b) (tx: delay, delay + T_dead;
-  // crosstalk neighbour: first, last tx delay within nb + T_xtalk)
+  // BLK RAM, one word of 36 bits (one DP16KD for 8 sensors): the lower half holds per
+  // (sensor, element) blank interval offsets from t0, [a, b) (tx: delay, delay + T_dead;
+  // crosstalk neighbour: first, last tx delay within nb + T_xtalk) at {0, sensor, element};
+  // the upper half the configuration words, the nine table words of each sensor as the load
+  // read them (register r of the entry, sonar_regs.rdl's fields) at {1, 0, sensor, r}.
   typedef struct packed {
     logic [DELAY_W-1:0] a;
     logic [BW-1:0]      b;
   } blk_t;
-  blk_t blk_q [NUM_VS * 32];
+  localparam int BA = SW + 6;  // BLK RAM address: {0, sensor, element} / {1, 0, sensor, word}
+  localparam logic [3:0] CW_TX = 4'd0, CW_RX = 4'd1, CW_MODE = 4'd2, CW_WIN = 4'd3,
+                         CW_RMAX = 4'd5, CW_TRACK = 4'd7, CW_PHASE = 4'd8;
+  function automatic logic [BA-1:0] cw_addr(input logic [VW-1:0] s, input logic [3:0] w);
+    cw_addr = {1'b1, 1'b0, si(s), w};
+  endfunction
+  logic [35:0] blk_q [2**BA];
 
   // ------------------------------------------------------------------ sensor state
   // due, quiet (max ToF end of the last pulse) and next-evaluation ticks: distributed RAM,
@@ -223,7 +226,10 @@ module ms_scheduler #(
   win_t                               win_rd;
   logic [$clog2(NUM_VS * 32)-1:0]     rxs_ra;
   rxs_t                               rxs_rd;
-  blk_t                               cb;      // BLK word of (s_q, rel)
+  logic [BA-1:0]                      blk_ra;
+  logic [35:0]                        cb_raw;  // BLK RAM word at blk_ra of the clock before
+  blk_t                               cb;      // ... as the blank interval of (s_q, rel)
+  assign cb = blk_t'(cb_raw);
   win_t                               win_c_q; // stage C copies of the WIN / RXS words
   rxs_t                               rxs_c_q;
   // Per-element state has one read and one write port, both at the element the state is
@@ -235,11 +241,14 @@ module ms_scheduler #(
   logic [WSLOTS-1:0]                     wh_m [32];    // slot saw its first edge
   logic [WSLOTS-1:0]                     wr_m [32];    // that edge failed the miss gate (counts as a miss)
   logic [WSLOTS-1:0][VW-1:0]             wsid_m [32];  // sensor of the window
+  // blank_until and tx_until are the start tick until written (model: [now] * n): a start
+  // tick is earlier than every candidate t0, so an unwritten word conflicts with nothing and
+  // any t0 + b is later; the compares that read them are gated by the flags instead of
+  // multiplexing the start tick into the words
   logic [31:0]                           bu_m [32];    // blank_until (when bu_ok_q[e])
-  logic [NUM_CH-1:0]                     bu_ok_q;      // else blank_until = bu_start_q
+  logic [NUM_CH-1:0]                     bu_ok_q;
   logic [31:0]                           tu_m [32];    // tx_until: end of the dead zone of the last trigger (when tu_ok_q[e])
-  logic [NUM_CH-1:0]                     tu_ok_q;      // else tx_until = bu_start_q
-  logic [31:0]                           bu_start_q;
+  logic [NUM_CH-1:0]                     tu_ok_q;
   logic [NUM_CH-1:0]                     hd_vld_q;     // head: next window to close
   logic [KW-1:0]                         hd_slot_m [32];
   // Close tick of the element's head for close_eq_q: its low HCW bits (the engine reads the
@@ -305,6 +314,7 @@ module ms_scheduler #(
 
   logic [31:0]       eng_tick_q, cur_tick_q, t_q, retry_q, minclose_q, stop_at_q;
   logic              retry_vld_q, stop_req_q, started_q, ovr_q, found_q;
+  logic [1:0]        stop_age_q;  // clocks since stop_at_q was set (= tick_i - stop_at_q), up to 3
   logic [3:0]        settle_q;   // clocks until td_q is valid again
   // outputs
   logic              evt_valid_q, trig_valid_q, pulse_q, pulse_init_q;
@@ -404,20 +414,25 @@ module ms_scheduler #(
   localparam logic [3:0] TD_SETTLE = 4'(NUM_VS + 3);
   logic [VW-1:0] td_s_q;
   logic          td_on_q, td_wake_q, td_first_q, td_first1_q;
-  logic [31:0]   td_nxt_q, td_off_q, td_acc_q, td_q, engp_q;  // engp_q: eng_tick_q + P
+  logic [31:0]   td_off_q, td_acc_q, td_q, engp_q;  // engp_q: eng_tick_q + P
   logic          armed_q;
+  // nxt_m has one read port: the scan's sensor in S_SETTLE / S_IDLE, else s_q (S_SCHED reads
+  // it); nxt_rd_q is the word one clock later
+  logic [VW-1:0] nxt_ra;
+  logic [31:0]   nxt_rd_q;
+  assign nxt_ra = (st_q inside {S_SETTLE, S_IDLE}) ? td_s_q : s_q;
   always_ff @(posedge clk_i) begin
     td_s_q      <= (st_q inside {S_SETTLE, S_IDLE}) && td_s_q != VW'(NUM_VS - 1) ? td_s_q + 1'b1
                  : (st_q inside {S_SETTLE, S_IDLE}) ? td_s_q : '0;
     // the sensor's words
     td_on_q     <= sh_act_q[si(td_s_q)] && !in_init_q[si(td_s_q)] && (wake_q[si(td_s_q)] || !hold_q[si(td_s_q)]);
     td_wake_q   <= wake_q[si(td_s_q)];
-    td_nxt_q    <= nxt_m[si(td_s_q)];
+    nxt_rd_q    <= nxt_m[si(nxt_ra)];
     td_first_q  <= st_q == S_SETTLE;  // sensor 0 of a new scan
     // its offset
     engp_q      <= eng_tick_q + LEAD32;  // eng_tick_q changes at least two clocks before a scan reads it
     td_off_q    <= !td_on_q ? 32'hFFFF_FFFF
-                 : (td_wake_q || !later(td_nxt_q, engp_q)) ? 32'd0 : td_nxt_q - engp_q;
+                 : (td_wake_q || !later(nxt_rd_q, engp_q)) ? 32'd0 : nxt_rd_q - engp_q;
     td_first1_q <= td_first_q;
     // the running minimum, and td
     td_acc_q    <= (td_first1_q || td_off_q < td_acc_q) ? td_off_q : td_acc_q;
@@ -430,7 +445,7 @@ module ms_scheduler #(
   // A word not yet at the queue head when they were computed (the push is registered too) has
   // tick >= tick_i - 2 > td_q (sched_go needs three ticks of margin), so a stale "queue empty"
   // never lets a decision tick pass a queued edge or close.
-  logic take_c, sched_c, stop_c, late_c;
+  logic take_c, sched_c, stop_c;
   logic take_q;  // IDLE: the queue head comes no later than the next time-driven decision
   assign take_c = !q_empty && (!armed_q || ($signed(qh_tick - td_q) <= 0))
                   && (!stop_req_q || $signed(qh_tick - stop_at_q) < 0);
@@ -438,16 +453,18 @@ module ms_scheduler #(
   assign sched_c = armed_q && ($signed(tick_i - td_q) >= 3) && (q_empty || $signed(qh_tick - td_q) > 0)
                    && (!stop_req_q || $signed(td_q - stop_at_q) < 0);
   logic stop_ok;  // every logical tick before stop_at is done
-  assign stop_c = stop_req_q && ($signed(tick_i - stop_at_q) >= 3)
+  assign stop_c = stop_req_q && stop_age_q == 2'd3
                   && (q_empty || $signed(qh_tick - stop_at_q) >= 0)
                   && (!armed_q || $signed(td_q - stop_at_q) >= 0);
-  logic lag_late;  // real time is more than P/2 ahead of the work the engine starts now (tick_i + 1 when used)
-  assign late_c = take_c ? ($signed(tick_i - qh_tick) >= LEAD / 2) : ($signed(tick_i - td_q) >= LEAD / 2);
+  // A dispatch is late when real time is P/2 or more ahead of the logical tick it starts: checked
+  // in the clock after IDLE's go (disp_chk_q), where cur_tick_q holds that tick and tick_i is two
+  // ticks past the decisions' clock, on one subtraction (tick_i counts by one every clock)
+  logic disp_chk_q, lag_late;
+  assign lag_late = disp_chk_q && $signed(tick_i - cur_tick_q) >= LEAD / 2 + 2;
   always_ff @(posedge clk_i) begin
     take_q   <= take_c;
     sched_go <= sched_c;
     stop_ok  <= stop_c;
-    lag_late <= late_c;
   end
   assign q_pop  = (st_q == S_IDLE) && (settle_q == 4'd0) && !stop_ok && take_q;
   // engine headroom, for the benches (read through the hierarchy, no port): the largest
@@ -483,7 +500,9 @@ module ms_scheduler #(
   logic [31:0]        t_cand_q;        // cur_tick_q + P (the candidate t0 of a SCHED decision)
   logic [31:0]        due_isu_q, due_ini_q, quiet_isu_q;
   logic [31:0]        tba_q, tbb_q, tws_q, twe_q;  // S_CSLOT: the CONF element's t0 + offsets
-  logic [31:0]        due_s_q, nxt_s_q, quiet_s_q, due_o_q, quiet_o_q;  // per-sensor words of s_q, o_q
+  // per-sensor words: due of s_q; due of o_q in S_EDF, of c_s_q in S_CLOSE (due_x_q); quiet of
+  // o_q in S_EDF, else of s_q (quiet_rd_q); one read port per address, the words one clock later
+  logic [31:0]        due_s_q, due_x_q, quiet_rd_q;
   // engine registers and write strobes whose drivers follow further down (declared here,
   // before the views and the FSM that read them)
   logic [NUM_VS-1:0] reinit_due_q;
@@ -522,6 +541,7 @@ module ms_scheduler #(
   logic [WSLOTS-1:0]         wv_e, wh_e, wr_e;
   logic [WSLOTS-1:0][VW-1:0] wsid_e;
   logic [31:0]               bu_e, tu_e, hd_close_e;
+  logic                      bu_ok_e, tu_ok_e;  // bu_e / tu_e written since the start
   logic [KW-1:0]             hd_slot_e;
   logic [NUM_CH-1:0]         s_rx_q;  // sensor s_q's receivers (registered with its words below)
   logic                      hd_vld_e, rel_tx_e, rel_xt_e, rel_act_e;
@@ -537,8 +557,10 @@ module ms_scheduler #(
     wh_e       <= wh_m[ei_q];
     wr_e       <= wr_m[ei_q];
     wsid_e     <= wsid_m[ei_q];
-    bu_e       <= bu_ok_q[ei_q] ? bu_m[ei_q] : bu_start_q;
-    tu_e       <= tu_ok_q[ei_q] ? tu_m[ei_q] : bu_start_q;
+    bu_e       <= bu_m[ei_q];
+    tu_e       <= tu_m[ei_q];
+    bu_ok_e    <= bu_ok_q[ei_q];
+    tu_ok_e    <= tu_ok_q[ei_q];
     hd_vld_e   <= hd_vld_q[ei_q];
     hd_slot_e  <= hd_slot_m[ei_q];
     hd_close_e <= hd_close_m[ei_q];  // distributed RAM: no 24:1 multiplexer of the flops
@@ -700,9 +722,10 @@ module ms_scheduler #(
     sc_trk_q    <= tracking_q[si(s_q)];
     sc_qv_q     <= quiet_vld_q[si(s_q)];
     sc_reinit_q <= reinit_due_q[si(s_q)];
-    sc_nxt_q    <= $signed(t_cand - nxt_s_q) >= 0;  // nxt_s_q, due_s_q, quiet_s_q: one clock after s_q
+    // nxt_rd_q, due_s_q, quiet_rd_q: one clock after s_q
+    sc_nxt_q    <= $signed(t_cand - nxt_rd_q) >= 0;
     sc_early_q  <= $signed(t_cand - due_s_q) < 0;
-    sc_quiet_q  <= $signed(t_cand - quiet_s_q) < 0;
+    sc_quiet_q  <= $signed(t_cand - quiet_rd_q) < 0;
   end
   // reinit_every reached (reinit_due_q[s], flops): set by ISSUE with the sensor's new pulse
   // count, long before its next SCHED (the per-sensor writes)
@@ -717,7 +740,7 @@ module ms_scheduler #(
   logic [NUM_CH-1:0] s_all_q;  // every element the pulse touches (tx | xt | rx)
   logic [5:0]        s_nrx_q;   // two clocks after s_q: the mask, then its popcount
   logic [OW-1:0]     s_order_q;
-  logic [23:0]       s_rmax_q, s_dbl_q, s_phase_q, s_tvd_q;  // s_tvd_q = T_V + D (two clocks after s_q)
+  logic [23:0]       s_rmax_q, s_dbl_q, s_tvd_q;  // s_tvd_q = T_V + D (two clocks after s_dbl_q)
   logic [15:0]       s_tv_q, s_tn_q;
   logic [31:0]       s_rmd_q;   // max ToF - D, 32-bit (two clocks after s_q)
   logic [7:0]        s_burst_q, s_tpc_q, s_rein_q;
@@ -726,25 +749,42 @@ module ms_scheduler #(
   logic [7:0]        s_seq_q;
   assign s_seq_q = s_pid_q[7:0];
   logic              s_ep_q;
+  // The table words of s_q: S_SCHED and S_EDF address word cw_rd_q (0 .. CW_TRACK, one per
+  // clock from their first clock), the BLK RAM returns it a clock later (cw_v_q, cw_w_q) and
+  // its fields are registered from there, so the last arrives 9 clocks after SCHED's first
+  // and the words derived from them two clocks later. Their first reader, EDF's last go
+  // (s_rx_q, word 1), comes 3 + 3 NUM_VS >= 9 clocks after SCHED's first; ORDER, CONF, ISSUE
+  // and IEL come after CAND and ORDER (5 clocks each at least). s_q and these registers do
+  // not change from SCHED to the end of IEL.
+  logic [3:0] cw_rd_q, cw_w_q;
+  logic       cw_v_q;
+  always_ff @(posedge clk_i) begin
+    if (!(st_q inside {S_SCHED, S_EDF})) cw_rd_q <= CW_TX;
+    else if (cw_rd_q != CW_TRACK)        cw_rd_q <= cw_rd_q + 4'd1;
+    cw_v_q <= st_q inside {S_SCHED, S_EDF};
+    cw_w_q <= cw_rd_q;
+    if (cw_v_q) begin
+      unique case (cw_w_q)
+        CW_TX:    s_tx_q                <= cb_raw[NUM_CH-1:0];
+        CW_RX:    s_rx_q                <= cb_raw[NUM_CH-1:0];
+        CW_MODE:  {s_rein_q, s_order_q} <= {cb_raw[19:12], cb_raw[7:4]};
+        CW_WIN:   {s_tn_q, s_tv_q}      <= cb_raw[31:0];
+        CW_RMAX:  s_rmax_q              <= cb_raw[23:0];
+        CW_TRACK: s_burst_q             <= cb_raw[23:16];
+        default: ;  // T_DEAD, XTALK: derived fields in sh_dbl_m, sh_xt_m
+      endcase
+    end
+  end
   always_ff @(posedge clk_i) begin
     s_trk_q   <= tracking_q[si(s_q)];
-    s_rx_q    <= sh_rx_m[si(s_q)];
-    s_tx_q    <= sh_tx_m[si(s_q)];
     s_xt_q    <= sh_xt_m[si(s_q)];
-    s_tv_q    <= sh_tv_m[si(s_q)];
-    s_tn_q    <= sh_tn_m[si(s_q)];
     s_dbl_q   <= sh_dbl_m[si(s_q)];
-    s_phase_q <= sh_phase_m[si(s_q)];
     s_tvd_q   <= 24'(s_tv_q) + s_dbl_q;
     s_rmd_q   <= 32'(s_rmax_q) - 32'(s_dbl_q);
     s_nrx_q   <= popcount(s_rx_q);
-    s_all_q   <= sh_use_m[si(s_q)];
-    s_order_q <= sh_order_m[si(s_q)];
-    s_rmax_q  <= sh_rmax_m[si(s_q)];
-    s_burst_q <= sh_burst_m[si(s_q)];
+    s_all_q   <= s_tx_q | s_rx_q | s_xt_q;
     s_pid_q   <= seq_m[si(s_q)];
     s_tpc_q   <= trk_m[si(s_q)];
-    s_rein_q  <= sh_reinit_m[si(s_q)];
     // ISSUE of a tracking pulse reaches reinit_every (the count saturates at 255 >= any M)
     s_rdue_q  <= s_rein_q != 8'd0 && 9'(s_tpc_q) + 9'd1 >= 9'(s_rein_q);
     s_ep_q    <= epoch_q[si(s_q)];
@@ -764,10 +804,10 @@ module ms_scheduler #(
     eo_trk_q   <= tracking_q[si(o_q)];
     eo_qv_q    <= quiet_vld_q[si(o_q)];
     eo_idlt_q  <= o_q < s_q;
-    eo_due_q   <= $signed(t_cand - due_o_q) >= 0;  // due_o_q, quiet_o_q: one clock after o_q
-    eo_quiet_q <= $signed(t_cand - quiet_o_q) >= 0;
-    eo_lt_q    <= $signed(due_o_q - due_s_q) < 0;
-    eo_eq_q    <= due_o_q == due_s_q;
+    eo_due_q   <= $signed(t_cand - due_x_q) >= 0;  // due_x_q, quiet_rd_q: one clock after o_q
+    eo_quiet_q <= $signed(t_cand - quiet_rd_q) >= 0;
+    eo_lt_q    <= $signed(due_x_q - due_s_q) < 0;
+    eo_eq_q    <= due_x_q == due_s_q;
   end
   assign o_elig  = eo_act_q && !eo_init_q && eo_due_q && (eo_trk_q || !eo_qv_q || eo_quiet_q);
   assign o_first = eo_lt_q || (eo_eq_q && eo_idlt_q);
@@ -809,13 +849,18 @@ module ms_scheduler #(
       S_CLOSE: rxs_ra = {si(c_s), clr};
       default: rxs_ra = {si(s_q), rel};  // S_CAND, S_IEL
     endcase
+    unique case (st_q)
+      S_SCHED, S_EDF: blk_ra = cw_addr(s_q, cw_rd_q);  // the sensor's words, one per clock
+      S_INIT:         blk_ra = cw_addr(s_q, CW_PHASE);
+      default:        blk_ra = {1'b0, si(s_q), rel};    // S_CONF, S_IEL: blank intervals
+    endcase
   end
   // stage B: registered every clock, addressed by the state and the stage-A words; stage C
   // keeps a copy for the decisions (a block RAM's output has no time left for logic after it)
   always_ff @(posedge clk_i) begin
     win_rd  <= win_q[win_ra];
     rxs_rd  <= rxs_q[rxs_ra];
-    cb      <= blk_q[int'(s_q) * 32 + int'(rel)];
+    cb_raw  <= blk_q[blk_ra];
     win_c_q <= win_rd;
     rxs_c_q <= rxs_rd;
   end
@@ -922,7 +967,6 @@ module ms_scheduler #(
   logic signed [8:0]  p_gap;
   logic [VW-1:0]      p_s, p_s_q;
   logic               c_due_lt_q;
-  logic [31:0]        c_due_q;  // due_m[si(c_s_q)]
   logic [23:0]        p_te, p_wso, p_weo;
   assign p_gap = (st_q == S_HIT) ? 9'(g_gap) : $signed({1'b0, i_gap});
   assign p_s   = (st_q == S_HIT) ? h_s : s_q;
@@ -942,10 +986,8 @@ module ms_scheduler #(
   assign p_weo = !s_trk_q ? s_rmax_q : p_te + 24'(s_tn_q);
   always_ff @(posedge clk_i) begin
     due_s_q     <= due_m[si(s_q)];
-    nxt_s_q     <= nxt_m[si(s_q)];
-    quiet_s_q   <= quiet_m[si(s_q)];
-    due_o_q     <= due_m[si(o_q)];
-    quiet_o_q   <= quiet_m[si(o_q)];
+    due_x_q     <= due_m[si(st_q == S_CLOSE ? c_s_q : o_q)];
+    quiet_rd_q  <= quiet_m[si(st_q == S_EDF ? o_q : s_q)];
     w_start_c_q <= win_rd.t0 + 32'(win_rd.ws);
     w_end_c_q   <= win_rd.t0 + 32'(win_rd.we);
     w_close_c_q <= win_rd.t0 + (32'(win_rd.we) + 32'(latm1_q));
@@ -953,8 +995,7 @@ module ms_scheduler #(
     p_s_q       <= p_s;  // (stage B) the sensor's clamp bounds one clock later
     lo_c_q      <= sh_lo_m[si(p_s_q)];
     hi_c_q      <= sh_hi_m[si(p_s_q)];
-    c_due_q     <= due_m[si(c_s_q)];
-    c_due_lt_q  <= $signed(cur_tick_q - c_due_q) < 0;  // CLOSE: a safety moves due earlier
+    c_due_lt_q  <= $signed(cur_tick_q - due_x_q) < 0;  // CLOSE: a safety moves due earlier
     h_tof_c_q   <= 24'(n_edge - win_rd.t0);
     c_wso_c_q   <= p_wso;
     c_weo_c_q   <= p_weo;
@@ -968,9 +1009,9 @@ module ms_scheduler #(
     h_abs_d_q    <= ($signed({1'b0, h_tof_c_q}) < $signed({1'b0, g_te_q})) ? 25'(g_te_q) - 25'(h_tof_c_q)
                                                                          : 25'(h_tof_c_q) - 25'(g_te_q);
     if (st_q == S_CONF) begin
-      rx_on_d_q <= (rem_q != '0) && rel_tx_e && $signed(ta_c_q - tu_e) < 0;
+      rx_on_d_q <= (rem_q != '0) && rel_tx_e && tu_ok_e && $signed(ta_c_q - tu_e) < 0;
       rx_d_q    <= tu_e - 32'(cb.a);
-      ry_on_d_q <= (rem_q != '0) && c_win && $signed(tws_c_q - bu_e) < 0;
+      ry_on_d_q <= (rem_q != '0) && c_win && bu_ok_e && $signed(tws_c_q - bu_e) < 0;
       ry_d_q    <= bu_e - 32'(c_wso_c_q);
     end else if (st_q == S_CFULL) begin  // after the element's slots: every slot taken
       rx_on_d_q <= 1'b0;
@@ -988,14 +1029,14 @@ module ms_scheduler #(
     iw_close_c_q <= s_trk_q ? t_ptnl_q + 32'(p_te) : t_prmaxl_q;  // twe_c_q - 1 + lat in one carry chain
     // IEL's per-element write enables: compares on stage C, so no write enable follows a carry chain
     iw_first_d_q <= !hd_vld_e || $signed(iw_close_c_q - hd_close_e) < 0;
-    bu_later_d_q <= later(tb_c_q, bu_e);
-    tu_later_d_q <= later(tb_c_q, tu_e);
+    bu_later_d_q <= !bu_ok_e || later(tb_c_q, bu_e);
+    tu_later_d_q <= !tu_ok_e || later(tb_c_q, tu_e);
     te_d_q       <= i_te;
     // per-sensor ticks written by SCHED / CONF / ISSUE / INIT, computed while the state reads
     t_cand_q     <= cur_tick_q + LEAD32;
     due_isu_q    <= t_q + 32'(period_q);
     quiet_isu_q  <= t_q + s_rmd_q;  // t_q + max ToF - D
-    due_ini_q    <= eng_tick_q + 32'(s_phase_q);   // (S_INIT waits two clocks for these)
+    due_ini_q    <= eng_tick_q + 32'(cb_raw[23:0]);  // S_INIT: the phase word (go 2 clocks on)
   end
 
   // ------------------------------------------------------------------ main FSM
@@ -1013,7 +1054,8 @@ module ms_scheduler #(
   logic [7:0]        ld_reinit, ld_burst;
   logic [15:0]       ld_tv, ld_tn, ld_vmax;
   logic [23:0]       ld_rmax, ld_phase, ld_dbl, ld_lo, ld_hi;
-  logic              cfg_blk_we, cfg_share_we, cfg_share;
+  logic              cfg_blk_we, cfg_share_we, cfg_share, cfg_word_we;
+  logic [3:0]        cfg_word;
   logic [7:0]        cfg_blk_addr;
   logic [DELAY_W-1:0] cfg_blk_a;
   logic [BW-1:0]     cfg_blk_b;
@@ -1056,6 +1098,8 @@ module ms_scheduler #(
     .ld_lo_o            (ld_lo),
     .ld_hi_o            (ld_hi),
     .ld_burst_o         (ld_burst),
+    .word_we_o          (cfg_word_we),
+    .word_o             (cfg_word),
     .blk_we_o           (cfg_blk_we),
     .blk_addr_o         (cfg_blk_addr),
     .blk_a_o            (cfg_blk_a),
@@ -1068,44 +1112,53 @@ module ms_scheduler #(
   always_ff @(posedge clk_i) begin
     if (stop_ld_q) sh_gate_q <= miss_gate_i;
     if (ld_we) begin
-      sh_reinit_m[si(ld_vs)] <= ld_reinit;
-      sh_tx_m[si(ld_vs)]     <= ld_tx;
-      sh_rx_m[si(ld_vs)]     <= ld_rx;
       sh_xt_m[si(ld_vs)]     <= ld_xt;
-      sh_use_m[si(ld_vs)]    <= ld_use;
-      sh_track_m[si(ld_vs)]  <= ld_track;
-      sh_order_m[si(ld_vs)]  <= ld_order;
-      sh_k_m[si(ld_vs)]      <= ld_k;
-      sh_tv_m[si(ld_vs)]     <= ld_tv;
-      sh_tn_m[si(ld_vs)]     <= ld_tn;
-      sh_vmax_m[si(ld_vs)]   <= ld_vmax;
-      sh_rmax_m[si(ld_vs)]   <= ld_rmax;
-      sh_phase_m[si(ld_vs)]  <= ld_phase;
       sh_dbl_m[si(ld_vs)]    <= ld_dbl;
+      sh_track_m[si(ld_vs)]  <= ld_track;
+      sh_k_m[si(ld_vs)]      <= ld_k;
+      sh_vmax_m[si(ld_vs)]   <= ld_vmax;
       sh_lo_m[si(ld_vs)]     <= ld_lo;
       sh_hi_m[si(ld_vs)]     <= ld_hi;
-      sh_burst_m[si(ld_vs)]  <= ld_burst;
       sh_rxany_q <= ((ld_vs == '0) ? '0 : sh_rxany_q) | (ld_act ? ld_rx : '0);
     end
     if (cfg_share_we) begin
       sh_share_q[si(cfg_share_a)][si(cfg_share_b)] <= cfg_share;
       sh_share_q[si(cfg_share_b)][si(cfg_share_a)] <= cfg_share;
     end
-    if (cfg_blk_we) blk_q[int'(cfg_blk_addr)] <= '{a: cfg_blk_a, b: cfg_blk_b};
+  end
+  // The BLK RAM's one write port: ms_sched_cfg's blank intervals, and each table word the
+  // load reads (cfg_word_we). The load reads an entry's words before it writes the entry's
+  // blank intervals, and the previous entry's are written by then, so the two never meet
+  // (checked below).
+  logic              blk_we;
+  logic [BA-1:0]     blk_wa;
+  logic [35:0]       blk_wd;
+  always_comb begin
+    blk_we = cfg_blk_we || cfg_word_we;
+    blk_wa = cfg_blk_we ? {1'b0, cfg_blk_addr[SW+4:0]} : cw_addr(ld_vs, cfg_word);
+    blk_wd = cfg_blk_we ? {cfg_blk_a, cfg_blk_b} : {4'd0, vs_rdata_i};
+  end
+  always_ff @(posedge clk_i) begin
+    if (blk_we) blk_q[blk_wa] <= blk_wd;
   end
 `ifndef SYNTHESIS
   // for the testbench's check of the per-sensor state against the table (ms_scheduler_tb.sv):
   // the clock after the load's done, every sensor, share pair and blank interval written
   logic dbg_loaded;
   always_ff @(posedge clk_i) dbg_loaded <= !rst_i && st_q == S_LOAD && cfg_done;
-  always_ff @(posedge clk_i)
+  always_ff @(posedge clk_i) begin
     if (!rst_i && (cfg_chk_q || cfg_ld_q) && cfg_busy) $error("ms_scheduler: ms_sched_cfg started while busy");
+    if (!rst_i && cfg_blk_we && cfg_word_we)
+      $error("ms_scheduler: blank interval and table word written in one clock");
+  end
 `endif
 
   always_ff @(posedge clk_i) begin
     evt_valid_q  <= 1'b0;
     trig_valid_q <= 1'b0;
     pulse_q      <= 1'b0;
+    disp_chk_q   <= 1'b0;  // S_IDLE's dispatch sets it
+    if (stop_age_q != 2'd3) stop_age_q <= stop_age_q + 2'd1;  // S_CHECK restarts it
     // S_CAND's first clock clears the candidate set from a flop (S_EDF's go only sets
     // cand_clr_q), so the clear is not behind EDF's decision logic; S_CAND's stream writes it
     // from its fifth clock on
@@ -1136,7 +1189,7 @@ module ms_scheduler #(
       start_go_q <= 1'b0;  // S_LOAD sets it with its move to S_START
       cfg_chk_q  <= 1'b0;  // set with the move to S_CHECK / S_LOAD
       cfg_ld_q   <= 1'b0;
-      if (q_ovf) ovr_q <= 1'b1;
+      if (q_ovf || lag_late) ovr_q <= 1'b1;
       if (apply_i || (en_q && !en_prev_q)) apply_pend_q <= 1'b1;
       if (go) begin
         retry_q     <= rn_new;
@@ -1171,6 +1224,7 @@ module ms_scheduler #(
               end else if (started_q) begin
                 stop_req_q <= 1'b1;
                 stop_at_q  <= tick_i;
+                stop_age_q <= 2'd1;  // tick_i - stop_at_q, saturating at 3
                 st_q       <= S_SETTLE;  // the engine finishes every tick before stop_at
               end else begin
                 st_q <= S_STOP;
@@ -1215,7 +1269,7 @@ module ms_scheduler #(
             end else if (stop_ok) begin
               st_q <= S_STOP;
             end else if (take_q || sched_go) begin
-              if (lag_late) ovr_q <= 1'b1;  // closes could be missed
+              disp_chk_q <= 1'b1;  // lag_late: closes could be missed
               cur_tick_q <= take_q ? qh_tick : td_q;
               edges_q    <= take_q ? qh_edges : '0;
               closes_q   <= take_q ? qh_closes : '0;
@@ -1501,7 +1555,7 @@ module ms_scheduler #(
     // nxt_m holds the t0 of the next evaluation (its tick + P)
     if (isu_any_q)      nxt_wd = due_isu_q;    // t0 + period
     else if (cnf_any_q) nxt_wd = retry_q;
-    else if (sch_any_q) nxt_wd = s_early ? due_s_q : quiet_s_q;
+    else if (sch_any_q) nxt_wd = s_early ? due_s_q : quiet_rd_q;
     else                nxt_wd = due_ini_q;    // start tick + phase
     nxt_we = ps_live && (ini_any_q || (sch_any_q && (s_early || s_quiet)) || (cnf_any_q && rem_q == '0 && retry_vld_q)
                          || isu_any_q);
@@ -1777,7 +1831,6 @@ module ms_scheduler #(
       if (rst_i || (run_ok && st_q == S_START)) tu_ok_q[e] <= 1'b0;
       else if (ps_live && ew_q[e] && tu_we)     tu_ok_q[e] <= 1'b1;
     end
-    if (run_ok && st_q == S_START) bu_start_q <= tick_i;
   end
   always_ff @(posedge clk_i) begin
     if (ps_live && wvw_any_q) wv_m[ei_q]   <= wv_wd;  // as wv_ok_q[ei_q] (wvw_q)
@@ -1846,5 +1899,6 @@ module ms_scheduler #(
   logic unused_ok;
   assign unused_ok = ^{grx.trk, grx.tof, grx.v, grx.miss, grx.init, grx.vel, irx.trk, irx.vel, irx.tof, irx.v, hw.ws, hw.we,
                        hw.t0, hrx.tof[23:1], hrx.seq, hrx.v, hrx.miss, cw.ws, cw.t0, irx.miss, irx.init,
-                       o_mul[26:0]};
+                       o_mul[26:0], ld_use, cfg_blk_addr, ld_tx, ld_order,
+                       ld_reinit, ld_tv, ld_tn, ld_rmax, ld_phase, ld_burst};
 endmodule

@@ -144,24 +144,25 @@ module ms_scheduler_tb #(
   function automatic logic [NUM_CH-1:0] use_expect(input int s);
     use_expect = vs_tx[s] | vs_rx[s] | xt_expect(vs_tx[s], vs_nb[s]);
   endfunction
+  // sensor s's table word w as the scheduler keeps it (the upper half of its BLK RAM)
+  function automatic logic [35:0] cw(input int s, input logic [3:0] w);
+    cw = u_sched.blk_q[(1 << ($clog2(SCHED_VS) + 5)) + s * 16 + int'(w)];
+  endfunction
   always_ff @(posedge clk_i)
     if (u_sched.dbg_loaded)
       for (int s = 0; s < SCHED_VS; s++) begin
         automatic logic [15:0] dmax = '0;
         automatic logic [23:0] dbl;
         automatic logic [NUM_CH-1:0] xt = xt_expect(vs_tx[s], vs_nb[s]);
+        automatic logic words_ok = 1'b1;
         for (int e = 0; e < NUM_CH; e++)
           if (vs_tx[s][e] && u_dly.mem_q[s * 32 + e] > dmax) dmax = u_dly.mem_q[s * 32 + e];
         dbl = 24'((vs_dead[s] > vs_xt[s]) ? vs_dead[s] : vs_xt[s]) + 24'(dmax);
-        if (u_sched.sh_tx_m[s] != vs_tx[s] || u_sched.sh_rx_m[s] != vs_rx[s]
-            || u_sched.sh_xt_m[s] != xt || u_sched.sh_use_m[s] != use_expect(s)
+        for (int w = 0; w < 9; w++) if (cw(s, 4'(w)) != {4'd0, vs_word(s * 9 + w)}) words_ok = 1'b0;
+        if (!words_ok || u_sched.sh_xt_m[s] != xt || u_sched.sh_dbl_m[s] != dbl
             || u_sched.sh_track_m[s] != (vs_mode[s] == 2'd1) || u_sched.sh_act_q[s] != (vs_mode[s] != 2'd0)
-            || u_sched.sh_order_m[s] != vs_order[s] || u_sched.sh_k_m[s] != vs_k[s]
-            || u_sched.sh_reinit_m[s] != vs_reinit[s]
-            || u_sched.sh_tv_m[s] != vs_tv[s] || u_sched.sh_tn_m[s] != vs_tn[s]
-            || u_sched.sh_vmax_m[s] != vs_vmax[s] || u_sched.sh_rmax_m[s] != vs_rmax[s]
-            || u_sched.sh_phase_m[s] != vs_phase[s] || u_sched.sh_burst_m[s] != vs_burst[s]
-            || u_sched.sh_dbl_m[s] != dbl || u_sched.sh_lo_m[s] != dbl + 24'(vs_tv[s])
+            || u_sched.sh_k_m[s] != vs_k[s] || u_sched.sh_vmax_m[s] != vs_vmax[s]
+            || u_sched.sh_lo_m[s] != dbl + 24'(vs_tv[s])
             || u_sched.sh_hi_m[s] != vs_rmax[s] - 24'(vs_tn[s]))
           $error("ms_scheduler_tb: sensor %0d's per-sensor state differs from its table entry after the load", s);
         for (int o = 0; o < SCHED_VS; o++)
@@ -180,9 +181,9 @@ module ms_scheduler_tb #(
             end
           end
           b = vs_tx[s][e] ? 20'(lo) + 20'(vs_dead[s]) : 20'(hi) + 20'(vs_xt[s]);
-          if ((vs_tx[s][e] || xt[e]) && (u_sched.blk_q[s * 32 + e].a != lo || u_sched.blk_q[s * 32 + e].b != b))
+          if ((vs_tx[s][e] || xt[e]) && u_sched.blk_q[s * 32 + e] != {lo, b})
             $error("ms_scheduler_tb: blank interval of sensor %0d element %0d: [%0d, %0d), expected [%0d, %0d)",
-                   s, e, u_sched.blk_q[s * 32 + e].a, u_sched.blk_q[s * 32 + e].b, lo, b);
+                   s, e, u_sched.blk_q[s * 32 + e][35:20], u_sched.blk_q[s * 32 + e][19:0], lo, b);
         end
       end
 
