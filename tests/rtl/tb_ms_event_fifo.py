@@ -11,7 +11,7 @@ import random
 import cocotb
 from cocotb.triggers import FallingEdge, RisingEdge
 
-from tbutil import reset, start_clock
+from tbutil import start_and_reset
 
 OVF = 1 << 44
 
@@ -44,11 +44,7 @@ class FifoModel:
 
 
 async def run(dut, cycles: int, p_wr: float, p_rd: float, seed: int, depth: int) -> tuple[int, int]:
-    start_clock(dut.clk_i)
-    dut.wr_i.value = 0
-    dut.rd_i.value = 0
-    dut.wdata_i.value = 0
-    await reset(dut.clk_i, dut.rst_i)
+    await start_and_reset(dut.clk_i, dut.rst_i, dut.wr_i, dut.rd_i, dut.wdata_i)
     rng = random.Random(seed)
     model = FifoModel(depth)
     popped = overflows = 0
@@ -94,10 +90,7 @@ async def overflow_counted_and_flagged(dut):
 @cocotb.test(timeout_time=5, timeout_unit="ms")
 async def drain_after_overflow(dut):
     """Fill with no reads, overflow, then drain completely (the model checks every head)."""
-    start_clock(dut.clk_i)
-    dut.wr_i.value = 0
-    dut.rd_i.value = 0
-    await reset(dut.clk_i, dut.rst_i)
+    await start_and_reset(dut.clk_i, dut.rst_i, dut.wr_i, dut.rd_i)
     n = DEPTH + 1 + 17
     for i in range(n):
         await FallingEdge(dut.clk_i)

@@ -15,7 +15,7 @@ import random
 import cocotb
 from cocotb.triggers import FallingEdge
 
-from tbutil import reset, start_clock
+from tbutil import reset, start_and_reset
 
 
 class QueueModel:
@@ -44,11 +44,7 @@ async def traffic(dut, cycles: int, p_push: float, p_pop: float, seed: int,
     """Random push / pop with the given rates (push in bursts of ``burst`` clocks); every
     cycle's head_o, empty_o and overflow_o are compared with the model."""
     depth, width = sizes(dut)
-    start_clock(dut.clk_i)
-    dut.push_i.value = 0
-    dut.pop_i.value = 0
-    dut.data_i.value = 0
-    await reset(dut.clk_i, dut.rst_i)
+    await start_and_reset(dut.clk_i, dut.rst_i, dut.push_i, dut.pop_i, dut.data_i)
     rng = random.Random(seed)
     model = QueueModel(depth)
     run = 0
@@ -101,10 +97,7 @@ async def push_and_pop_while_full(dut):
     """Full queue, push and pop in one clock: the head leaves and the pushed word is dropped
     (the full flag is the clock's before the pop); reset then clears overflow_o."""
     depth, width = sizes(dut)
-    start_clock(dut.clk_i)
-    dut.push_i.value = 0
-    dut.pop_i.value = 0
-    await reset(dut.clk_i, dut.rst_i)
+    await start_and_reset(dut.clk_i, dut.rst_i, dut.push_i, dut.pop_i)
     mask = (1 << width) - 1
     for i in range(depth):
         await FallingEdge(dut.clk_i)

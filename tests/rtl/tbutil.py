@@ -20,3 +20,11 @@ async def reset(clk, rst, cycles: int = 4) -> None:
     await ClockCycles(clk, cycles)
     rst.value = 0
     await ClockCycles(clk, 2)
+
+
+async def start_and_reset(clk, rst, *inputs) -> None:
+    """Drive ``inputs`` low, start the clock and reset: the opening of most unit benches."""
+    for sig in inputs:
+        sig.value = 0
+    start_clock(clk)
+    await reset(clk, rst)
