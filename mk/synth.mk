@@ -12,8 +12,8 @@
 #                             (out of context) for its routed Fmax
 # Options: SYNTH_APP (firmware in the RAM image; default sonar_app, the application the host
 # driver talks to), ECP5_DEVICE (25k,
-# 45k, 85k; default 45k, the smallest ULX3S the full design routes on: it needs about 22.5k
-# TRELLIS_COMB and 57 DP16KD, 91 % / 102 % of the 25k; 25k builds the reduced 25F profile
+# 45k, 85k; default 45k, the smallest ULX3S the full design fits: it needs about 22k
+# TRELLIS_COMB and 57 DP16KD, the 25k has 24,288 and 56; 25k builds the reduced 25F profile
 # below into build/synth/ecp5-25k/; docs/synthesis.md),
 # SYNTH_SEED (nextpnr seed), SYNTH_SEEDS
 # (several seeds placed and routed in parallel, the one with the highest Fmax kept; default
@@ -66,8 +66,9 @@ ifeq ($(TARGET),ecp5)
   # the same on every ULX3S
   SYNTH_HEX    := $(BUILD)/synth/ecp5/fw/$(SYNTH_APP).hex
   SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\"
-  # The LFE5U-25F profile: the full design needs ~22.5k of its 24,288 TRELLIS_COMB and 57 of
-  # its 56 DP16KD and does not route there (docs/synthesis.md, "The 25F profile"). On the 25F
+  # The LFE5U-25F profile: the full design needs 57 of its 56 DP16KD and, with VexRiscv's
+  # register file in LUT-RAM, 88 % of its TRELLIS_COMB, with no timing margin left
+  # (docs/synthesis.md, "The 25F profile"). On the 25F
   # the scheduler runs 4 virtual sensors (NUM_VS) with 8 window slots per element (WSLOTS),
   # which CAPS reports to the host, and VexRiscv has an 8 KiB instruction cache instead of
   # 16 KiB (4 DP16KD; the geometry budget per fix doubles with half the sensors). The USB IN
