@@ -15,7 +15,7 @@
 // Configuration: apply_i (CTRL.apply) or a rising enable_i has ms_sched_cfg check the CSR
 // table (vs_raddr_o, delay_raddr_o). A refused table leaves everything as it was and reports
 // cfg_error_o (codes: docs/protocol.md section 5) and cfg_error_vs_o; for an accepted one
-// ms_sched_cfg loads the per-sensor state, the share matrix and the BLK RAM of blank offsets
+// ms_sched_cfg loads the per-sensor state, the share matrix and the SNS RAM's blank offsets
 // and the schedule (re)starts: an apply while running first finishes every logical tick
 // before the apply tick, then drops all windows (no events for them; triggers already armed
 // still fire) and starts afresh.
@@ -40,14 +40,14 @@
 //     pulse record of every issued pulse (bit 62) in its decision's SCHED phase, a cancel
 //     record (bits 62, 61) where a re-initialisation cancels a sensor's windows.
 //
-// Storage: per-element window slots (WIN: t0, offsets, seq, epoch, init), per (sensor,
-// receiver) tracking state (RXS), per (sensor, element) blank offsets and the applied table's
-// words per sensor (BLK), each with one registered read and one write port (block RAM on
-// the FPGA). Per element (one word each):
+// Storage: per-element window slots (WIN: t0, offsets, seq, epoch, init) and the sensor RAM
+// (SNS: per (sensor, receiver) tracking state, per (sensor, element) blank offsets and the
+// applied table's words per sensor), each with one registered read and one write port (block
+// RAM on the FPGA). Per element (one word each):
 // slot valid, hit and gated bits, slot sensors, head slot, blank_until and tx_until in
 // distributed RAM (a flop per element says whether its valid bits, blank_until and tx_until
-// were written since the start, so a start clears them at once), the head's close tick in
-// flops (compared every clock);
+// were written since the start, so a start clears them at once), the low bits of the head's
+// close tick in flops (compared every clock; IEL reads the whole tick from the head's slot);
 // every per-element array has one read and one write port, at the element the engine state
 // works on (ei), so the logic per element is a clock enable. A safety cancel clears the
 // sensor's slots one element per clock (S_SAFE, NUM_CH clocks). Per sensor, due,
@@ -105,10 +105,11 @@ module ms_scheduler #(
   localparam int KW  = $clog2(WSLOTS);     // slot index width
   localparam int QW  = 32 + 2 * NUM_CH;    // work-queue word {tick, edges, closes}
   localparam int DW  = 19;                 // T_dead / T_xtalk (VS_T_DEAD.ticks, VS_XTALK.t_xtalk)
-  localparam int BW  = 20;                 // blank end offset width (delay + T_dead): BLK words of 36 bits, one DP16KD
+  localparam int BW  = 20;                 // blank end offset width (delay + T_dead): 36-bit words
   localparam logic [31:0] LEAD32 = 32'(LEAD);
   localparam int MAX_ORDER = 8;            // highest fast-firing order (CAPS.max_order)
   localparam int OW  = 4;                  // order width (VS_MODE.order)
+  localparam int RTW = 26;                 // conflict scan: retry t0 - candidate t0 (|x| < 2^25)
   // Sensor indices are VW bits wide everywhere (event fields, pulse_vs_o); the per-sensor
   // storage has NUM_VS entries, addressed by the low SW bits (si): a reduced build (NUM_VS
   // 4 on the 25F) only ever counts sensors up to NUM_VS - 1.
@@ -154,7 +155,7 @@ module ms_scheduler #(
   // ------------------------------------------------------------------ shadow configuration
   // The table fields the engine reads for sensor s_q from S_SCHED on (masks, window, max ToF,
   // order, burst, re-init count) and its phase (S_INIT) are the applied table's words, kept in
-  // the upper half of the BLK RAM (the configuration words below) and fetched one per clock
+  // the sensor RAM (SNS, the configuration words below) and fetched one per clock
   // into the s_* registers. Derived fields and those read by another sensor index (HIT,
   // CLOSE) live in distributed RAM (*_m: one write port, written by S_LOAD one sensor per
   // clock; each read index is a copy of the RAM). Flops hold what is read for all sensors.
@@ -169,22 +170,27 @@ module ms_scheduler #(
   logic [NUM_CH-1:0]             sh_rxany_q;  // receivers of the active sensors
   logic [NUM_VS-1:0][NUM_VS-1:0] sh_share_q;
   logic [15:0]                   sh_gate_q;  // gated miss rule (0 off)
-  // BLK RAM, one word of 36 bits (one DP16KD for 8 sensors): the lower half holds per
-  // (sensor, element) blank interval offsets from t0, [a, b) (tx: delay, delay + T_dead;
-  // crosstalk neighbour: first, last tx delay within nb + T_xtalk) at {0, sensor, element};
-  // the upper half the configuration words, the nine table words of each sensor as the load
-  // read them (register r of the entry, sonar_regs.rdl's fields) at {1, 0, sensor, r}.
+  // The sensor RAM (SNS, declared with the tracking state below) holds, besides the tracking
+  // state, the blank interval offsets from t0 of each (sensor, element), [a, b) (tx: delay,
+  // delay + T_dead; crosstalk neighbour: first, last tx delay within nb + T_xtalk), and the
+  // applied table's words of each sensor as the load read them (sonar_regs.rdl's fields) in
+  // word slots CW_*: table registers 0..3, 5, 7 in the slots of their number, PHASE (8) in
+  // slot 4; T_DEAD and XTALK only feed derived fields and are not kept.
   typedef struct packed {
     logic [DELAY_W-1:0] a;
     logic [BW-1:0]      b;
   } blk_t;
-  localparam int BA = SW + 6;  // BLK RAM address: {0, sensor, element} / {1, 0, sensor, word}
-  localparam logic [3:0] CW_TX = 4'd0, CW_RX = 4'd1, CW_MODE = 4'd2, CW_WIN = 4'd3,
-                         CW_RMAX = 4'd5, CW_TRACK = 4'd7, CW_PHASE = 4'd8;
-  function automatic logic [BA-1:0] cw_addr(input logic [VW-1:0] s, input logic [3:0] w);
-    cw_addr = {1'b1, 1'b0, si(s), w};
+  localparam int BA = SW + 6;  // SNS address: {0, sensor, receiver} / {0, sensor, CW_BASE + slot} /
+                               // {1, sensor, element}
+  localparam int CW_BASE = 24;
+  localparam logic [2:0] CW_TX = 3'd0, CW_RX = 3'd1, CW_MODE = 3'd2, CW_WIN = 3'd3,
+                         CW_PHASE = 3'd4, CW_RMAX = 3'd5, CW_TRACK = 3'd7;
+  if (NUM_CH > CW_BASE) begin : g_bad_cw_base
+    $error("ms_scheduler: NUM_CH = %0d, the table words sit at receiver %0d up", NUM_CH, CW_BASE);
+  end
+  function automatic logic [BA-1:0] cw_addr(input logic [VW-1:0] s, input logic [2:0] k);
+    cw_addr = {1'b0, si(s), 5'(CW_BASE) + 5'(k)};
   endfunction
-  logic [35:0] blk_q [2**BA];
 
   // ------------------------------------------------------------------ sensor state
   // due, quiet (max ToF end of the last pulse) and next-evaluation ticks: distributed RAM,
@@ -209,7 +215,9 @@ module ms_scheduler #(
     logic               init;
     logic               vel;   // v measured (last sample followed one of the previous pulse): gate on
   } rxs_t;
-  rxs_t rxs_q [NUM_VS * 32];
+  // SNS: one block RAM (two DP16KD) for the tracking state of (sensor, receiver) at {0, sensor,
+  // receiver}, the table words and the blank intervals (above); one read and one write port
+  logic [$bits(rxs_t)-1:0] sns_q [2**BA];
 
   // ------------------------------------------------------------------ element state
   typedef struct packed {
@@ -224,13 +232,16 @@ module ms_scheduler #(
   // one read port per RAM (the address depends on the state), so both map to distributed RAM
   logic [$clog2(NUM_CH * WSLOTS)-1:0] win_ra;
   win_t                               win_rd;
-  logic [$clog2(NUM_VS * 32)-1:0]     rxs_ra;
-  rxs_t                               rxs_rd;
-  logic [BA-1:0]                      blk_ra;
-  logic [35:0]                        cb_raw;  // BLK RAM word at blk_ra of the clock before
+  logic [BA-1:0]                      sns_ra;   // SNS read address (the state's)
+  logic [BA-2:0]                      rxs_wa;   // tracking state written: {sensor, receiver}
+  logic [$bits(rxs_t)-1:0]            sns_rd;   // SNS word at sns_ra of the clock before
+  rxs_t                               rxs_rd;   // ... as tracking state
+  logic [35:0]                        cb_raw;   // ... as a table word or blank interval
+  assign rxs_rd = rxs_t'(sns_rd);
+  assign cb_raw = sns_rd[35:0];
   blk_t                               cb;      // ... as the blank interval of (s_q, rel)
   assign cb = blk_t'(cb_raw);
-  win_t                               win_c_q; // stage C copies of the WIN / RXS words
+  win_t                               win_c_q; // stage C copies of the WIN / tracking-state words
   rxs_t                               rxs_c_q;
   // Per-element state has one read and one write port, both at the element the state is
   // working on (ei below): head close ticks in flops (compared every clock), the rest in
@@ -252,7 +263,8 @@ module ms_scheduler #(
   logic [NUM_CH-1:0]                     hd_vld_q;     // head: next window to close
   logic [KW-1:0]                         hd_slot_m [32];
   // Close tick of the element's head for close_eq_q: its low HCW bits (the engine reads the
-  // full 32 bits from hd_close_m). A head is written with a close tick at most 2^24 (window
+  // full 32 bits from the head slot's WIN word). A head is written with a close tick at most
+  // 2^24 (window
   // end offset) + LEAD + the engine's lag after the write tick, so tick_i reaches it within
   // 2^(HCW-1) ticks: the low bits match there first (checked in simulation below). A close
   // lost to a work-queue overflow would match again after 2^HCW ticks (1.4 s) instead of 2^32;
@@ -270,7 +282,6 @@ module ms_scheduler #(
   logic [NUM_CH-1:0][LB-1:0]             hd_lo_q;
   logic [NUM_CH-1:0]                     blk_cur_q, blk_nxt_q;
   logic [HBW-1:0]                        hd_hi_m [2**LB];      // close tick bits [HCW-1:LB], read by the scan
-  logic [31:0]                           hd_close_m [NUM_CH];  // the whole close tick, for the engine's reads at ei
 
   // candidate pulse: per receiver predicted T_E and whether it gets a window
   logic [23:0]       cand_te_q [NUM_CH];
@@ -286,7 +297,7 @@ module ms_scheduler #(
   state_t st_q;
   // Each engine state reads in its first clocks and decides in its last one (the go clock).
   // Every clock registers: stage A, the per-element words of the element the state works on
-  // (and the per-sensor words of s_q / o_q); stage B, the WIN / RXS / BLK words addressed by
+  // (and the per-sensor words of s_q / o_q); stage B, the WIN / SNS words addressed by
   // the state and stage A; stage C, window ticks and the prediction from stage B; stage D,
   // the compares on stage C. A state that needs stage X decides once its registers have been
   // stable long enough for X to hold its inputs (need), so no path runs from one RAM's output
@@ -312,7 +323,8 @@ module ms_scheduler #(
   end
   assign go = (ph_q == need);
 
-  logic [31:0]       eng_tick_q, cur_tick_q, t_q, retry_q, minclose_q, stop_at_q;
+  logic [31:0]       eng_tick_q, cur_tick_q, t_q, minclose_q, stop_at_q;
+  logic [RTW-1:0]    retry_q;  // S_CONF .. S_CFULL: the retry t0 - t_q (see the conflict scan)
   logic              retry_vld_q, stop_req_q, started_q, ovr_q, found_q;
   logic [1:0]        stop_age_q;  // clocks since stop_at_q was set (= tick_i - stop_at_q), up to 3
   logic [3:0]        settle_q;   // clocks until td_q is valid again
@@ -336,8 +348,7 @@ module ms_scheduler #(
   (* fsm_encoding = "none" *) logic [RW-1:0] el_q;
   logic [VW-1:0]     s_q, o_q;
   logic              blk_on_q, win_on_q;
-  logic [23:0]       te_min_q, te_max_q, cws_q, period_q;
-  logic [DELAY_W-1:0] cba_q;
+  logic [23:0]       te_min_q, te_max_q, period_q;
   logic [OW-1:0]     n_q;
   logic [7:0]        kseq_q;
 
@@ -486,20 +497,22 @@ module ms_scheduler #(
 
   // ---- stages C and D (see ph_q): registered every clock from stage B / C and the state
   logic [31:0]        w_start_c_q, w_end_c_q, w_close_c_q;  // WIN word: start, end, close tick
-  logic signed [8:0]  gap_c_q;        // RXS word's pulse gap (EDGE: to the window's pulse, CAND: to seq_q)
-  logic signed [26:0] pred_d_q;       // RXS word: tof + gap * v (stage D: the gap and the multiply need a clock each)
+  logic signed [8:0]  gap_c_q;        // pulse gap (HIT: to the window's pulse, CAND: to seq_q)
+  logic signed [26:0] pred_d_q;       // tof + gap * v (stage D: gap and multiply a clock each)
   logic [23:0]        lo_c_q, hi_c_q; // prediction clamp of the sensor (EDGE: the window's, else s_q)
   logic [23:0]        h_tof_c_q;      // HIT: the edge's time of flight in the window
   logic [23:0]        c_wso_c_q, c_weo_c_q;  // CONF / IEL: window offsets of receiver rel
-  logic [31:0]        ta_c_q, tb_c_q, tws_c_q, twe_c_q;  // t0 + blank a / b, t0 + window offsets
+  logic [31:0]        ta_c_q, tb_c_q;  // t0 + blank a / b (stage C)
+  logic [31:0]        bu_rel_c_q;      // CONF: blank_until - t0 (stage C)
+  logic [31:0]        tws_d_q, twe_d_q;  // t0 + window offsets (stage D)
   logic signed [24:0] h_dv_d_q;
   logic [24:0]        h_abs_d_q;
-  logic [31:0]        iw_close_c_q;    // IEL: close tick of the new window, t_q + p_weo - 1 + lat (stage C)
+  logic [31:0]        iw_close_d_q;    // IEL: the new window's close tick, t_q + p_weo - 1 + L
+  logic [31:0]        tl_q;            // t_q + L - 1
   logic               iw_first_d_q, bu_later_d_q, tu_later_d_q;
   logic [23:0]        te_d_q;          // CAND: the clamped prediction
   logic [31:0]        t_cand_q;        // cur_tick_q + P (the candidate t0 of a SCHED decision)
   logic [31:0]        due_isu_q, due_ini_q, quiet_isu_q;
-  logic [31:0]        tba_q, tbb_q, tws_q, twe_q;  // S_CSLOT: the CONF element's t0 + offsets
   // per-sensor words: due of s_q; due of o_q in S_EDF, of c_s_q in S_CLOSE (due_x_q); quiet of
   // o_q in S_EDF, else of s_q (quiet_rd_q); one read port per address, the words one clock later
   logic [31:0]        due_s_q, due_x_q, quiet_rd_q;
@@ -540,7 +553,7 @@ module ms_scheduler #(
   end
   logic [WSLOTS-1:0]         wv_e, wh_e, wr_e;
   logic [WSLOTS-1:0][VW-1:0] wsid_e;
-  logic [31:0]               bu_e, tu_e, hd_close_e;
+  logic [31:0]               bu_e, tu_e;
   logic                      bu_ok_e, tu_ok_e;  // bu_e / tu_e written since the start
   logic [KW-1:0]             hd_slot_e;
   logic [NUM_CH-1:0]         s_rx_q;  // sensor s_q's receivers (registered with its words below)
@@ -563,7 +576,6 @@ module ms_scheduler #(
     tu_ok_e    <= tu_ok_q[ei_q];
     hd_vld_e   <= hd_vld_q[ei_q];
     hd_slot_e  <= hd_slot_m[ei_q];
-    hd_close_e <= hd_close_m[ei_q];  // distributed RAM: no 24:1 multiplexer of the flops
     rel_tx_e   <= s_tx_q[rel_q];  // receiver / element rel of sensor s_q (CAND, CONF, IEL)
     rel_xt_e   <= s_xt_q[rel_q];
     rel_act_e  <= s_rx_q[rel_q] && cand_act_m[rel_q];
@@ -580,7 +592,7 @@ module ms_scheduler #(
   assign e_match = ($signed(n_edge - e_ws) >= 0) && ($signed(n_edge - e_we) < 0);
   // gated miss rule, step 1 (HIT): the prediction for window fslot_q's pulse from its
   // sensor's tracking state of receiver er (model _predict(s, st, w.seq), signed pulse gap),
-  // from the WIN and RXS words HIT reads (stages B-D), registered (g_te_q) for step 2
+  // from the WIN and tracking-state words HIT reads (stages B-D), registered (g_te_q) for step 2
   rxs_t               grx;
   logic signed [7:0]  g_gap;
   logic signed [26:0] g_pred;
@@ -598,7 +610,7 @@ module ms_scheduler #(
   always_ff @(posedge clk_i) g_te_q <= g_te;  // in S_HIT final from its fourth clock (need)
 
   // HIT: window fslot_q of receiver er, its sensor's tracking state. The sensor h_s addresses
-  // RXS (stage B); the decision reads only registers derived from it (h_*_q, one clock each
+  // SNS (stage B); the decision reads only registers derived from it (h_*_q, one clock each
   // behind the window word, rxs word and h_dv_d_q), so no slot or sensor multiplexer feeds a
   // compare or a RAM's write data in the go clock.
   win_t        hw;
@@ -750,17 +762,17 @@ module ms_scheduler #(
   assign s_seq_q = s_pid_q[7:0];
   logic              s_ep_q;
   // The table words of s_q: S_SCHED and S_EDF address word cw_rd_q (0 .. CW_TRACK, one per
-  // clock from their first clock), the BLK RAM returns it a clock later (cw_v_q, cw_w_q) and
+  // clock from their first clock), SNS returns it a clock later (cw_v_q, cw_w_q) and
   // its fields are registered from there, so the last arrives 9 clocks after SCHED's first
   // and the words derived from them two clocks later. Their first reader, EDF's last go
   // (s_rx_q, word 1), comes 3 + 3 NUM_VS >= 9 clocks after SCHED's first; ORDER, CONF, ISSUE
   // and IEL come after CAND and ORDER (5 clocks each at least). s_q and these registers do
   // not change from SCHED to the end of IEL.
-  logic [3:0] cw_rd_q, cw_w_q;
+  logic [2:0] cw_rd_q, cw_w_q;
   logic       cw_v_q;
   always_ff @(posedge clk_i) begin
     if (!(st_q inside {S_SCHED, S_EDF})) cw_rd_q <= CW_TX;
-    else if (cw_rd_q != CW_TRACK)        cw_rd_q <= cw_rd_q + 4'd1;
+    else if (cw_rd_q != CW_TRACK)        cw_rd_q <= cw_rd_q + 3'd1;
     cw_v_q <= st_q inside {S_SCHED, S_EDF};
     cw_w_q <= cw_rd_q;
     if (cw_v_q) begin
@@ -771,7 +783,7 @@ module ms_scheduler #(
         CW_WIN:   {s_tn_q, s_tv_q}      <= cb_raw[31:0];
         CW_RMAX:  s_rmax_q              <= cb_raw[23:0];
         CW_TRACK: s_burst_q             <= cb_raw[23:16];
-        default: ;  // T_DEAD, XTALK: derived fields in sh_dbl_m, sh_xt_m
+        default: ;  // PHASE (S_INIT), slot 6 unused
       endcase
     end
   end
@@ -813,7 +825,7 @@ module ms_scheduler #(
   assign o_first = eo_lt_q || (eo_eq_q && eo_idlt_q);
 
   // CAND: prediction for receiver rel of sensor s_q's pulse seq_q[si(s_q)], a receiver stream
-  // like the slot streams: receiver rel reads RXS in the clock it leaves rem_q, its
+  // like the slot streams: receiver rel reads SNS in the clock it leaves rem_q, its
   // prediction (te_d_q) is ready four clocks later (cv_*_q: stages B-E), where S_CAND folds it
   // into the candidate (receivers never depend on one another)
   logic          cv_b_q, cv_c_q, cv_d_q, cv_e_q, ct_d_q, ct_e_q;
@@ -827,7 +839,7 @@ module ms_scheduler #(
     rl_c_q <= rl_b_q;
     rl_d_q <= rl_c_q;
     rl_e_q <= rl_d_q;
-    ct_d_q <= rxs_c_q.trk;  // the receiver is tracked (stage C of its RXS word)
+    ct_d_q <= rxs_c_q.trk;  // the receiver is tracked (stage C of its tracking-state word)
     ct_e_q <= ct_d_q;
   end
   rxs_t        irx;
@@ -836,31 +848,32 @@ module ms_scheduler #(
   logic [23:0] i_lo, i_hi, i_te;
   assign irx    = rxs_rd;
 
-  // ---- the single read (and write) port of WIN and RXS, addressed by the state using it
+  // ---- the single read port of WIN and SNS, addressed by the state using it
   always_comb begin
     unique case (st_q)
       S_EDGE:  win_ra = $bits(win_ra)'(int'(er) * WSLOTS + int'(sk));
       S_HIT:   win_ra = $bits(win_ra)'(int'(er) * WSLOTS + int'(fslot_q));
       S_CLOSE: win_ra = $bits(win_ra)'(int'(clr) * WSLOTS + int'(c_slot));
+      S_IEL:   win_ra = $bits(win_ra)'(int'(rel) * WSLOTS + int'(hd_slot_e));  // the head's close
       default: win_ra = $bits(win_ra)'(int'(el_q) * WSLOTS + int'(sk));  // S_HEAD, S_CSLOT
     endcase
     unique case (st_q)
-      S_HIT:   rxs_ra = {si(h_s), er};
-      S_CLOSE: rxs_ra = {si(c_s), clr};
-      default: rxs_ra = {si(s_q), rel};  // S_CAND, S_IEL
+      S_HIT:   rxs_wa = {si(h_s), er};
+      S_CLOSE: rxs_wa = {si(c_s), clr};
+      default: rxs_wa = {si(s_q), rel};  // S_IEL
     endcase
     unique case (st_q)
-      S_SCHED, S_EDF: blk_ra = cw_addr(s_q, cw_rd_q);  // the sensor's words, one per clock
-      S_INIT:         blk_ra = cw_addr(s_q, CW_PHASE);
-      default:        blk_ra = {1'b0, si(s_q), rel};    // S_CONF, S_IEL: blank intervals
+      S_HIT, S_CLOSE, S_CAND: sns_ra = {1'b0, rxs_wa};           // tracking state
+      S_SCHED, S_EDF:         sns_ra = cw_addr(s_q, cw_rd_q);     // the sensor's words, a clock each
+      S_INIT:                 sns_ra = cw_addr(s_q, CW_PHASE);
+      default:                sns_ra = {1'b1, si(s_q), rel};      // S_CONF, S_IEL: blank intervals
     endcase
   end
   // stage B: registered every clock, addressed by the state and the stage-A words; stage C
   // keeps a copy for the decisions (a block RAM's output has no time left for logic after it)
   always_ff @(posedge clk_i) begin
     win_rd  <= win_q[win_ra];
-    rxs_rd  <= rxs_q[rxs_ra];
-    cb_raw  <= blk_q[blk_ra];
+    sns_rd  <= sns_q[sns_ra];
     win_c_q <= win_rd;
     rxs_c_q <= rxs_rd;
   end
@@ -918,7 +931,7 @@ module ms_scheduler #(
   end
   assign o_feas = (o_ts_q != 24'd0) && (o_lhs_q >= o_rhs_q);
 
-  // CONF / IEL: element rel of the candidate (blank interval from BLK, window from CAND)
+  // CONF / IEL: element rel of the candidate (blank interval from SNS, window from CAND)
   logic        c_blk, c_win;
   logic [23:0] c_wso, c_weo;
   assign c_blk = rel_tx_e || rel_xt_e;
@@ -928,7 +941,7 @@ module ms_scheduler #(
   logic [KW-1:0] free_slot;
   assign free_slot = lsb_slot(~wv_e);
   logic [31:0] iw_close;
-  assign iw_close = iw_close_c_q;
+  assign iw_close = iw_close_d_q;
   logic [31:0] trig_dly;
   assign trig_dly = ta_c_q + ~tick_i;  // t0 + delay - tick_i - 1
 
@@ -939,24 +952,29 @@ module ms_scheduler #(
   // conflict scan: the latest retry t0 among the conflicts seen (model _conflict). Each
   // CONF / CSLOT step offers at most two retries, x and y, registered with their flags in
   // stage D; the new retry is the latest of x, y and retry_q, picked from three compares made
-  // side by side (every value lies within 2^31 ticks of the others, so "later" orders them).
+  // side by side. Retries are kept relative to the candidate t0 (t_q): a conflict's retry is
+  // the end of what it overlaps minus the candidate's start of it, so the subtraction that
+  // gives the retry also says whether there is a conflict (> 0), and a retry lies within
+  // 2^24 + 2^9 ticks of t_q (a window ends at most 2^24 after its t0, which is <= t_q; a
+  // blank_until or tx_until at most 2^20 after t_q), so RTW bits hold it.
   //   S_CONF  x: a tx element's trigger before its tx_until (rule 5: no burst over a burst),
   //           y: a window start before the element's blank_until (an element is one or the
   //              other for a sensor whose rx and tx differ, both when it is in both);
   //   S_CSLOT x: the blank interval overlapping a reserved window,
   //           y: the window overlapping one, or (after the last slot) every slot taken.
-  logic        rx_on, ry_on, rz_on, r_xy, r_xz, r_yz, rv_new;
-  logic [31:0] rn_new;
-  logic        rx_on_d_q, ry_on_d_q;
-  logic [31:0] rx_d_q, ry_d_q;
+  logic           rx_on, ry_on, rz_on, r_xy, r_xz, r_yz, rv_new;
+  logic [RTW-1:0] rn_new;
+  logic           rx_on_d_q, ry_on_d_q;
+  logic [RTW-1:0] rx_d_q, ry_d_q;
+  logic [31:0]    rx_dif, ry_dif, rxs_dif, rys_dif;  // CONF / CSLOT: retry - t_q, 32 bits
   always_comb begin
     // S_CSLOT folds a slot's flags in its stage-D clock only (its first clock still sees S_CONF's)
     rx_on  = (st_q == S_CONF || (st_q == S_CSLOT && sv_d_q)) && rx_on_d_q;
     ry_on  = (st_q == S_CONF || (st_q == S_CSLOT && sv_d_q) || st_q == S_CFULL) && ry_on_d_q;
     rz_on  = retry_vld_q;
-    r_xy   = !later(ry_d_q, rx_d_q);   // x >= y
-    r_xz   = !later(retry_q, rx_d_q);  // x >= retry
-    r_yz   = !later(retry_q, ry_d_q);  // y >= retry
+    r_xy   = $signed(rx_d_q) >= $signed(ry_d_q);   // x >= y
+    r_xz   = $signed(rx_d_q) >= $signed(retry_q);  // x >= retry
+    r_yz   = $signed(ry_d_q) >= $signed(retry_q);  // y >= retry
     rv_new = rx_on || ry_on || rz_on;
     if (rx_on && (!ry_on || r_xy) && (!rz_on || r_xz)) rn_new = rx_d_q;
     else if (ry_on && (!rz_on || r_yz))                 rn_new = ry_d_q;
@@ -971,18 +989,22 @@ module ms_scheduler #(
   assign p_gap = (st_q == S_HIT) ? 9'(g_gap) : $signed({1'b0, i_gap});
   assign p_s   = (st_q == S_HIT) ? h_s : s_q;
   assign p_te  = rel_te_e;
-  // the candidate's t0 (t_q, fixed from SCHED to IEL) plus the sensor's window offsets,
-  // registered long before CONF / IEL read them
-  logic [31:0] t_mtv_q, t_ptn_q, t_pdbl_q, t_prmax_q, t_ptnl_q, t_prmaxl_q;
+  // the candidate's t0 (t_q, fixed from SCHED to IEL) plus the window's close latency,
+  // registered long before IEL reads it
+  // and the retry of a deferral as a t0 (nxt_m's write one clock after CONF's last go)
+  logic [31:0] retry_t0_q;
   always_ff @(posedge clk_i) begin
-    t_mtv_q    <= t_q - 32'(s_tv_q);
-    t_ptn_q    <= t_q + 32'(s_tn_q);
-    t_pdbl_q   <= t_q + 32'(s_dbl_q);
-    t_prmax_q  <= t_q + 32'(s_rmax_q);
-    t_ptnl_q   <= t_ptn_q + 32'(latm1_q);    // ... and the window's close latency
-    t_prmaxl_q <= t_prmax_q + 32'(latm1_q);
+    tl_q       <= t_q + 32'(latm1_q);
+    retry_t0_q <= t_q + 32'($signed(retry_q));
   end
   assign p_wso = !s_trk_q ? s_dbl_q : p_te - 24'(s_tv_q);
+  // the retries relative to t0 (see the conflict scan): CONF's x = tx_until - (t0 + a), its
+  // y = blank_until - (t0 + window start); CSLOT's x = window end - (t0 + a), its y = window
+  // end - (t0 + window start)
+  assign rx_dif  = tu_e - ta_c_q;
+  assign ry_dif  = bu_rel_c_q - 32'(c_wso_c_q);
+  assign rxs_dif = w_end_c_q - ta_c_q;
+  assign rys_dif = w_end_c_q - tws_d_q;
   assign p_weo = !s_trk_q ? s_rmax_q : p_te + 24'(s_tn_q);
   always_ff @(posedge clk_i) begin
     due_s_q     <= due_m[si(s_q)];
@@ -1001,34 +1023,36 @@ module ms_scheduler #(
     c_weo_c_q   <= p_weo;
     ta_c_q      <= t_q + 32'(cb.a);
     tb_c_q      <= t_q + 32'(cb.b);
-    tws_c_q     <= s_trk_q ? t_mtv_q + 32'(p_te) : t_pdbl_q;  // t_q + p_wso in one carry chain
-    twe_c_q     <= s_trk_q ? t_ptn_q + 32'(p_te) : t_prmax_q; // t_q + p_weo (te >= T_V, te + T_N < 2^24: CAND's clamp)
+    bu_rel_c_q  <= bu_e - t_q;
+    // stage D: the window of element rel (te >= T_V, te + T_N < 2^24: CAND's clamp); CSLOT
+    // reads them and ta_c_q / tb_c_q for the element CONF chose (rel does not change there)
+    tws_d_q     <= t_q + 32'(c_wso_c_q);
+    twe_d_q     <= t_q + 32'(c_weo_c_q);
     // stage D
     pred_d_q     <= $signed({3'd0, rxs_c_q.tof}) + gap_c_q * rxs_c_q.v;
     h_dv_d_q     <= $signed({1'b0, h_tof_c_q}) - $signed({1'b0, rxs_rd.tof});
     h_abs_d_q    <= ($signed({1'b0, h_tof_c_q}) < $signed({1'b0, g_te_q})) ? 25'(g_te_q) - 25'(h_tof_c_q)
                                                                          : 25'(h_tof_c_q) - 25'(g_te_q);
     if (st_q == S_CONF) begin
-      rx_on_d_q <= (rem_q != '0) && rel_tx_e && tu_ok_e && $signed(ta_c_q - tu_e) < 0;
-      rx_d_q    <= tu_e - 32'(cb.a);
-      ry_on_d_q <= (rem_q != '0) && c_win && bu_ok_e && $signed(tws_c_q - bu_e) < 0;
-      ry_d_q    <= bu_e - 32'(c_wso_c_q);
+      rx_on_d_q <= (rem_q != '0) && rel_tx_e && tu_ok_e && $signed(rx_dif) > 0;
+      rx_d_q    <= RTW'(rx_dif);
+      ry_on_d_q <= (rem_q != '0) && c_win && bu_ok_e && $signed(ry_dif) > 0;
+      ry_d_q    <= RTW'(ry_dif);
     end else if (st_q == S_CFULL) begin  // after the element's slots: every slot taken
       rx_on_d_q <= 1'b0;
-      rx_d_q    <= w_end_c_q - 32'(cba_q);
+      rx_d_q    <= RTW'(rxs_dif);
       ry_on_d_q <= win_on_q && (&wv_e);
-      ry_d_q    <= minclose_q;
+      ry_d_q    <= RTW'(minclose_q - t_q);
     end else begin  // S_CSLOT: the stage-C slot of the stream (don't-care elsewhere)
-      rx_on_d_q <= sv_c_q && blk_on_q && $signed(tba_q - w_end_c_q) < 0
-                   && $signed(w_start_c_q - tbb_q) < 0;
-      rx_d_q    <= w_end_c_q - 32'(cba_q);
-      ry_on_d_q <= sv_c_q && win_on_q && $signed(tws_q - w_end_c_q) < 0
-                   && $signed(w_start_c_q - twe_q) < 0;
-      ry_d_q    <= w_end_c_q - 32'(cws_q);
+      rx_on_d_q <= sv_c_q && blk_on_q && $signed(rxs_dif) > 0 && $signed(w_start_c_q - tb_c_q) < 0;
+      rx_d_q    <= RTW'(rxs_dif);
+      ry_on_d_q <= sv_c_q && win_on_q && $signed(rys_dif) > 0 && $signed(w_start_c_q - twe_d_q) < 0;
+      ry_d_q    <= RTW'(rys_dif);
     end
-    iw_close_c_q <= s_trk_q ? t_ptnl_q + 32'(p_te) : t_prmaxl_q;  // twe_c_q - 1 + lat in one carry chain
-    // IEL's per-element write enables: compares on stage C, so no write enable follows a carry chain
-    iw_first_d_q <= !hd_vld_e || $signed(iw_close_c_q - hd_close_e) < 0;
+    iw_close_d_q <= tl_q + 32'(c_weo_c_q);  // t0 + p_weo - 1 + L
+    // IEL's per-element write enables: compares on stage D against the head slot's WIN word
+    // (stage C), so no write enable follows a carry chain
+    iw_first_d_q <= !hd_vld_e || $signed(iw_close_d_q - w_close_c_q) < 0;
     bu_later_d_q <= !bu_ok_e || later(tb_c_q, bu_e);
     tu_later_d_q <= !tu_ok_e || later(tb_c_q, tu_e);
     te_d_q       <= i_te;
@@ -1043,7 +1067,7 @@ module ms_scheduler #(
   logic cand_clr_q;  // S_EDF moved to S_CAND in the last clock
   // ---- configuration check and load (ms_sched_cfg): S_CHECK and S_LOAD start it (cfg_chk_q /
   // cfg_ld_q, one clock) and wait for cfg_done; a stop while checking aborts it. The load
-  // writes the per-sensor state below, the share matrix and the BLK RAM (the FSM).
+  // writes the per-sensor state below, the share matrix and SNS (the FSM).
   logic              cfg_chk_q, cfg_ld_q, cfg_busy, cfg_done;
   logic [3:0]        cfg_err, cfg_err_vs;
   logic              ld_we, ld_act, ld_track;
@@ -1126,20 +1150,19 @@ module ms_scheduler #(
       sh_share_q[si(cfg_share_b)][si(cfg_share_a)] <= cfg_share;
     end
   end
-  // The BLK RAM's one write port: ms_sched_cfg's blank intervals, and each table word the
-  // load reads (cfg_word_we). The load reads an entry's words before it writes the entry's
-  // blank intervals, and the previous entry's are written by then, so the two never meet
+  // The load's writes to SNS: ms_sched_cfg's blank intervals, and each table word the load
+  // reads (cfg_word_we) that the engine uses. The load reads an entry's words before it writes
+  // the entry's blank intervals, and the previous entry's are written by then, so the two
+  // never meet; the engine's tracking-state writes (below) come only from running states
   // (checked below).
   logic              blk_we;
   logic [BA-1:0]     blk_wa;
   logic [35:0]       blk_wd;
   always_comb begin
-    blk_we = cfg_blk_we || cfg_word_we;
-    blk_wa = cfg_blk_we ? {1'b0, cfg_blk_addr[SW+4:0]} : cw_addr(ld_vs, cfg_word);
+    blk_we = cfg_blk_we || (cfg_word_we && cfg_word != 4'd4 && cfg_word != 4'd6);
+    blk_wa = cfg_blk_we ? {1'b1, cfg_blk_addr[SW+4:0]}
+           : cw_addr(ld_vs, (cfg_word == 4'd8) ? CW_PHASE : cfg_word[2:0]);
     blk_wd = cfg_blk_we ? {cfg_blk_a, cfg_blk_b} : {4'd0, vs_rdata_i};
-  end
-  always_ff @(posedge clk_i) begin
-    if (blk_we) blk_q[blk_wa] <= blk_wd;
   end
 `ifndef SYNTHESIS
   // for the testbench's check of the per-sensor state against the table (ms_scheduler_tb.sv):
@@ -1305,7 +1328,7 @@ module ms_scheduler #(
             if (!h_wh_q) begin  // max_echoes_per_window = 1 (wh: per-element writes)
               evt_valid_q <= 1'b1;
               evt_data_q  <= {20'd0, hw.init, 1'b0, 1'b1, 1'b1, h_s_q, hw.seq, er, h_tof};
-              // h_ep_q: wake, any_trk (per-sensor writes); RXS: written by the RXS port below
+              // h_ep_q: wake, any_trk (per-sensor writes); tracking state: the SNS writes below
             end
           end
           S_CLOSE: begin
@@ -1430,12 +1453,6 @@ module ms_scheduler #(
               el_q     <= rel;
               blk_on_q <= c_blk;
               win_on_q <= c_win;
-              cba_q    <= cb.a;
-              cws_q    <= c_wso;
-              tba_q    <= ta_c_q;
-              tbb_q    <= tb_c_q;
-              tws_q    <= tws_c_q;
-              twe_q    <= twe_c_q;
               srem_q   <= wv_e;
               found_q  <= 1'b0;
               st_q     <= S_CSLOT;
@@ -1491,8 +1508,8 @@ module ms_scheduler #(
     end
   end
 
-  // ---- RXS write port (same address as its read port): samples (HIT), miss counts (CLOSE),
-  // reset of a sensor's receivers by its init ping (IEL)
+  // ---- tracking-state writes to SNS (rxs_wa, the read address in HIT and CLOSE): samples
+  // (HIT), miss counts (CLOSE), reset of a sensor's receivers by its init ping (IEL)
   logic run_ok;   // the FSM's case statement runs in this cycle
   logic rxs_we;
   rxs_t rxs_wd;
@@ -1532,8 +1549,14 @@ module ms_scheduler #(
     endcase
   end
   always_ff @(posedge clk_i) begin
-    if (run_ok && rxs_we) rxs_q[rxs_ra] <= rxs_wd;
+    if (blk_we)                sns_q[blk_wa]          <= $bits(rxs_t)'(blk_wd);
+    else if (run_ok && rxs_we) sns_q[{1'b0, rxs_wa}] <= rxs_wd;
   end
+`ifndef SYNTHESIS
+  always_ff @(posedge clk_i)
+    if (!rst_i && blk_we && run_ok && rxs_we)
+      $error("ms_scheduler: a load write and a tracking-state write in one clock");
+`endif
 
   // ---- per-sensor due, next-evaluation (written as tick - P, precomputed in stage D) and quiet
   // ticks: one sensor per clock, in the go clocks of S_INIT, S_CLOSE, S_SCHED, S_CONF and
@@ -1554,7 +1577,7 @@ module ms_scheduler #(
   always_comb begin
     // nxt_m holds the t0 of the next evaluation (its tick + P)
     if (isu_any_q)      nxt_wd = due_isu_q;    // t0 + period
-    else if (cnf_any_q) nxt_wd = retry_q;
+    else if (cnf_any_q) nxt_wd = retry_t0_q;
     else if (sch_any_q) nxt_wd = s_early ? due_s_q : quiet_rd_q;
     else                nxt_wd = due_ini_q;    // start tick + phase
     nxt_we = ps_live && (ini_any_q || (sch_any_q && (s_early || s_quiet)) || (cnf_any_q && rem_q == '0 && retry_vld_q)
@@ -1707,7 +1730,7 @@ module ms_scheduler #(
         hd_we_nx  = found_q;
       end
       S_IEL: begin
-        hd_we_nx  = rem_q != '0 && c_win && (!hd_vld_e || $signed(iw_close_c_q - hd_close_e) < 0);
+        hd_we_nx  = rem_q != '0 && c_win && (!hd_vld_e || $signed(iw_close_d_q - w_close_c_q) < 0);
         hdv_we_nx = hd_we_nx;
         wv_we_nx  = rem_q != '0 && c_win;
       end
@@ -1726,6 +1749,9 @@ module ms_scheduler #(
     wvw_any_q <= nx_go && wv_we_nx;
   end
 `ifndef SYNTHESIS
+  // every head's whole close tick, for the checks below (the engine reads it from WIN)
+  logic [31:0] hd_close_m [NUM_CH];
+  always_ff @(posedge clk_i) if (ps_live && hdw_any_q) hd_close_m[ei_q] <= hd_close_wd;
   // simulation checks (the scoreboards run with them): the early enables are the go clock's,
   // and a head is written with a close tick in the future and never over one closing now
   // (close_eq_q compares the head of one clock before)
@@ -1840,7 +1866,6 @@ module ms_scheduler #(
     if (run_ok && bu_we)   bu_m[ei_q]      <= bu_wd;
     if (run_ok && tu_we)   tu_m[ei_q]      <= bu_wd;
     if (run_ok && hd_we)   hd_slot_m[ei_q] <= hd_slot_wd;
-    if (ps_live && hdw_any_q) hd_close_m[ei_q] <= hd_close_wd;  // as hd_lo_q[ei_q] (hdw_q)
     if (ps_live && hdw_any_q) hd_hi_m[ei_q]    <= hd_close_wd[HCW-1:LB];
   end
 
