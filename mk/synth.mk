@@ -12,8 +12,8 @@
 #                             (out of context) for its routed Fmax
 # Options: SYNTH_APP (firmware in the RAM image; default sonar_app, the application the host
 # driver talks to), ECP5_DEVICE (25k,
-# 45k, 85k; default 45k, the smallest ULX3S the full design fits: it needs about 22k
-# TRELLIS_COMB and 57 DP16KD, the 25k has 24,288 and 56; 25k builds the reduced 25F profile
+# 45k, 85k; default 45k: the full design needs about 21k TRELLIS_COMB and 56 DP16KD, on the
+# 25k (24,288 and 56) 84 %, above issue #27's 80 %, so 25k builds the reduced 25F profile
 # below into build/synth/ecp5-25k/; docs/synthesis.md),
 # SYNTH_SEED (nextpnr seed), SYNTH_SEEDS
 # (several seeds placed and routed in parallel, the one with the highest Fmax kept; default
@@ -30,7 +30,7 @@ SYNTH_MHZ    := 48
 # reach it), so place and route reads a copy of the LPF with the board clock scaled by
 # SYNTH_PNR_MHZ / SYNTH_MHZ: the timing-driven placer and router then work on every path
 # slower than SYNTH_PNR_MHZ instead of stopping at 48 MHz. For the full design 60 MHz
-# (docs/synthesis.md, "What keeps timing"); the 25F profile, at 84 % of its device, stays at 48
+# (docs/synthesis.md, "What keeps timing"); the 25F profile, at 79 % of its device, stays at 48
 SYNTH_PNR_MHZ ?= $(if $(SYNTH_25K),$(SYNTH_MHZ),60)
 ECP5_DEVICE  ?= 45k
 SYNTH_25K    := $(if $(filter ecp5,$(TARGET)),$(filter 25k,$(ECP5_DEVICE)))
@@ -66,9 +66,8 @@ ifeq ($(TARGET),ecp5)
   # the same on every ULX3S
   SYNTH_HEX    := $(BUILD)/synth/ecp5/fw/$(SYNTH_APP).hex
   SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\"
-  # The LFE5U-25F profile: the full design needs 57 of its 56 DP16KD and, with VexRiscv's
-  # register file in LUT-RAM, 88 % of its TRELLIS_COMB, with no timing margin left
-  # (docs/synthesis.md, "The 25F profile"). On the 25F
+  # The LFE5U-25F profile: the full design takes all 56 of its DP16KD and 84 % of its
+  # TRELLIS_COMB (51.9 MHz at seed 1; docs/synthesis.md, "The 25F profile"). On the 25F
   # the scheduler runs 4 virtual sensors (NUM_VS) with 8 window slots per element (WSLOTS),
   # which CAPS reports to the host, and VexRiscv has an 8 KiB instruction cache instead of
   # 16 KiB (4 DP16KD; the geometry budget per fix doubles with half the sensors). The USB IN

@@ -5,7 +5,8 @@
 // block RAM (the regblock treats it as external memory) and the virtual-sensor table VS[8]
 // (an external regfile of the regblock) in distributed RAM: 9 words per implemented entry
 // (NUM_VS of the map's 8; the others read as zero and ignore writes), written per byte lane,
-// read by the bus and, through a second read port, by the scheduler one word per clock.
+// read through one port by the scheduler (a word per clock while vs_ren_i) and by the bus,
+// whose reads wait while the scheduler reads.
 // CAPS reports the build's parameters (NUM_CH, NUM_VS, WSLOTS, EVT_DEPTH_W).
 // After a reset the table is refilled with its reset values, one word per clock (VS_WORDS
 // clocks); the bus is stalled meanwhile.
@@ -15,7 +16,8 @@
 // each pass a register slice by the regblock; inside it a register access answers on
 // the next clock, a VS-table write one clock later and a read two clocks later (a written
 // value is in effect from the clock after the request, as for the other registers), a
-// delay-table access one clock after the RAM read). VS-table writes take byte lanes: byte k
+// delay-table access one clock after the RAM read; a VS-table read a clock more for each
+// clock the scheduler reads the table, at most 9 in a row). VS-table writes take byte lanes: byte k
 // is written when wr_biten bit 8k is set (the SoC bridges only make whole-byte enables).
 // Unmapped addresses and writes to read-only registers answer with rd_err / wr_err.
 //
@@ -57,7 +59,9 @@ module ms_csr
   output logic [7:0]                    glitch_min_o,
   output logic [15:0]                   miss_gate_o,       // RX_FILTER.miss_gate, ticks (0 off)
   // virtual-sensor table read port for the core: word entry * 9 + register (TX_MASK 0 ..
-  // PHASE 8, the register map's layout and field positions), data one clock later
+  // PHASE 8, the register map's layout and field positions), read in a clock with vs_ren_i,
+  // data one clock later
+  input  logic                          vs_ren_i,
   input  logic [6:0]                    vs_raddr_i,
   output logic [31:0]                   vs_rdata_o,
   // phasing-delay table read port for the core: entry vs*32 + element, data one clock later
@@ -167,7 +171,7 @@ module ms_csr
   // VS table: NUM_VS entries of VS_REGS registers (TX_MASK .. PHASE at offsets 0x00 .. 0x20)
   localparam int VS_REGS = 9;
   logic [VS_ENTRIES-1:0] vs_rd_ack_q, vs_wr_ack_q;
-  logic [31:0]          vs_rdata_q;
+  logic [31:0]          vs_rdata_bus;
 
   // ---- status, counters and the delay-table answers: one process drives all of hwif_in
   // (Verilator treats the struct as one variable).
@@ -199,7 +203,7 @@ module ms_csr
     hwif_in.CAPS.win_slots.next       = 8'(WSLOTS);
     for (int v = 0; v < int'(VS_ENTRIES); v++) begin
       hwif_in.VS[v].rd_ack  = vs_rd_ack_q[v];
-      hwif_in.VS[v].rd_data = vs_rdata_q;
+      hwif_in.VS[v].rd_data = vs_rdata_bus;
       hwif_in.VS[v].wr_ack  = vs_wr_ack_q[v];
     end
   end
@@ -277,8 +281,8 @@ module ms_csr
   // are zero whenever vs_m is accessed
   logic unused_vs_hi;
   // word entry * VS_REGS + register. On the ECP5 the synthesis script asks for distributed RAM
-  // (mk/synth.mk: block RAM would take three DP16KD for the two read ports); no attribute here:
-  // simulation and lint do not need it.
+  // (mk/synth.mk: a block RAM would be one more DP16KD); no attribute here: simulation and
+  // lint do not need it. One read port (a second one would be a second copy of the RAM).
   logic [31:0] vs_m [VS_WORDS];
   logic [3:0]  vs_reg;   // register within the entry: byte offset / 4
   logic [2:0]  vs_sel;   // entry of the held request
@@ -338,30 +342,41 @@ module ms_csr
         if (rq_wr_biten_q[8*b]) vs_m[VS_AW'(vs_word)][8*b +: 8] <= rq_wr_data_q[8*b +: 8] & vs_fields_w[8*b +: 8];
     end
   end
-  // The core's read port: one word per clock, registered.
-  always_ff @(posedge clk_i) vs_rdata_o <= vs_m[VS_AW'(vs_raddr_i)];
-  // Bus reads take two register stages like before the RAM (the word address, then the RAM
-  // read): the answer (vs_rd_ack_q) comes two clocks after the request.
+  // The read port: in a clock with vs_ren_i the core's word (vs_raddr_i), else the bus's
+  // (vs_word_q); the word is in vs_rd_q one clock later. A bus read takes two register stages
+  // (the word address, then the RAM read), so its answer (vs_rd_ack_q) comes two clocks after
+  // the request, or later by the clocks it waits (vs_rd_wait_q) for the core to leave the
+  // port; its address is held meanwhile.
   logic [6:0]              vs_word_q;
   logic                    vs_impl_q;  // the read's entry is implemented (< NUM_VS), else it reads 0
+  logic [31:0]             vs_rd_q;
+  logic                    vs_rd_impl_q;  // vs_impl_q of the word in vs_rd_q
+  logic [VS_ENTRIES-1:0]   vs_rd_req_q, vs_rd_wait_q, vs_rd_pend;
   assign unused_vs_hi = ^{vs_raddr_i, vs_word_q};
-  logic [VS_ENTRIES-1:0]   vs_rd_req_q;
+  assign vs_rd_pend   = vs_rd_req_q | vs_rd_wait_q;  // a bus read wants the port in this clock
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
-      vs_rd_req_q <= '0;
-      vs_rd_ack_q <= '0;
-      vs_wr_ack_q <= '0;
+      vs_rd_req_q  <= '0;
+      vs_rd_wait_q <= '0;
+      vs_rd_ack_q  <= '0;
+      vs_wr_ack_q  <= '0;
     end else begin
       for (int v = 0; v < int'(VS_ENTRIES); v++) begin
         vs_rd_req_q[v] <= hwif_out.VS[v].req && !hwif_out.VS[v].req_is_wr;
         vs_wr_ack_q[v] <= hwif_out.VS[v].req && hwif_out.VS[v].req_is_wr;
       end
-      vs_rd_ack_q <= vs_rd_req_q;
+      vs_rd_wait_q <= vs_ren_i ? vs_rd_pend : '0;
+      vs_rd_ack_q  <= vs_ren_i ? '0 : vs_rd_pend;
     end
-    vs_word_q  <= vs_word;
-    vs_impl_q  <= 32'(vs_sel) < 32'(NUM_VS);
-    vs_rdata_q <= vs_impl_q ? vs_m[VS_AW'(vs_word_q)] : 32'd0;
+    if (!(vs_ren_i && (|vs_rd_pend))) begin
+      vs_word_q <= vs_word;
+      vs_impl_q <= 32'(vs_sel) < 32'(NUM_VS);
+    end
+    vs_rd_q      <= vs_m[VS_AW'(vs_ren_i ? vs_raddr_i : vs_word_q)];
+    vs_rd_impl_q <= vs_impl_q;
   end
+  assign vs_rdata_o   = vs_rd_q;
+  assign vs_rdata_bus = vs_rd_impl_q ? vs_rd_q : 32'd0;
 
   // ---- phasing-delay table: external memory of the regblock, kept in block RAM.
   // The RAM stores DELAY_W bits per entry; the upper bits of a bus write are dropped (the

@@ -50,6 +50,7 @@ module ms_sonar_core #(
   logic [15:0]                   burst_half_period;
   logic [7:0]                    unused_burst_cycles, glitch_min;
   logic [15:0]                   miss_gate;
+  logic                          vs_ren;
   logic [6:0]                    vs_raddr;
   logic [31:0]                   vs_rdata;
   logic [7:0]                    delay_raddr;
@@ -71,7 +72,7 @@ module ms_sonar_core #(
     .enable_o (enable), .apply_o (apply), .clear_counters_o (unused_clear_counters),
     .burst_half_period_o (burst_half_period), .burst_cycles_o (unused_burst_cycles),
     .glitch_min_o (glitch_min), .miss_gate_o (miss_gate),
-    .vs_raddr_i (vs_raddr), .vs_rdata_o (vs_rdata),
+    .vs_ren_i (vs_ren), .vs_raddr_i (vs_raddr), .vs_rdata_o (vs_rdata),
     .delay_raddr_i (delay_raddr), .delay_rdata_o (delay_rdata),
     .evt_rvalid_i (fifo_rvalid), .evt_rdata_i (fifo_rdata), .evt_pop_o (fifo_pop),
     .running_i (running), .sched_overrun_i (overrun), .tx_collision_i (tx_collision),
@@ -100,7 +101,7 @@ module ms_sonar_core #(
 
   ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W), .LEAD(LEAD), .WSLOTS(WSLOTS)) u_sched (
     .clk_i, .rst_i, .tick_i (tick_q), .enable_i (enable), .apply_i (apply),
-    .vs_raddr_o (vs_raddr), .vs_rdata_i (vs_rdata),
+    .vs_ren_o (vs_ren), .vs_raddr_o (vs_raddr), .vs_rdata_i (vs_rdata),
     .burst_half_period_i (burst_half_period), .glitch_min_i (glitch_min), .miss_gate_i (miss_gate),
     .delay_raddr_o (delay_raddr), .delay_rdata_i (delay_rdata), .rise_i (rise),
     .trig_valid_o (trig_valid), .trig_el_o (trig_el), .trig_delay_o (trig_delay),

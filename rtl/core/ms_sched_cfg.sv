@@ -44,6 +44,7 @@ module ms_sched_cfg #(
   output logic [3:0]            err_o,
   output logic [3:0]            err_vs_o,
   // the CSR's table (word entry * 9 + register) and delay RAM ({entry, element})
+  output logic                  vs_ren_o,    // vs_raddr_o is read in this clock
   output logic [6:0]            vs_raddr_o,
   input  logic [31:0]           vs_rdata_i,
   output logic [7:0]            delay_raddr_o,
@@ -274,6 +275,7 @@ module ms_sched_cfg #(
   logic       gv_q;  // word gw_q of entry e_q is on vs_rdata_i
   logic [3:0] gw_q;
   assign vs_raddr_o = {1'b0, e_q, 3'b0} + 7'(e_q) + 7'(cnt_q[3:0]);
+  assign vs_ren_o   = st_q == C_GATHER && cnt_q < RW'(9);
   always_ff @(posedge clk_i) begin
     gv_q <= !rst_i && st_q == C_GATHER && cnt_q < RW'(9);
     gw_q <= cnt_q[3:0];

@@ -75,6 +75,7 @@ module ms_scheduler #(
   // the CSR's virtual-sensor table: word entry * 9 + register (TX_MASK 0, RX_MASK 1, MODE 2,
   // WINDOW 3, T_DEAD 4, MAX_TOF 5, XTALK 6, TRACK 7, PHASE 8; sonar_regs.rdl's field
   // positions), read data one clock after the address
+  output logic                           vs_ren_o,   // vs_raddr_o is read in this clock
   output logic [6:0]                     vs_raddr_o,
   input  logic [31:0]                    vs_rdata_i,
   input  logic [15:0]                    burst_half_period_i,
@@ -1097,6 +1098,7 @@ module ms_scheduler #(
     .done_o             (cfg_done),
     .err_o              (cfg_err),
     .err_vs_o           (cfg_err_vs),
+    .vs_ren_o           (vs_ren_o),
     .vs_raddr_o         (vs_raddr_o),
     .vs_rdata_i         (vs_rdata_i),
     .delay_raddr_o      (delay_raddr_o),

@@ -52,7 +52,8 @@ module ms_sched_cfg_tb #(
   logic [19:0]       blk_b;
   ms_sched_cfg #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .LEAD(LEAD)) u_dut (
     .clk_i, .rst_i, .check_i, .load_i, .abort_i, .busy_o, .done_o, .err_o, .err_vs_o,
-    .vs_raddr_o(vs_raddr), .vs_rdata_i(vs_rdata), .delay_raddr_o(dly_raddr), .delay_rdata_i(dly_rdata),
+    .vs_ren_o(), .vs_raddr_o(vs_raddr), .vs_rdata_i(vs_rdata),
+    .delay_raddr_o(dly_raddr), .delay_rdata_i(dly_rdata),
     .burst_half_period_i,
     .ld_we_o(ld_we), .ld_vs_o(ld_vs), .ld_tx_o(ld_tx), .ld_rx_o(ld_rx), .ld_xt_o(ld_xt),
     .ld_use_o(ld_use), .ld_act_o(ld_act), .ld_track_o(ld_track), .ld_order_o(ld_order),

@@ -208,6 +208,7 @@ module ms_scheduler_tb #(
     .tick_i             (tick_q),
     .enable_i           (enable_i),
     .apply_i            (apply_i),
+    .vs_ren_o           (),
     .vs_raddr_o         (vs_raddr),
     .vs_rdata_i         (vs_rdata),
     .burst_half_period_i(burst_half_period_i),

@@ -41,7 +41,7 @@ module ms_soc_tb #(
     .bus_rd_ack_o (rd_ack), .bus_rd_err_o (rd_err), .bus_rd_data_o (rd_data),
     .bus_wr_ack_o (wr_ack), .bus_wr_err_o (wr_err),
     .enable_o (), .apply_o (), .clear_counters_o (), .burst_half_period_o (), .burst_cycles_o (),
-    .glitch_min_o (), .vs_raddr_i (7'd0), .vs_rdata_o (),
+    .glitch_min_o (), .vs_ren_i (1'b0), .vs_raddr_i (7'd0), .vs_rdata_o (),
     .delay_raddr_i (8'd0), .delay_rdata_o (),
     .evt_rvalid_i (1'b0), .evt_rdata_i (64'd0), .evt_pop_o (),
     .running_i (1'b0), .sched_overrun_i (1'b0), .tx_collision_i (1'b0), .cfg_error_i (4'd0), .cfg_error_vs_i (4'd0), .fifo_level_i (12'd0),

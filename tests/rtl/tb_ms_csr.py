@@ -23,7 +23,7 @@ async def setup(dut) -> PassthroughMaster:
     start_clock(dut.clk_i)
     for name in ("running_i", "cfg_error_i", "cfg_error_vs_i", "fifo_level_i", "event_i",
                  "overflow_i", "pulse_i", "delay_raddr_i", "evt_rvalid_i", "evt_rdata_i", "sched_overrun_i",
-                 "tx_collision_i", "vs_raddr_i"):
+                 "tx_collision_i", "vs_ren_i", "vs_raddr_i"):
         getattr(dut, name).value = 0
     bus = PassthroughMaster(dut, dut.clk_i)
     await reset(dut.clk_i, dut.rst_i)
@@ -41,11 +41,13 @@ CSR_WSLOTS = int(os.environ.get("CSR_WSLOTS", "16"))
 
 
 async def core_port_word(dut, entry: int, reg: str) -> int:
-    """Word of the VS table as the core reads it (vs_raddr_i, data one clock later)."""
+    """Word of the VS table as the core reads it (vs_ren_i, vs_raddr_i, data one clock later)."""
     await FallingEdge(dut.clk_i)
+    dut.vs_ren_i.value = 1
     dut.vs_raddr_i.value = entry * len(VS_REGS) + VS_REGS.index(reg)
     await ClockCycles(dut.clk_i, 1)
     await FallingEdge(dut.clk_i)
+    dut.vs_ren_i.value = 0
     return int(dut.vs_rdata_o.value)
 
 
@@ -354,6 +356,57 @@ async def back_to_back_requests_keep_order(dut):
     assert collector.done(), f"answers {acks} of {len(reqs)} requests"
     assert acks == [("r", old), ("w", 0), ("r", new)], acks
     assert stalled >= 1, "the write after a read should have been stalled once"
+
+
+@cocotb.test()
+async def vs_table_shared_read_port(dut):
+    """The core and the bus share the VS table's read port: while the core reads a word per
+    clock (bursts of 1-9 words, as the scheduler's check and load read an entry), bus reads of
+    the table wait and then answer the word they asked for; the core gets every word one clock
+    after its address."""
+    bus = await setup(dut)
+    rng = random.Random(27)
+    n = min(R.REGISTERS["VS_PHASE"].dims[0], CSR_NUM_VS)
+    regs = ["VS_PHASE", "VS_WINDOW", "VS_TRACK"]
+    want = {}
+    for v in range(n):
+        for r in regs:
+            want[(v, r)] = rng.getrandbits(16)
+            await bus.write(R.REGISTERS[r].addr(v), want[(v, r)])
+    core_words = [(v, r) for v in range(n) for r in regs]
+    core_errors = []
+    done = False
+
+    async def core_reader():
+        while not done:
+            burst = rng.randint(1, 9)
+            for _ in range(burst):
+                v, r = rng.choice(core_words)
+                got = await core_port_word_keep(dut, v, r)
+                if got != want[(v, r)]:
+                    core_errors.append((v, r, got))
+            await FallingEdge(dut.clk_i)
+            dut.vs_ren_i.value = 0
+            await ClockCycles(dut.clk_i, rng.randint(0, 3))
+
+    task = cocotb.start_soon(core_reader())
+    for _ in range(60):
+        v, r = rng.choice(core_words)
+        got = await bus.read(R.REGISTERS[r].addr(v))
+        assert got == want[(v, r)], (v, r, hex(got), hex(want[(v, r)]))
+    done = True
+    await task
+    assert not core_errors, core_errors[:5]
+
+
+async def core_port_word_keep(dut, entry: int, reg: str) -> int:
+    """core_port_word, but vs_ren_i stays high for the next read of a burst."""
+    await FallingEdge(dut.clk_i)
+    dut.vs_ren_i.value = 1
+    dut.vs_raddr_i.value = entry * len(VS_REGS) + VS_REGS.index(reg)
+    await ClockCycles(dut.clk_i, 1)
+    await FallingEdge(dut.clk_i)
+    return int(dut.vs_rdata_o.value)
 
 
 @cocotb.test()
