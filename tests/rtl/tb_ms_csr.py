@@ -40,14 +40,16 @@ CSR_NUM_VS = int(os.environ.get("CSR_NUM_VS", "8"))
 CSR_WSLOTS = int(os.environ.get("CSR_WSLOTS", "16"))
 
 
-async def core_port_word(dut, entry: int, reg: str) -> int:
-    """Word of the VS table as the core reads it (vs_ren_i, vs_raddr_i, data one clock later)."""
+async def core_port_word(dut, entry: int, reg: str, keep: bool = False) -> int:
+    """Word of the VS table as the core reads it (vs_ren_i, vs_raddr_i, data one clock later);
+    keep: vs_ren_i stays high for the next read of a burst."""
     await FallingEdge(dut.clk_i)
     dut.vs_ren_i.value = 1
     dut.vs_raddr_i.value = entry * len(VS_REGS) + VS_REGS.index(reg)
     await ClockCycles(dut.clk_i, 1)
     await FallingEdge(dut.clk_i)
-    dut.vs_ren_i.value = 0
+    if not keep:
+        dut.vs_ren_i.value = 0
     return int(dut.vs_rdata_o.value)
 
 
@@ -382,7 +384,7 @@ async def vs_table_shared_read_port(dut):
             burst = rng.randint(1, 9)
             for _ in range(burst):
                 v, r = rng.choice(core_words)
-                got = await core_port_word_keep(dut, v, r)
+                got = await core_port_word(dut, v, r, keep=True)
                 if got != want[(v, r)]:
                     core_errors.append((v, r, got))
             await FallingEdge(dut.clk_i)
@@ -397,16 +399,6 @@ async def vs_table_shared_read_port(dut):
     done = True
     await task
     assert not core_errors, core_errors[:5]
-
-
-async def core_port_word_keep(dut, entry: int, reg: str) -> int:
-    """core_port_word, but vs_ren_i stays high for the next read of a burst."""
-    await FallingEdge(dut.clk_i)
-    dut.vs_ren_i.value = 1
-    dut.vs_raddr_i.value = entry * len(VS_REGS) + VS_REGS.index(reg)
-    await ClockCycles(dut.clk_i, 1)
-    await FallingEdge(dut.clk_i)
-    return int(dut.vs_rdata_o.value)
 
 
 @cocotb.test()
