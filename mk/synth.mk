@@ -79,7 +79,7 @@ ifeq ($(TARGET),ecp5)
     # recovers area: 22.1k -> 21.3k TRELLIS_COMB (88 %), which routes at every seed tried
     # (1 and 2) where the delay-mapped 91 % routed at one of four
     SYNTH_ABC_AREA := 1
-    SYNTH_PROFILE := , 25F profile: NUM_VS $(SYNTH_NUM_VS), WSLOTS $(SYNTH_WSLOTS), I-cache 8 KiB, ABC9 area mapping
+    SYNTH_PROFILE := , 25F profile: NUM_VS $(SYNTH_NUM_VS), WSLOTS $(SYNTH_WSLOTS), I-cache $(or $(SYNTH_VEX_ICACHE),16) KiB, ABC9 area mapping
   endif
   SYNTH_CELLS  := ecp5/cells_bb.v
   SYNTH_YOSYS  := synth_ecp5 -top $(SYNTH_TOP)
