@@ -67,7 +67,7 @@ ifeq ($(TARGET),ecp5)
   SYNTH_HEX    := $(BUILD)/synth/ecp5/fw/$(SYNTH_APP).hex
   SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\"
   # The LFE5U-25F profile: the full design takes all 56 of its DP16KD and 84 % of its
-  # TRELLIS_COMB (51.9 MHz at seed 1; docs/synthesis.md, "The 25F profile"). On the 25F
+  # TRELLIS_COMB (51.9-55.6 MHz at seeds 1-8; docs/synthesis.md, "The 25F profile"). On the 25F
   # the scheduler runs 4 virtual sensors (NUM_VS) with 8 window slots per element (WSLOTS),
   # which CAPS reports to the host, and VexRiscv has an 8 KiB instruction cache instead of
   # 16 KiB (4 DP16KD; the geometry budget per fix doubles with half the sensors). The USB IN
