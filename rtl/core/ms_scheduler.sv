@@ -861,7 +861,7 @@ module ms_scheduler #(
     unique case (st_q)
       S_HIT:   rxs_wa = {si(h_s), er};
       S_CLOSE: rxs_wa = {si(c_s), clr};
-      default: rxs_wa = {si(s_q), rel};  // S_IEL
+      default: rxs_wa = {si(s_q), rel};  // S_CAND (read), S_IEL (write)
     endcase
     unique case (st_q)
       S_HIT, S_CLOSE, S_CAND: sns_ra = {1'b0, rxs_wa};           // tracking state
