@@ -192,6 +192,13 @@ module ms_scheduler #(
   function automatic logic [BA-1:0] cw_addr(input logic [VW-1:0] s, input logic [2:0] k);
     cw_addr = {1'b0, si(s), 5'(CW_BASE) + 5'(k)};
   endfunction
+  // table register r (TX_MASK 0 .. PHASE 8): kept in SNS (not T_DEAD 4, XTALK 6), and its slot
+  function automatic logic cw_kept(input logic [3:0] r);
+    cw_kept = r != 4'd4 && r != 4'd6;
+  endfunction
+  function automatic logic [2:0] cw_slot(input logic [3:0] r);
+    cw_slot = (r == 4'd8) ? CW_PHASE : r[2:0];
+  endfunction
 
   // ------------------------------------------------------------------ sensor state
   // due, quiet (max ToF end of the last pulse) and next-evaluation ticks: distributed RAM,
@@ -1161,9 +1168,8 @@ module ms_scheduler #(
   logic [BA-1:0]     blk_wa;
   logic [35:0]       blk_wd;
   always_comb begin
-    blk_we = cfg_blk_we || (cfg_word_we && cfg_word != 4'd4 && cfg_word != 4'd6);
-    blk_wa = cfg_blk_we ? {1'b1, cfg_blk_addr[SW+4:0]}
-           : cw_addr(ld_vs, (cfg_word == 4'd8) ? CW_PHASE : cfg_word[2:0]);
+    blk_we = cfg_blk_we || (cfg_word_we && cw_kept(cfg_word));
+    blk_wa = cfg_blk_we ? {1'b1, cfg_blk_addr[SW+4:0]} : cw_addr(ld_vs, cw_slot(cfg_word));
     blk_wd = cfg_blk_we ? {cfg_blk_a, cfg_blk_b} : {4'd0, vs_rdata_i};
   end
 `ifndef SYNTHESIS
@@ -1705,10 +1711,10 @@ module ms_scheduler #(
   logic [NUM_CH-1:0] ew_q;
   always_ff @(posedge clk_i)
     for (int e = 0; e < NUM_CH; e++) ew_q[e] <= nx_go && ei_q == RW'(e);
-  // The head's write enables (hd_lo_q and the block flags: 24 x 7 CE pins, hd_vld_q) are registered per
-  // element in the clock before the go clock too, with their data conditions taken from
-  // stage C (w_close_c_q, iw_close_c_q) and stage A, which hold their final values from that
-  // clock: the same compares as sw_lt_hd_d_q / iw_first_d_q, one clock earlier. (From the
+  // The head's write enables (hd_lo_q and the block flags: 24 x 7 CE pins, hd_vld_q) are
+  // registered per element in the clock before the go clock too, with their data conditions
+  // taken from registers that hold their final values from that clock (w_close_c_q,
+  // iw_close_d_q: the compare iw_first_d_q registers, one clock earlier; stage A). (From the
   // stage-D flops through the state decode, hd_we fanned out to 768 CE pins: the slowest
   // scheduler path of the board top at 62.4 MHz.) hd_we / hdv_we still drive the head's slot
   // RAM write and the simulation check below.
