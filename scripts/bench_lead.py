@@ -6,7 +6,9 @@ The scheduler decides each pulse P ticks before its t0 and may fall P/2 behind r
 pipelined one, so it needs a larger P. For each P this bench measures what users would lose:
 
 - tracking samples on the demo: first echoes in tracking windows of the demo's five sensors on
-  `sim://corridor` (2 s), relative to the first P of the list;
+  `sim://corridor` (2 s), the mean over --corridor-seeds acoustic-noise seeds (with the spread:
+  the five sensors share elements, so one run's count jumps by +-20 % from one P to the next,
+  P = 4200 or 5000 against 4096 included), relative to the first P of the list;
 - full-ring refresh: the `ring8` room of `multisonar experiment ring` at 2 m and 5.7 m, order 8
   (the engine's heaviest same-tick burst), and when the first full sweep is complete;
 - safety: randomised person crossings (`multisonar.safety.run_trial`, seeds from --seed): the
@@ -51,17 +53,37 @@ RING_S = 0.3  # sonar seconds per ring point: about 60 sweeps at 5.7 m
 CORRIDOR_S = 2.0  # sonar seconds of the demo's sensors on the corridor scene
 
 
-def corridor_samples(lead: int) -> dict[str, int]:
-    """First echoes in tracking windows and init pings of the demo's sensors on `corridor`."""
+def corridor_run(lead: int, seed: int) -> tuple[int, int]:
+    """First echoes in tracking windows and init pings of the demo's sensors on `corridor`, with
+    the acoustic model's noise drawn from ``seed``."""
+    import numpy as np
+
     from multisonar.demo import demo_sensors
     from multisonar.fastfiring import FastFiringModel, SceneEchoSource
 
     scene = load_scene("corridor")
     model = FastFiringModel(Schedule(scene.layout, demo_sensors("demo"), temperature_c=scene.temperature_c),
-                            SceneEchoSource(scene), decision_lead=lead)
+                            SceneEchoSource(scene, rng=np.random.default_rng(seed)), decision_lead=lead)
     res = model.run(int(CORRIDOR_S * TICK_HZ))
-    return {"corridor_tracking_samples": sum(e.first_echo and e.in_window and not e.init_ping for e in res.events),
-            "corridor_init_pings": sum(p.init for p in res.pulses)}
+    return (sum(e.first_echo and e.in_window and not e.init_ping for e in res.events),
+            sum(p.init for p in res.pulses))
+
+
+def corridor_samples(lead: int, seeds: range, workers: int) -> dict[str, Any]:
+    """Mean and spread over ``seeds`` of corridor_run."""
+    import statistics
+
+    fn = partial(corridor_run, lead)
+    if workers > 1:
+        with ProcessPoolExecutor(max_workers=workers) as ex:
+            runs = list(ex.map(fn, seeds))
+    else:
+        runs = [fn(s) for s in seeds]
+    samples = [r[0] for r in runs]
+    return {"corridor_tracking_samples": round(statistics.mean(samples), 1),
+            "corridor_samples_std": round(statistics.stdev(samples), 1) if len(samples) > 1 else 0.0,
+            "corridor_samples_runs": samples,
+            "corridor_init_pings": round(statistics.mean(r[1] for r in runs), 1)}
 
 
 def _mm(ticks: int) -> float:
@@ -82,7 +104,8 @@ def _worst_lag() -> int | None:
     return max((r["lag_max"] for r in json.loads(LAG.read_text())), default=None)
 
 
-def measure(lead: int, trials: int, seed: int, workers: int, sensors: dict[str, list[Any]]) -> dict[str, Any]:
+def measure(lead: int, trials: int, seed: int, workers: int, sensors: dict[str, list[Any]],
+            corridor_seeds: int = 8) -> dict[str, Any]:
     row: dict[str, Any] = {"lead_ticks": lead, "lead_us": round(lead / TICK_HZ * 1e6, 1),
                            "engine_budget_ticks": lead // 2}
     for d in (2.0, 5.7):
@@ -90,7 +113,7 @@ def measure(lead: int, trials: int, seed: int, workers: int, sensors: dict[str, 
         key = f"{d:g}m".replace(".", "p")
         row[f"ring_{key}_hz"] = round(m["full_ring_hz"], 2)
         row[f"ring_{key}_first_sweep_ms"] = round(m["track_start_tick"] / TICK_HZ * 1e3, 2)
-    row.update(corridor_samples(lead))
+    row.update(corridor_samples(lead, range(corridor_seeds), workers))
     fn = partial(run_trial, decision_lead=lead)
     seeds = range(seed, seed + trials)
     if workers > 1:
@@ -114,6 +137,7 @@ def main() -> int:
     ap.add_argument("--trials", type=int, default=40, help="person crossings per P")
     ap.add_argument("--seed", type=int, default=5000, help="first trial seed")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--corridor-seeds", type=int, default=8, help="noise seeds of the corridor runs per P")
     ap.add_argument("--json", type=Path, default=OUT)
     ap.add_argument("--plot", type=Path)
     a = ap.parse_args()
@@ -124,31 +148,34 @@ def main() -> int:
     sens = _sensors()
     rows = []
     for lead in leads:
-        rows.append(measure(lead, a.trials, a.seed, a.workers, sens))
+        rows.append(measure(lead, a.trials, a.seed, a.workers, sens, a.corridor_seeds))
         print(f"P = {lead}: done, {time.time() - t0:.0f} s", file=sys.stderr, flush=True)
     lag = _worst_lag()
     base, cbase = rows[0]["safety_samples"] or 1, rows[0]["corridor_tracking_samples"] or 1
     for r in rows:
         r["safety_samples_rel"] = round(r["safety_samples"] / base, 4)
         r["corridor_samples_rel"] = round(r["corridor_tracking_samples"] / cbase, 4)
+        r["corridor_samples_rel_std"] = round(r["corridor_samples_std"] / cbase, 4)
         r["worst_lag_ticks"] = lag
         r["clocks_per_item_headroom"] = round(r["engine_budget_ticks"] / lag, 2) if lag else None
     limits = {name: {"blank_ticks": min(int(r.blank) for r in rs), "window_ticks": min(int(r.t_v + r.t_n) for r in rs)}
               for name, rs in sens.items()}
     doc = {"product_lead_ticks": DEVICE_DECISION_LEAD, "ring_duration_s": RING_S, "trials": a.trials,
+           "corridor_seeds": a.corridor_seeds,
            "first_seed": a.seed, "sensor_limits": limits, "rows": rows}
     a.json.parent.mkdir(parents=True, exist_ok=True)
     a.json.write_text(json.dumps(doc, indent=1) + "\n")
 
     print("| P (ticks) | P (us) | budget P/2 | x worst lag | ring 2 m (Hz) | ring 5.7 m (Hz) | first sweep 5.7 m (ms) "
-          "| safety within bound | worst (pulses / ms) | tracking samples: crossings | corridor (init pings) "
+          "| safety within bound | worst (pulses / ms) | tracking samples: crossings | corridor +- sd (init pings) "
           "| default / ring8 accepted | narrowest window (mm) |")
     print("|---:|---:|---:|---:|---:|---:|---:|---|---|---:|---|---|---:|")
     for r in rows:
         print(f"| {r['lead_ticks']} | {r['lead_us']} | {r['engine_budget_ticks']} | {r['clocks_per_item_headroom'] or '-'} "
               f"| {r['ring_2m_hz']} | {r['ring_5p7m_hz']} | {r['ring_5p7m_first_sweep_ms']} "
               f"| {r['safety_within_bound']}/{r['safety_trials']} | {r['safety_worst_pulses']} / {r['safety_worst_ms']} "
-              f"| {r['safety_samples_rel']:.3f} | {r['corridor_samples_rel']:.3f} ({r['corridor_init_pings']}) "
+              f"| {r['safety_samples_rel']:.3f} | {r['corridor_samples_rel']:.3f} +- {r['corridor_samples_rel_std']:.3f} "
+              f"({r['corridor_init_pings']}) "
               f"| {'yes' if r['default_accepted'] else 'NO'} / "
               f"{'yes' if r['ring8_accepted'] else 'NO'} | {r['narrowest_window_mm']} |")
     print(f"\nsensor limits (ticks): {limits}; worst engine lag at P = {DEVICE_DECISION_LEAD}: "
