@@ -7,8 +7,9 @@ register (an empty ROM would let Yosys remove the decoder).
 Prints a markdown table of cells (LUT4, CCU2C, PFUMX, DPR16X4, FF, DP16KD, MULT18X18D) and
 TRELLIS_COMB as counted for the scheduler's goal (LUT4 + 2 CCU2C); --pnr also places and routes
 the core out of context on the 85F at 62.4 MHz and reports its Fmax. Also the clocks of the
-CAND kernel (multisonar.tools.sched_program) per receiver, the scheduler's per-element loop
-run in microcode. Writes build/bench/sched_engine.json.
+CAND kernel (multisonar.tools.sched_program) per receiver and of the CONF kernel with the slot
+unit per element: the scheduler's per-element loops run in microcode. Writes
+build/bench/sched_engine.json.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ def main() -> int:
     ap.add_argument("--json", type=Path, default=OUT)
     args = ap.parse_args()
     sys.path.insert(0, str(ROOT / "host"))
-    from multisonar.tools.sched_program import NUM_RX, cand_clocks
+    from multisonar.tools.sched_program import NUM_RX, cand_clocks, conf_clocks
     from multisonar.tools.sched_ucode import random_program, sv_package
 
     work = ROOT / "build" / "bench" / "sched_engine"
@@ -68,15 +69,21 @@ def main() -> int:
     clocks = cand_clocks(NUM_RX)
     row["cand_clocks_24rx"] = clocks
     row["cand_clocks_per_rx"] = round(clocks / NUM_RX, 1)
+    conf_full, conf_empty = conf_clocks(NUM_RX, 3, 16), conf_clocks(NUM_RX, 3, 0)
+    row["conf_clocks_24el_16slots"] = conf_full
+    row["conf_clocks_per_el_16slots"] = round(conf_full / NUM_RX, 1)
+    row["conf_clocks_per_el_0slots"] = round(conf_empty / NUM_RX, 1)
     print(f"ms_sched_engine alone (ECP5, ROM {args.words} words, random program seed {args.seed}, "
           f"{len(image.words)} instructions)\n")
-    keys = [k for k in row if k not in ("program_words", "rom_words", "cand_clocks_24rx",
-                                        "cand_clocks_per_rx")]
+    keys = [k for k in row if k not in ("program_words", "rom_words") and "clocks" not in k]
     print("| " + " | ".join(keys) + " |")
     print("|" + "---:|" * len(keys))
     print("| " + " | ".join(str(row[k]) for k in keys) + " |")
     print(f"\nCAND kernel (sched_program.cand_kernel, every receiver tracked): {clocks} clocks for "
           f"{NUM_RX} receivers, {row['cand_clocks_per_rx']} per receiver (ms_scheduler's stream: 1)")
+    print(f"CONF kernel with the slot unit (sched_program.conf_kernel, {NUM_RX} elements, 3 tx): "
+          f"{conf_full} clocks with 16 reserved windows each, {row['conf_clocks_per_el_16slots']} per "
+          f"element ({row['conf_clocks_per_el_0slots']} with none; ms_scheduler: about 28 with 16)")
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(row, indent=2) + "\n")
     print(f"\nwritten {args.json}")

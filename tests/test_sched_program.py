@@ -6,10 +6,13 @@ import random
 
 import pytest
 
-from multisonar.fastfiring import FastFiringModel, SyntheticEchoSource, _RxState
+from multisonar.fastfiring import FastFiringModel, SyntheticEchoSource, _RxState, _Window
 from multisonar.layout import load_layout
 from multisonar.schedule import Schedule, VirtualSensor
-from multisonar.tools.sched_program import CAND, NUM_RX, TRK, cand_clocks, cand_kernel, pack_rx, prologue
+from multisonar.tools.sched_program import (BA, BB, BU, CAND, NUM_RX, TRK, TU, WSLOTS, EngineWithUnits, Slot,
+                                            SlotUnit, cand_clocks, cand_kernel, conf_clocks, conf_kernel,
+                                            pack_rx,
+                                            prologue)
 from multisonar.tools.sched_ucode import Machine, Program
 
 LAYOUT = load_layout("ring24")
@@ -76,3 +79,83 @@ def test_cand_kernel_clocks_per_receiver():
     c24, c12 = cand_clocks(24), cand_clocks(12)
     assert 10 * 24 < c24 < 100 * 24
     assert abs(c24 / 24 - c12 / 12) < 3
+
+
+# ------------------------------------------------------------------ CONF with the slot unit
+def random_conf_case(rng: random.Random):
+    """A model whose elements hold random reserved windows, tx_until and blank_until around a
+    candidate t0, and the candidate's blank intervals and windows."""
+    model = FastFiringModel(Schedule(LAYOUT, [VirtualSensor("a", tx=[0], rx=[0])]), SyntheticEchoSource({}))
+    wrap = rng.random() < 0.3
+    t = (1 << 32) - rng.randrange(1, 1 << 21) if wrap else rng.randrange(1 << 22, 1 << 31)
+    span = rng.choice([1 << 10, 1 << 16, 1 << 20])
+    touched = rng.sample(range(NUM_RX), rng.randrange(1, NUM_RX + 1))
+    tx = [e for e in touched if rng.random() < 0.25] or touched[:1]
+    xt = [e for e in touched if e not in tx and rng.random() < 0.2]
+    rxs = [e for e in touched if rng.random() < 0.7]
+    blanks = [(e, rng.randrange(0, 1 << 16), 0) for e in tx + xt]
+    blanks = [(e, a, a + rng.randrange(1, 1 << 19)) for e, a, _ in blanks]
+    tv, tn = rng.randrange(1, 1 << 15), rng.randrange(1, 1 << 15)
+    te = {e: rng.randrange(tv, 1 << 22) for e in rxs}
+    wins = [(e, te[e] - tv, te[e] + tn) for e in sorted(rxs)]
+    lo = {e: [t + a for x, a, _ in blanks if x == e] + ([t + te[e] - tv] if e in te else [])
+          for e in range(NUM_RX)}
+    hi = {e: [t + b for x, _, b in blanks if x == e] + ([t + te[e] + tn] if e in te else [])
+          for e in range(NUM_RX)}
+    for e in range(NUM_RX):
+        # windows, tx_until and blank_until: random near t0, far before it, or exactly on the
+        # candidate's edges (touching is no conflict)
+        n = rng.choice([0, 0, 1, 3, rng.randrange(WSLOTS + 1), WSLOTS])
+        model.windows[e] = []
+        for _ in range(n):
+            kind = rng.random()
+            if kind < 0.15 and lo[e]:
+                end = rng.choice(lo[e])
+                start = end - rng.randrange(1, span)
+            elif kind < 0.3 and hi[e]:
+                start = rng.choice(hi[e])
+                end = start + rng.randrange(1, span)
+            else:
+                start = t + rng.randrange(-4 * span, span)
+                end = start + rng.randrange(1, span)
+            model.windows[e].append(_Window(start, end, end - 1 + 3, 0, 0, e, start, False, 0))
+        edge = rng.random() < 0.3 and lo[e]
+        model.tx_until[e] = rng.choice(lo[e]) if edge else t + rng.randrange(-4 * span, span)
+        edge = rng.random() < 0.3 and lo[e]
+        model.blank_until[e] = rng.choice(lo[e]) + rng.choice([0, 1]) if edge else t + rng.randrange(-4 * span, span)
+    return model, t, blanks, wins, len(tx), te, tv, tn, set(touched), set(tx), set(rxs)
+
+
+@pytest.mark.parametrize("seed", range(100))
+def test_conf_kernel_with_the_slot_unit_finds_the_models_retry(seed):
+    rng = random.Random(seed)
+    model, t, blanks, wins, n_tx, te, tv, tn, touched, tx, rxs = random_conf_case(rng)
+    expect = model._conflict(t, blanks, wins, n_tx=n_tx)
+    mem = {}
+    for e in range(NUM_RX):
+        mem[TU + e] = model.tx_until[e] & 0xFFFF_FFFF
+        mem[BU + e] = model.blank_until[e] & 0xFFFF_FFFF
+    for e, a, b in blanks:
+        mem[BA + e], mem[BB + e] = a, b
+    for e, v in te.items():
+        mem[CAND + e] = v
+    su = SlotUnit({e: [Slot(w.start & 0xFFFF_FFFF, w.end & 0xFFFF_FFFF, w.close & 0xFFFF_FFFF)
+                       for w in ws] for e, ws in enumerate(model.windows)})
+    mask = lambda es: sum(1 << e for e in es)  # noqa: E731
+    p = prologue(Program("conf")).li(1, t).li(2, mask(touched)).li(3, mask(tx)).li(4, mask(rxs))
+    p.li(5, tv).li(6, tn).li(9, mask(e for e, _, _ in blanks))
+    p.label("start")
+    conf_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, mem, su)
+    m.run(200_000, stop={img.labels["halt"]})
+    assert bool(m.regs[7]) == (expect is not None)
+    if expect is not None:
+        assert m.regs[8] == expect & 0xFFFF_FFFF
+
+
+def test_conf_kernel_clocks_per_element():
+    """The CONF figure of bench_sched_engine.py: proportional to the elements, longer with
+    full slots (the slot unit's scan) than with none."""
+    full24, full8, empty24 = conf_clocks(24, 3, 16), conf_clocks(8, 3, 16), conf_clocks(24, 3, 0)
+    assert abs(full24 / 24 - full8 / 8) < 3 and empty24 < full24 < 200 * 24

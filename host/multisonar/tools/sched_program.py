@@ -7,16 +7,37 @@ engine can run within the decision lead and which need a fixed stream unit.
 Data memory (32-bit words): the tracking state of (sensor s, receiver r) at
 ``TRK + 2 * (24 s + r)``: word A = tof[23:0] | seq[7:0] << 24, word B = v[23:0] (two's
 complement) | flags << 24 (bit 24 tracked, 25 init, 26 vel, 31:28 miss count); the candidate's
-predicted T_E of receiver r at ``CAND + r``.
+predicted T_E of receiver r at ``CAND + r``; per element tx_until (``TU + e``) and
+blank_until (``BU + e``); the candidate's blank interval of element e at ``BA + e``, ``BB + e``.
+
+The slot unit (:class:`SlotUnit`, a fixed stream unit the engine drives through I/O
+registers) scans the up to 16 reserved windows of one element, one per clock, against the
+candidate's blank interval [TA, TB) and window [TWA, TWB) (absolute ticks, written before
+SU_GO = element | blank on << 8 | window on << 9) and gives, SU_LATENCY clocks later, SU_X =
+the latest retry relative to TA / TWA among the windows it overlaps (end - TA, end - TWA),
+SU_FLAGS bit 0 = any overlap, bit 1 = every slot taken (window on), bit 7 = busy, and SU_MINC
+= the earliest close tick of the element's windows.
 """
 
 from __future__ import annotations
 
-from .sched_ucode import Program
+from dataclasses import dataclass, field
+
+from .sched_ucode import MASK32, Machine, Program, sext
 
 NUM_RX = 24
+WSLOTS = 16
 TRK = 0x100           # tracking state, 2 words per (sensor, receiver): 0x100..0x27F
+TU = 0x340            # per element: tx_until (absolute tick)
+BU = 0x358            # per element: blank_until (absolute tick)
+BA = 0x370            # the candidate's blank interval [a, b) of element e (offsets from t0)
+BB = 0x388
 CAND = 0x3A0          # candidate T_E per receiver
+
+# the slot unit's I/O registers (bus addresses above the data memory)
+SU_TA, SU_TB, SU_TWA, SU_TWB, SU_GO = 0x400, 0x401, 0x402, 0x403, 0x404
+SU_X, SU_FLAGS, SU_MINC = 0x405, 0x406, 0x407
+SU_LATENCY = WSLOTS + 4   # clocks from SU_GO to the results (a slot per clock, four stages)
 
 # register conventions of the kernels
 R_MASK24, R_SIGN24 = 28, 29   # constants 0xFFFFFF and 0x800000 (loaded by prologue())
@@ -87,3 +108,142 @@ def cand_kernel(p: Program) -> Program:
     p.label("cand_next").tst(1).b("ne", "cand_loop")
     p.label("cand_done")
     return p
+
+
+# ------------------------------------------------------------------ CONF: the conflict scan
+@dataclass
+class Slot:
+    start: int
+    end: int
+    close: int
+
+
+@dataclass
+class SlotUnit:
+    """Model of the slot unit's contract (module docstring); ``windows[e]`` the element's
+    reserved windows (valid slots)."""
+    windows: dict[int, list[Slot]] = field(default_factory=dict)
+    regs: dict[int, int] = field(default_factory=dict)
+    done_at: int = -1
+    x: int = 0
+    flags: int = 0
+    minc: int = 0
+
+    def write(self, cycle: int, addr: int, data: int) -> None:
+        self.regs[addr] = data
+        if addr != SU_GO:
+            return
+        e, bon, won = data & 0xFF, data >> 8 & 1, data >> 9 & 1
+        ta, tb, twa, twb = (self.regs.get(a, 0) for a in (SU_TA, SU_TB, SU_TWA, SU_TWB))
+        ws = self.windows.get(e, [])
+        best = None
+        for w in ws:
+            for on, lo, hi in ((bon, ta, tb), (won, twa, twb)):
+                rel = sext(w.end - lo, 32)
+                if on and rel > 0 and sext(w.start - hi, 32) < 0:
+                    best = rel if best is None else max(best, rel)
+        self.x = (best or 0) & MASK32
+        self.flags = int(best is not None) | int(bool(won) and len(ws) >= WSLOTS) << 1
+        self.minc = min((w.close for w in ws), key=lambda c: sext(c - ta, 32), default=0) & MASK32
+        self.done_at = cycle + SU_LATENCY
+
+    def read(self, cycle: int, addr: int) -> int:
+        busy = cycle < self.done_at
+        if addr == SU_FLAGS:
+            return 0x80 if busy else self.flags
+        if busy:   # results change when the scan completes: a program waits for busy to fall
+            return 0xDEAD_BEEF
+        return {SU_X: self.x, SU_MINC: self.minc}.get(addr, 0)
+
+
+class EngineWithUnits(Machine):
+    """The engine's model with its data memory below 0x400 and the slot unit above."""
+
+    def __init__(self, words: list[int], mem: dict[int, int], slot_unit: SlotUnit) -> None:
+        super().__init__(words, mem=mem)
+        self.su = slot_unit
+
+    def read(self, addr: int) -> int:
+        return self.su.read(self.cycle + 1, addr) if addr >= SU_TA else super().read(addr)
+
+    def write(self, addr: int, data: int) -> None:
+        if addr >= SU_TA:
+            self.su.write(self.cycle + 1, addr, data)
+        else:
+            super().write(addr, data)
+
+
+def conf_kernel(p: Program) -> Program:
+    """CONF: the conflict scan of a candidate pulse at t0 = r1 over the elements of mask r2
+    (tx elements r3, elements with a window r4, with a blank interval r9): for a tx element its
+    trigger t0 + a against tx_until, for a window element the window start t0 + wa against
+    blank_until, then the slot unit over the element's reserved windows. The window of
+    receiver e is [te - T_V, te + T_N) with te = CAND + e and T_V / T_N in r5 / r6. Result:
+    r7 = 1 when the pulse conflicts, r8 the latest retry t0 (model FastFiringModel._conflict,
+    None when r7 = 0)."""
+    p.li(7, 0).li(8, 0)                        # r8: the retry relative to t0, while r7 = 1
+    p.tst(2).b("eq", "conf_done")
+    p.label("conf_loop")
+    p.lsb(10, 2).addi(11, 2, -1)
+    p.andn(12, 2, 11).and_(2, 2, 11)           # element's one-hot bit; the mask without it
+    p.ld(13, 10, BA).ld(14, 10, BB)            # blank interval [a, b)
+    p.ld(15, 10, CAND).ld(16, 10, TU)
+    p.add(13, 13, 1).add(14, 14, 1)            # t0 + a, t0 + b
+    p.sub(17, 15, 5).add(18, 15, 6)            # window offsets te - T_V, te + T_N
+    p.st(13, 0, SU_TA).st(14, 0, SU_TB)
+    p.add(17, 17, 1).add(18, 18, 1)            # t0 + wa, t0 + wb
+    p.st(17, 0, SU_TWA).st(18, 0, SU_TWB)
+    p.mov(21, 10).and_(20, 12, 9)              # SU_GO: the element; blank on?
+    p.b("eq", "conf_noblk").ori(21, 21, 0x100)
+    p.label("conf_noblk").and_(20, 12, 4)      # window on?
+    p.b("eq", "conf_nowin").ori(21, 21, 0x200)
+    p.label("conf_nowin").and_(19, 12, 3)      # tx element?
+    p.st(21, 0, SU_GO)                         # the slot unit scans while the rules below run
+    p.tst(19).b("eq", "conf_notx")
+    p.sub(22, 16, 13).b("le", "conf_notx")     # tx_until - (t0 + a) > 0: retry
+    p.call("conf_fold")
+    p.label("conf_notx").tst(20).b("eq", "conf_wait")
+    p.ld(16, 10, BU).nop().nop()
+    p.sub(22, 16, 17).b("le", "conf_wait")     # blank_until - (t0 + wa) > 0: retry
+    p.call("conf_fold")
+    p.label("conf_wait").ld(23, 0, SU_FLAGS).nop().nop()
+    p.andi(0, 23, 0x80).b("ne", "conf_wait")
+    p.andi(0, 23, 1).b("eq", "conf_full")
+    p.ld(22, 0, SU_X).nop().nop()
+    p.call("conf_fold")
+    p.label("conf_full").andi(0, 23, 2).b("eq", "conf_next")
+    p.ld(22, 0, SU_MINC).nop().nop()
+    p.sub(22, 22, 1)                           # the earliest close, relative to t0
+    p.call("conf_fold")
+    p.label("conf_next").tst(2).b("ne", "conf_loop")
+    p.jmp("conf_done")
+    # r8 = max(r8, r22) with r7 = 1 (a retry relative to t0)
+    p.label("conf_fold").tst(7).b("eq", "conf_take")
+    p.cmp(22, 8).b("le", "conf_keep")
+    p.label("conf_take").mov(8, 22).li(7, 1)
+    p.label("conf_keep").ret()
+    p.label("conf_done").add(8, 8, 1)          # the retry as a t0
+    return p
+
+
+def conf_clocks(n_el: int = NUM_RX, n_tx: int = 3, slots: int = WSLOTS) -> int:
+    """Clocks the CONF kernel takes for a candidate touching ``n_el`` elements, all with a
+    window, the first ``n_tx`` also tx elements, each holding ``slots`` reserved windows that
+    it does not overlap (every rule checked, no conflict found)."""
+    t, tv, tn = 1 << 24, 24_000, 24_000
+    mem: dict[int, int] = {}
+    su = SlotUnit()
+    for e in range(n_el):
+        mem[TU + e] = mem[BU + e] = t - 1000
+        mem[CAND + e] = 200_000
+        mem[BA + e], mem[BB + e] = 100 * e, 100 * e + 50_000
+        su.windows[e] = [Slot(t - 10_000 * (k + 2), t - 10_000 * (k + 1), t) for k in range(slots)]
+    allm, txm = (1 << n_el) - 1, (1 << n_tx) - 1
+    p = prologue(Program("conf_clocks")).li(1, t).li(2, allm).li(3, txm).li(4, allm).li(5, tv)
+    p.li(6, tn).li(9, txm).label("start")
+    conf_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, mem, su)
+    m.run(1_000_000, stop={img.labels["halt"]})
+    assert m.regs[7] == int(slots >= WSLOTS)   # only a full element can defer it
+    return m.cycle - img.labels["start"]
