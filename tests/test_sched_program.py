@@ -9,10 +9,10 @@ import pytest
 from multisonar.fastfiring import FastFiringModel, SyntheticEchoSource, _RxState, _Window
 from multisonar.layout import load_layout
 from multisonar.schedule import Schedule, VirtualSensor
-from multisonar.tools.sched_program import (BA, BB, BU, CAND, NUM_RX, TRK, TU, WSLOTS, EngineWithUnits, Slot,
+from multisonar.tools.sched_program import (BA, BB, BU, CAND, HC, HS, NUM_RX, TRK, TU, WSLOTS, WV, EngineWithUnits,
+                                            Slot,
                                             SlotUnit, cand_clocks, cand_kernel, conf_clocks, conf_kernel,
-                                            pack_rx,
-                                            prologue)
+                                            iel_clocks, iel_kernel, pack_rx, prologue)
 from multisonar.tools.sched_ucode import Machine, Program
 
 LAYOUT = load_layout("ring24")
@@ -159,3 +159,104 @@ def test_conf_kernel_clocks_per_element():
     full slots (the slot unit's scan) than with none."""
     full24, full8, empty24 = conf_clocks(24, 3, 16), conf_clocks(8, 3, 16), conf_clocks(24, 3, 0)
     assert abs(full24 / 24 - full8 / 8) < 3 and empty24 < full24 < 200 * 24
+
+
+# ------------------------------------------------------------------ IEL
+def issue_case(seed: int):
+    """A sensor about to issue at t0 = t (built without conflict), with old windows in random
+    slots of its elements; returns the model after _try_issue, its state before, and the
+    kernel's inputs."""
+    rng = random.Random(seed)
+    start = rng.randrange(NUM_RX)
+    ntx = rng.randrange(1, 4)
+    tx = [(start + i) % NUM_RX for i in range(ntx)]
+    rx = sorted({(start + i) % NUM_RX for i in range(-rng.randrange(0, 5), ntx + rng.randrange(0, 5))})
+    vs = VirtualSensor("s", tx=tx, rx=rx, order=rng.randrange(1, 5), xtalk_neighbours=rng.randrange(0, 3),
+                       source=tuple(LAYOUT.positions[tx].mean(axis=0) * 0.5))
+    model = FastFiringModel(Schedule(LAYOUT, [vs]), SyntheticEchoSource({}))
+    s, c = model.sensors[0], model.sensors[0].cfg
+    t = rng.randrange(1 << 24, 1 << 30)
+    model.now, s.due, s.quiet, s.seq = t, t, t, rng.randrange(1 << 16)
+    init = rng.random() < 0.3
+    if not init:
+        lo, hi = c.te_limits()
+        s.tracking = True
+        for r in map(int, c.rx):
+            s.rx[r] = random_state(rng, s.seq, lo, hi)
+        if not any(st.tracked for st in s.rx.values()):
+            s.rx[int(c.rx[0])] = _RxState(tracked=True, tof=lo, seq=s.seq - 1)
+    slots = {}
+    touched = set(map(int, c.tx)) | set(map(int, c.xtalk_elements)) | set(map(int, c.rx))
+    for e in range(NUM_RX):
+        n = rng.randrange(0, WSLOTS - 1) if e in touched else 0
+        pos = rng.sample(range(WSLOTS), n)
+        ws = []
+        for k in pos:   # old windows: over before any of the candidate's intervals begins
+            end = t - rng.randrange(0, 1 << 16)
+            w = _Window(end - rng.randrange(1, 1 << 16), end, end + rng.randrange(-2, 1 << 18), 0, 0, e, 0, False, 0)
+            ws.append(w)
+            slots[(e, k)] = w
+        model.windows[e] = ws
+        # a receiver's blank_until before t0 (else the pulse would wait), a blank-only element's
+        # also later than the new blanking (kept)
+        late = e not in set(map(int, c.rx)) and rng.random() < 0.4
+        model.blank_until[e] = t + rng.randrange(1 << 21) if late else t - rng.randrange(0, 1 << 20)
+        model.tx_until[e] = t - rng.randrange(0, 1 << 20)
+    te = ({} if init else {r: model._predict(s, st, s.seq) for r, st in s.rx.items() if st.tracked})
+    before = {"bu": list(model.blank_until), "tu": list(model.tx_until)}
+    model._try_issue(s)
+    return model, t, c, init, te, slots, before
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_iel_kernel_writes_what_the_model_issues(seed):
+    model, t, c, init, te, slots, before = issue_case(seed)
+    assert len(model.pulses) == 1, "the case is built to issue without conflict"
+    mem = {}
+    for e in range(NUM_RX):
+        mem[BU + e], mem[TU + e] = before["bu"][e], before["tu"][e]
+        mem[WV + e] = sum(1 << k for (x, k) in slots if x == e)
+        olds = [(w.close, k) for (x, k), w in slots.items() if x == e]
+        if olds:
+            close, k = min(olds)
+            mem[HC + e], mem[HS + e] = close, k | 0x100
+    for e, a, b in c.blank_intervals():
+        mem[BA + e], mem[BB + e] = a, b
+    for e, v in te.items():
+        mem[CAND + e] = v
+    wins = [int(e) for e in c.rx] if init else sorted(te)
+    mask = lambda es: sum(1 << int(e) for e in es)  # noqa: E731
+    blk = [e for e, _, _ in c.blank_intervals()]
+    p = prologue(Program("iel")).li(1, t).li(2, mask(set(blk) | set(wins))).li(3, mask(c.tx))
+    p.li(4, mask(wins)).li(9, mask(blk)).li(24, 0x5A).li(25, model.latency - 1)
+    p.li(5, -c.blank if init else c.t_v).li(6, c.max_tof if init else c.t_n)
+    p.label("start")
+    iel_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, mem)
+    m.run(200_000, stop={img.labels["halt"]})
+    for e in range(NUM_RX):
+        assert m.mem[BU + e] == model.blank_until[e] and m.mem[TU + e] == model.tx_until[e], f"element {e}"
+        new = [w for w in model.windows[e] if w.t0 == t]
+        got = [(a, f) for a, f in m.out.slots.items() if a // WSLOTS == e]
+        assert len(got) == len(new) <= 1
+        if new:
+            addr, (t0, ws, we, meta) = got[0]
+            w = new[0]
+            free = [k for k in range(WSLOTS) if (e, k) not in slots]
+            assert addr % WSLOTS == free[0] and meta == 0x5A
+            assert (t0 + ws, t0 + we, t0 + we - 1 + model.latency) == (w.start, w.end, w.close)
+            assert m.mem[WV + e] == mem[WV + e] | 1 << free[0]
+        if model.windows[e]:
+            closes = {(x, k): w.close for (x, k), w in slots.items() if x == e}
+            if new:
+                closes[(e, addr % WSLOTS)] = new[0].close
+            k = m.mem[HS + e]
+            assert k & 0x100 and m.mem[HC + e] == closes[(e, k & 0xFF)] == min(closes.values())
+    assert sorted(m.out.triggers) == sorted((trg.tick, trg.element) for trg in model.triggers)
+
+
+def test_iel_kernel_clocks_per_element():
+    """The IEL figure of bench_sched_engine.py: the same clocks for every further element."""
+    c8, c16, c24 = iel_clocks(8, 3), iel_clocks(16, 3), iel_clocks(24, 3)
+    assert abs((c24 - c16) - (c16 - c8)) <= 8 and c24 < 200 * 24

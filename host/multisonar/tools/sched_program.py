@@ -33,11 +33,19 @@ BU = 0x358            # per element: blank_until (absolute tick)
 BA = 0x370            # the candidate's blank interval [a, b) of element e (offsets from t0)
 BB = 0x388
 CAND = 0x3A0          # candidate T_E per receiver
+WV = 0x3B8            # per element: valid reserved-window slots (bit mask)
+HC = 0x3D0            # per element: the head's (earliest) close tick
+HS = 0x3E8            # per element: the head's slot | 0x100 while there is a head
 
 # the slot unit's I/O registers (bus addresses above the data memory)
 SU_TA, SU_TB, SU_TWA, SU_TWB, SU_GO = 0x400, 0x401, 0x402, 0x403, 0x404
 SU_X, SU_FLAGS, SU_MINC = 0x405, 0x406, 0x407
 SU_LATENCY = WSLOTS + 4   # clocks from SU_GO to the results (a slot per clock, four stages)
+# outputs of IEL: a window slot written (fields, then the address commits it), a trigger
+# (tick, then the element commits it), a head set for the close detector (tick, then element |
+# slot << 8 commits it)
+W_T0, W_WS, W_WE, W_META, W_ADDR = 0x410, 0x411, 0x412, 0x413, 0x414
+TRIG_T, TRIG_EL, HD_T, HD_EL = 0x418, 0x419, 0x41C, 0x41D
 
 # register conventions of the kernels
 R_MASK24, R_SIGN24 = 28, 29   # constants 0xFFFFFF and 0x800000 (loaded by prologue())
@@ -156,18 +164,42 @@ class SlotUnit:
         return {SU_X: self.x, SU_MINC: self.minc}.get(addr, 0)
 
 
-class EngineWithUnits(Machine):
-    """The engine's model with its data memory below 0x400 and the slot unit above."""
+@dataclass
+class Outputs:
+    """What IEL commits: window slots {address: (t0, ws, we, meta)}, triggers [(tick, element)],
+    head sets [(element, slot, close tick)], in order."""
+    regs: dict[int, int] = field(default_factory=dict)
+    slots: dict[int, tuple[int, int, int, int]] = field(default_factory=dict)
+    triggers: list[tuple[int, int]] = field(default_factory=list)
+    heads: list[tuple[int, int, int]] = field(default_factory=list)
 
-    def __init__(self, words: list[int], mem: dict[int, int], slot_unit: SlotUnit) -> None:
+    def write(self, addr: int, data: int) -> None:
+        self.regs[addr] = data
+        if addr == W_ADDR:
+            self.slots[data] = tuple(self.regs.get(a, 0) for a in (W_T0, W_WS, W_WE, W_META))
+        elif addr == TRIG_EL:
+            self.triggers.append((self.regs.get(TRIG_T, 0), data))
+        elif addr == HD_EL:
+            self.heads.append((data & 0xFF, data >> 8, self.regs.get(HD_T, 0)))
+
+
+class EngineWithUnits(Machine):
+    """The engine's model with its data memory below 0x400, the slot unit and IEL's outputs
+    above."""
+
+    def __init__(self, words: list[int], mem: dict[int, int], slot_unit: SlotUnit | None = None,
+                 outputs: Outputs | None = None) -> None:
         super().__init__(words, mem=mem)
-        self.su = slot_unit
+        self.su = slot_unit if slot_unit is not None else SlotUnit()
+        self.out = outputs if outputs is not None else Outputs()
 
     def read(self, addr: int) -> int:
         return self.su.read(self.cycle + 1, addr) if addr >= SU_TA else super().read(addr)
 
     def write(self, addr: int, data: int) -> None:
-        if addr >= SU_TA:
+        if addr >= W_T0:
+            self.out.write(addr, data)
+        elif addr >= SU_TA:
             self.su.write(self.cycle + 1, addr, data)
         else:
             super().write(addr, data)
@@ -246,4 +278,75 @@ def conf_clocks(n_el: int = NUM_RX, n_tx: int = 3, slots: int = WSLOTS) -> int:
     m = EngineWithUnits(img.words, mem, su)
     m.run(1_000_000, stop={img.labels["halt"]})
     assert m.regs[7] == int(slots >= WSLOTS)   # only a full element can defer it
+    return m.cycle - img.labels["start"]
+
+
+# ------------------------------------------------------------------ IEL: the issue's writes
+def iel_kernel(p: Program) -> Program:
+    """IEL, the writes of a pulse issued at t0 = r1 over the elements of mask r2 (tx r3, with a
+    window r4, with a blank interval r9; T_V / T_N in r5 / r6, the window of element e being
+    [te - T_V, te + T_N) with te = CAND + e; an init ping uses te = 0, T_V = -D, T_N = R):
+    blank_until and (tx) tx_until = max(, t0 + b); a trigger at t0 + a per tx element; the
+    window in the element's lowest free slot (WV), its fields from r1, the offsets and the
+    meta word r24; the head (HC / HS and the close detector) when the new window closes first.
+    Close tick = t0 + we + r25 (r25 = L - 1). Model: the issue part of _try_issue."""
+    p.li(26, 16).li(27, 256)
+    p.tst(2).b("eq", "iel_done")
+    p.label("iel_loop")
+    p.lsb(10, 2).addi(11, 2, -1)
+    p.andn(12, 2, 11).and_(2, 2, 11)
+    p.ld(13, 10, BB).ld(16, 10, BU)
+    p.and_(20, 12, 9)
+    p.b("eq", "iel_notx")                    # no blank interval: no tx either
+    p.add(14, 13, 1)                         # t0 + b
+    p.sub(0, 14, 16).b("le", "iel_bu")       # later than blank_until?
+    p.st(14, 10, BU)
+    p.label("iel_bu").and_(20, 12, 3)
+    p.b("eq", "iel_notx")
+    p.ld(16, 10, TU).ld(13, 10, BA).nop()
+    p.add(15, 13, 1)                         # the trigger tick t0 + a
+    p.sub(0, 14, 16).b("le", "iel_tu")       # later than tx_until?
+    p.st(14, 10, TU)
+    p.label("iel_tu").st(15, 0, TRIG_T).st(10, 0, TRIG_EL)
+    p.label("iel_notx").and_(20, 12, 4)
+    p.b("eq", "iel_next")
+    p.ld(15, 10, CAND).ld(17, 10, WV)
+    p.mul(28, 10, 26)                        # the element's first slot address, e * 16
+    p.sub(18, 15, 5).add(19, 15, 6)          # ws, we
+    p.xori(21, 17, -1)                       # free slots
+    p.lsb(22, 21).addi(23, 21, -1)           # the lowest; its one-hot bit below
+    p.andn(23, 21, 23).add(28, 28, 22)
+    p.or_(17, 17, 23).add(30, 1, 19)
+    p.st(17, 10, WV).st(1, 0, W_T0).st(18, 0, W_WS).st(19, 0, W_WE).st(24, 0, W_META)
+    p.st(28, 0, W_ADDR).add(30, 30, 25)      # the window's close tick t0 + we - 1 + L
+    p.ld(16, 10, HS).ld(13, 10, HC).nop()
+    p.andi(0, 16, 0x100).b("eq", "iel_head")
+    p.sub(0, 30, 13).b("ge", "iel_next")     # the head closes first: keep it
+    p.label("iel_head").mul(29, 22, 27).st(30, 10, HC)
+    p.ori(16, 22, 0x100).st(30, 0, HD_T)
+    p.st(16, 10, HS).or_(29, 29, 10)
+    p.st(29, 0, HD_EL)
+    p.label("iel_next").tst(2).b("ne", "iel_loop")
+    p.label("iel_done")
+    return p
+
+
+def iel_clocks(n_el: int = NUM_RX, n_tx: int = 3) -> int:
+    """Clocks the IEL kernel takes for a pulse on ``n_el`` elements, all with a window (each
+    element's head kept: its windows close earlier), the first ``n_tx`` also tx elements."""
+    t = 1 << 24
+    mem: dict[int, int] = {}
+    for e in range(n_el):
+        mem[TU + e] = mem[BU + e] = t - 1000
+        mem[CAND + e] = 200_000
+        mem[BA + e], mem[BB + e] = 100 * e, 100 * e + 50_000
+        mem[WV + e], mem[HC + e], mem[HS + e] = 0b111, t + 10, 0x100
+    allm, txm = (1 << n_el) - 1, (1 << n_tx) - 1
+    p = prologue(Program("iel_clocks")).li(1, t).li(2, allm).li(3, txm).li(4, allm).li(9, txm)
+    p.li(5, 24_000).li(6, 24_000).li(24, 0).li(25, 2).label("start")
+    iel_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, mem)
+    m.run(1_000_000, stop={img.labels["halt"]})
+    assert len(m.out.slots) == n_el and len(m.out.triggers) == n_tx
     return m.cycle - img.labels["start"]
