@@ -12,7 +12,7 @@ from multisonar.schedule import Schedule, VirtualSensor
 from multisonar.tools.sched_program import (BA, BB, BU, CAND, HC, HS, NUM_RX, TRK, TU, WSLOTS, WV, EngineWithUnits,
                                             Slot,
                                             SlotUnit, cand_clocks, cand_kernel, conf_clocks, conf_kernel,
-                                            iel_clocks, iel_kernel, pack_rx, prologue)
+                                            hit_clocks, hit_kernel, iel_clocks, iel_kernel, pack_rx, prologue)
 from multisonar.tools.sched_ucode import Machine, Program
 
 LAYOUT = load_layout("ring24")
@@ -260,3 +260,55 @@ def test_iel_kernel_clocks_per_element():
     """The IEL figure of bench_sched_engine.py: the same clocks for every further element."""
     c8, c16, c24 = iel_clocks(8, 3), iel_clocks(16, 3), iel_clocks(24, 3)
     assert abs((c24 - c16) - (c16 - c8)) <= 8 and c24 < 200 * 24
+
+
+# ------------------------------------------------------------------ HIT
+@pytest.mark.parametrize("seed", range(150))
+def test_hit_kernel_samples_gates_and_reports_as_the_model(seed):
+    rng = random.Random(seed)
+    vs = [VirtualSensor("a", tx=[3], rx=[2, 3, 4], order=2), VirtualSensor("b", tx=[9], rx=[8, 9, 10])]
+    gate = rng.choice([None, 2400, rng.randrange(1, 5000)])
+    model = FastFiringModel(Schedule(LAYOUT, vs), SyntheticEchoSource({}), miss_gate=gate)
+    sensor = rng.randrange(2)
+    s, c = model.sensors[sensor], model.sensors[sensor].cfg
+    rx = int(rng.choice(list(c.rx)))
+    lo, hi = c.te_limits()
+    s.epoch = rng.randrange(2)
+    k = rng.randrange(200, 1 << 16)           # the window's pulse
+    st = random_state(rng, k, lo, hi)
+    st.seq = k - rng.choice([1, 1, 2, 5, 127, 0, -1, -3]) if st.tracked else st.seq
+    if st.tracked and rng.random() < 0.5:     # an echo near the prediction, to exercise the gate
+        off = rng.randrange(-3000, 3001)
+        if gate and rng.random() < 0.5:      # on the gate's edge: accepted at gate, refused beyond
+            off = rng.choice([-1, 1]) * (gate + rng.choice([0, 1]))
+        tof_guess = model._predict(s, st, k) + off
+    else:
+        tof_guess = rng.randrange(lo - 5000, hi + 5000)
+    t0 = rng.randrange(1 << 20, 1 << 31)
+    init = rng.random() < 0.25
+    w = _Window(t0 + lo - 10_000, t0 + hi + 10_000, 0, sensor, k, rx, t0, init,
+                s.epoch if rng.random() < 0.85 else 1 - s.epoch)
+    w.n_edges = 1 if rng.random() < 0.1 else 0
+    n = t0 + max(lo - 9_000, min(hi + 9_000, tof_guess))
+    s.rx[rx] = st
+    before = pack_state(st)
+    model.windows[rx] = [w]
+    model.now = n + model.latency
+    model._rise(rx, n)
+    base = TRK + 2 * (NUM_RX * sensor + rx)
+    mem = {base: before[0], base + 1: before[1]}
+    flags = int(init) | int(w.epoch == s.epoch) << 1 | int(w.n_edges > 1) << 2
+    p = prologue(Program("hit")).li(1, n).li(2, t0).li(3, k & 0xFF).li(4, flags).li(5, base)
+    p.li(6, rx).li(7, sensor).li(8, gate or 0).li(9, c.vmax).li(10, lo).li(11, hi).label("start")
+    hit_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, mem)
+    m.run(10_000, stop={img.labels["halt"]})
+    assert m.out.events == model.words
+    assert (m.mem[base], m.mem[base + 1]) == pack_state(s.rx[rx])
+    assert m.regs[12] == int(w.rejected)
+
+
+def test_hit_kernel_clocks():
+    """The HIT figure of bench_sched_engine.py: the gated sample path, a few dozen clocks."""
+    assert 20 < hit_clocks() < 200

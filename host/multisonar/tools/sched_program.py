@@ -46,6 +46,7 @@ SU_LATENCY = WSLOTS + 4   # clocks from SU_GO to the results (a slot per clock, 
 # slot << 8 commits it)
 W_T0, W_WS, W_WE, W_META, W_ADDR = 0x410, 0x411, 0x412, 0x413, 0x414
 TRIG_T, TRIG_EL, HD_T, HD_EL = 0x418, 0x419, 0x41C, 0x41D
+EVT_LO, EVT_HI = 0x420, 0x421   # an event word: low half, then the high half commits it
 
 # register conventions of the kernels
 R_MASK24, R_SIGN24 = 28, 29   # constants 0xFFFFFF and 0x800000 (loaded by prologue())
@@ -166,12 +167,13 @@ class SlotUnit:
 
 @dataclass
 class Outputs:
-    """What IEL commits: window slots {address: (t0, ws, we, meta)}, triggers [(tick, element)],
-    head sets [(element, slot, close tick)], in order."""
+    """What the kernels commit: window slots {address: (t0, ws, we, meta)}, triggers [(tick,
+    element)], head sets [(element, slot, close tick)], event words, in order."""
     regs: dict[int, int] = field(default_factory=dict)
     slots: dict[int, tuple[int, int, int, int]] = field(default_factory=dict)
     triggers: list[tuple[int, int]] = field(default_factory=list)
     heads: list[tuple[int, int, int]] = field(default_factory=list)
+    events: list[int] = field(default_factory=list)
 
     def write(self, addr: int, data: int) -> None:
         self.regs[addr] = data
@@ -181,6 +183,8 @@ class Outputs:
             self.triggers.append((self.regs.get(TRIG_T, 0), data))
         elif addr == HD_EL:
             self.heads.append((data & 0xFF, data >> 8, self.regs.get(HD_T, 0)))
+        elif addr == EVT_HI:
+            self.events.append(data << 32 | self.regs.get(EVT_LO, 0))
 
 
 class EngineWithUnits(Machine):
@@ -349,4 +353,86 @@ def iel_clocks(n_el: int = NUM_RX, n_tx: int = 3) -> int:
     m = EngineWithUnits(img.words, mem)
     m.run(1_000_000, stop={img.labels["halt"]})
     assert len(m.out.slots) == n_el and len(m.out.triggers) == n_tx
+    return m.cycle - img.labels["start"]
+
+
+# ------------------------------------------------------------------ HIT: an echo in a window
+def hit_kernel(p: Program) -> Program:
+    """HIT, an edge at tick r1 in a window (t0 r2, pulse seq r3 (8 bits), flags r4: bit 0 init
+    ping, bit 1 of the sensor's current epoch, bit 2 the window saw an echo before) of receiver
+    r6 of sensor r7, tracking state at r5 (words A, B); gate r8 (0 off), v_max r9, T_E limits
+    r10 / r11. The first echo writes its event word (docs/fast_firing.md section 6) and, for a
+    window of the current epoch, updates the tracking state (an init ping's first echo starts
+    the track; a tracking window's first echo is a sample if the pulse gap is 1..127, with
+    velocity when the gap is 1 after a tracking sample) unless the gated miss rule rejects it
+    (r12 = 1: then the window counts as a miss). A later echo does nothing. Model:
+    FastFiringModel._rise and _sample (max_echoes_per_window = 1)."""
+    p.li(12, 0).li(30, -0x2000_0000).li(17, 32)           # r30 = 0xE0000000
+    p.andi(0, 4, 4).b("ne", "hit_done")                  # not the first echo: no event
+    p.sub(14, 1, 2).andi(16, 3, 0xFF)
+    p.and_(14, 14, R_MASK24).mul(16, 16, 17)             # tof; seq << 5
+    p.rotb(15, 6, 1).rotb(16, 16, 1)                     # rx << 24; seq << 29 (bits 2:0 low, 7:3 high)
+    p.and_(18, 16, 30).mul(20, 7, 17)                    # seq bits of the low half; sensor << 5
+    p.or_(15, 15, 18).andi(19, 16, 0x1F)
+    p.or_(15, 15, 14).or_(19, 19, 20)                    # low half; high half: seq, sensor
+    p.andi(21, 4, 1).li(22, 2048)
+    p.mul(21, 21, 22)                                    # init_ping << 11 (bit 43)
+    p.ori(19, 19, 0x300)                                 # in_window, first_echo (bits 40, 41)
+    p.or_(19, 19, 21)
+    p.st(15, 0, EVT_LO).st(19, 0, EVT_HI)
+    p.andi(0, 4, 2).b("eq", "hit_done")                  # an earlier epoch's window: no sample
+    p.ld(23, 5, 0).ld(24, 5, 1)
+    p.andi(0, 4, 1).b("ne", "hit_init")
+    p.rotb(25, 24, 3).rotb(26, 23, 3)                    # flags byte; seq byte of the state
+    p.andi(0, 25, 1).b("eq", "hit_done")                 # not tracked: no sample, no gate
+    p.andi(26, 26, 0xFF).and_(18, 24, R_MASK24)
+    p.sub(27, 3, 26).xor(18, 18, R_SIGN24)
+    p.andi(27, 27, 0xFF).sub(18, 18, R_SIGN24)           # gap (8 bits); v
+    p.and_(20, 23, R_MASK24)                             # the state's tof
+    p.tst(8).b("eq", "hit_sample")                       # gate off
+    p.andi(0, 25, 4).b("eq", "hit_sample")               # velocity not measured: no gate
+    p.xori(21, 27, 0x80)
+    p.addi(21, 21, -128)                                 # the gap, signed
+    p.mul(22, 21, 18)
+    p.add(22, 22, 20)                                    # prediction, then its clamp
+    p.cmp(22, 10).b("ge", "hit_lo").mov(22, 10)
+    p.label("hit_lo").cmp(22, 11).b("le", "hit_hi").mov(22, 11)
+    p.label("hit_hi").sub(22, 14, 22).b("ge", "hit_abs").sub(22, 0, 22)
+    p.label("hit_abs").cmp(22, 8).b("le", "hit_sample")
+    p.li(12, 1).jmp("hit_done")                          # rejected: counts as a miss at close
+    p.label("hit_sample").tst(27).b("eq", "hit_done")    # gap 0: no sample
+    p.andi(0, 27, 0x80).b("ne", "hit_done")              # gap 128..255 (negative): no sample
+    p.li(26, 0).li(21, 1)                                # v, flags: tracked
+    p.cmpi(27, 1).b("ne", "hit_write")
+    p.andi(0, 25, 2).b("ne", "hit_write")                # after the init ping's sample: no v
+    p.sub(26, 14, 20).sub(22, 0, 9)                      # v = tof - last tof, within +-v_max
+    p.cmp(26, 9).b("le", "hit_vhi").mov(26, 9)
+    p.label("hit_vhi").cmp(26, 22).b("ge", "hit_vlo").mov(26, 22)
+    p.label("hit_vlo").li(21, 5)                         # tracked, vel
+    p.label("hit_write").andi(16, 3, 0xFF).and_(26, 26, R_MASK24)
+    p.rotb(16, 16, 1).rotb(21, 21, 1)
+    p.or_(23, 14, 16).or_(24, 26, 21)
+    p.st(23, 5, 0).st(24, 5, 1).jmp("hit_done")
+    p.label("hit_init").andi(16, 3, 0xFF).li(21, 3)      # an init ping's echo: tracked, init
+    p.rotb(16, 16, 1).rotb(21, 21, 1)
+    p.or_(23, 14, 16)
+    p.st(23, 5, 0).st(21, 5, 1)
+    p.label("hit_done")
+    return p
+
+
+def hit_clocks() -> int:
+    """Clocks the HIT kernel takes for the longest common path: a tracking window's first
+    echo, velocity measured, checked by the gate and taken as a sample with velocity."""
+    t0, k = 1 << 24, 500
+    a, b = pack_rx(True, 100_000, k - 1, 40, vel=True)
+    mem = {TRK: a, TRK + 1: b}
+    p = prologue(Program("hit_clocks")).li(1, t0 + 100_100).li(2, t0).li(3, k & 0xFF).li(4, 2)
+    p.li(5, TRK).li(6, 0).li(7, 0).li(8, 2400).li(9, 24_000).li(10, 30_000).li(11, 300_000)
+    p.label("start")
+    hit_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, mem)
+    m.run(10_000, stop={img.labels["halt"]})
+    assert len(m.out.events) == 1 and m.regs[12] == 0 and m.mem[TRK + 1] >> 24 == 5
     return m.cycle - img.labels["start"]
