@@ -35,7 +35,8 @@ def main() -> int:
     ap.add_argument("--json", type=Path, default=OUT)
     args = ap.parse_args()
     sys.path.insert(0, str(ROOT / "host"))
-    from multisonar.tools.sched_program import NUM_RX, cand_clocks, conf_clocks, hit_clocks, iel_clocks
+    from multisonar.tools.sched_program import (NUM_RX, cand_clocks, close_clocks, conf_clocks, hit_clocks,
+                                                iel_clocks)
     from multisonar.tools.sched_ucode import random_program, sv_package
 
     work = ROOT / "build" / "bench" / "sched_engine"
@@ -78,6 +79,7 @@ def main() -> int:
     row["iel_clocks_per_el"] = round(iel / NUM_RX, 1)
     row["decision_clocks_24el_16slots"] = clocks + conf_full + iel
     row["hit_clocks"] = hit_clocks()
+    row["close_clocks"] = close_clocks()
     print(f"ms_sched_engine alone (ECP5, ROM {args.words} words, random program seed {args.seed}, "
           f"{len(image.words)} instructions)\n")
     keys = [k for k in row if k not in ("program_words", "rom_words") and "clocks" not in k]
@@ -93,6 +95,8 @@ def main() -> int:
           f"{row['iel_clocks_per_el']} per element (ms_scheduler: 6, S_IEL's need + go)")
     print(f"HIT kernel (sched_program.hit_kernel: event word, gate, sample with velocity): "
           f"{row['hit_clocks']} clocks (ms_scheduler: 7, S_HIT's need + go, after the slot stream)")
+    print(f"CLOSE kernel (sched_program.close_kernel: empty tracking window, K-th miss, safety): "
+          f"{row['close_clocks']} clocks (ms_scheduler: 6, S_CLOSE's need + go)")
     print(f"CAND + CONF + IEL of a 24-element decision with full slots: "
           f"{row['decision_clocks_24el_16slots']} clocks (ms_scheduler: about 850 by its need() table)")
     args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -12,7 +12,9 @@ from multisonar.schedule import Schedule, VirtualSensor
 from multisonar.tools.sched_program import (BA, BB, BU, CAND, HC, HS, NUM_RX, TRK, TU, WSLOTS, WV, EngineWithUnits,
                                             Slot,
                                             SlotUnit, cand_clocks, cand_kernel, conf_clocks, conf_kernel,
-                                            hit_clocks, hit_kernel, iel_clocks, iel_kernel, pack_rx, prologue)
+                                            hit_clocks, hit_kernel, iel_clocks, iel_kernel, pack_rx, prologue,
+                                            close_clocks, close_kernel, SENS, S_DUE, S_FLAGS, S_OPEN, S_K, S_MODE, F_TRACKING,
+                                            F_IN_INIT, F_EPOCH, F_ANY_TRK)
 from multisonar.tools.sched_ucode import Machine, Program
 
 LAYOUT = load_layout("ring24")
@@ -312,3 +314,70 @@ def test_hit_kernel_samples_gates_and_reports_as_the_model(seed):
 def test_hit_kernel_clocks():
     """The HIT figure of bench_sched_engine.py: the gated sample path, a few dozen clocks."""
     assert 20 < hit_clocks() < 200
+
+
+# ------------------------------------------------------------------ CLOSE
+def sensor_words(s, c) -> dict[int, int]:
+    """A sensor's words in the data memory (sched_program's per-sensor layout)."""
+    flags = (int(s.tracking) * F_TRACKING | int(s.in_init) * F_IN_INIT | (s.epoch & 1) * F_EPOCH
+             | int(any(st.tracked for st in s.rx.values())) * F_ANY_TRK)
+    return {S_DUE: s.due & 0xFFFF_FFFF, S_FLAGS: flags, S_OPEN: s.init_open, S_K: c.miss_limit,
+            S_MODE: 1 if c.mode.value == "track" else 2}
+
+
+@pytest.mark.parametrize("seed", range(150))
+def test_close_kernel_counts_misses_and_ends_init_as_the_model(seed):
+    rng = random.Random(seed)
+    vs = [VirtualSensor("a", tx=[3], rx=[2, 3, 4], order=2, miss_limit=rng.randrange(1, 6),
+                        mode=rng.choice(["track", "track", "init"])),
+          VirtualSensor("b", tx=[9], rx=[8, 9, 10])]
+    model = FastFiringModel(Schedule(LAYOUT, vs), SyntheticEchoSource({}))
+    sensor = rng.randrange(2)
+    s, c = model.sensors[sensor], model.sensors[sensor].cfg
+    lo, hi = c.te_limits()
+    rx = int(rng.choice(list(c.rx)))
+    now = rng.randrange(1 << 22, 1 << 31)
+    model.now = now
+    s.epoch = rng.randrange(2)
+    s.tracking = rng.random() < 0.6
+    s.in_init = not s.tracking and rng.random() < 0.8
+    s.init_open = rng.randrange(1, 4) if s.in_init else 0
+    s.due = now + rng.randrange(-50_000, 50_000)
+    for r in map(int, c.rx):
+        s.rx[r] = random_state(rng, 1000, lo, hi)
+        s.rx[r].miss = rng.choice([0, 1, c.miss_limit - 1, 14, 15])
+    init = rng.random() < 0.4
+    t0 = now - rng.randrange(50_000, 200_000)
+    we = rng.randrange(lo, hi)
+    w = _Window(t0 + we - 48_000, t0 + we, now, sensor, rng.randrange(1 << 16), rx, t0, init,
+                s.epoch if rng.random() < 0.8 else 1 - s.epoch)
+    if init and w.epoch == s.epoch:   # a current init ping's window: the sensor is in its init phase
+        s.tracking, s.in_init, s.init_open = False, True, rng.randrange(1, 4)
+    w.n_edges = rng.choice([0, 0, 1, 2])
+    w.rejected = w.n_edges > 0 and rng.random() < 0.4
+    model.windows[rx] = [w]
+    words = sensor_words(s, c)
+    base_s = SENS + 32 * sensor
+    trk = TRK + 2 * (NUM_RX * sensor + rx)
+    mem = {base_s + k: v for k, v in words.items()}
+    mem[trk], mem[trk + 1] = pack_state(s.rx[rx])
+    flags = int(init) | int(w.n_edges > 0) << 1 | int(w.rejected) << 2 | (w.epoch & 1) << 3
+    model._on_close(w)
+    p = prologue(Program("close")).li(1, now).li(2, t0).li(3, we).li(4, w.seq & 0xFF).li(5, flags)
+    p.li(6, rx).li(7, sensor).li(8, base_s).li(9, trk).label("start")
+    close_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, mem)
+    m.run(10_000, stop={img.labels["halt"]})
+    cancelled = any(r.__class__.__name__ == "SensorCancel" for r in model.records)
+    assert m.out.events == [wd for wd in model.words if not wd >> 61 & 1]   # the cancel record is SAFE's
+    assert m.regs[10] == int(cancelled)
+    assert (m.mem[trk], m.mem[trk + 1]) == pack_state(s.rx[rx])
+    after = sensor_words(s, c)
+    assert m.mem[base_s + S_DUE] == after[S_DUE] and m.mem[base_s + S_OPEN] == after[S_OPEN]
+    assert m.mem[base_s + S_FLAGS] & (F_TRACKING | F_IN_INIT) == after[S_FLAGS] & (F_TRACKING | F_IN_INIT)
+
+
+def test_close_kernel_clocks():
+    """The CLOSE figure of bench_sched_engine.py (its longest path)."""
+    assert 20 < close_clocks() < 200

@@ -8,7 +8,10 @@ Data memory (32-bit words): the tracking state of (sensor s, receiver r) at
 ``TRK + 2 * (24 s + r)``: word A = tof[23:0] | seq[7:0] << 24, word B = v[23:0] (two's
 complement) | flags << 24 (bit 24 tracked, 25 init, 26 vel, 31:28 miss count); the candidate's
 predicted T_E of receiver r at ``CAND + r``; per element tx_until (``TU + e``) and
-blank_until (``BU + e``); the candidate's blank interval of element e at ``BA + e``, ``BB + e``.
+blank_until (``BU + e``); the candidate's blank interval of element e at ``BA + e``, ``BB + e``;
+per sensor s at ``SENS + 32 s``: due (S_DUE), quiet, pulse id (S_SEQ), flags (S_FLAGS:
+tracking, in_init, epoch, any receiver tracked), open init windows (S_OPEN), miss limit K
+(S_K), mode (S_MODE: 1 track).
 
 The slot unit (:class:`SlotUnit`, a fixed stream unit the engine drives through I/O
 registers) scans the up to 16 reserved windows of one element, one per clock, against the
@@ -47,6 +50,12 @@ SU_LATENCY = WSLOTS + 4   # clocks from SU_GO to the results (a slot per clock, 
 W_T0, W_WS, W_WE, W_META, W_ADDR = 0x410, 0x411, 0x412, 0x413, 0x414
 TRIG_T, TRIG_EL, HD_T, HD_EL = 0x418, 0x419, 0x41C, 0x41D
 EVT_LO, EVT_HI = 0x420, 0x421   # an event word: low half, then the high half commits it
+
+# per-sensor words at SENS + 32 s
+SENS = 0x000
+S_DUE, S_QUIET, S_SEQ, S_FLAGS, S_OPEN, S_K, S_MODE = 0, 1, 3, 4, 5, 18, 23
+F_TRACKING, F_IN_INIT, F_EPOCH, F_ANY_TRK = 1, 2, 4, 8    # S_FLAGS bits
+MISS_MAX = 15
 
 # register conventions of the kernels
 R_MASK24, R_SIGN24 = 28, 29   # constants 0xFFFFFF and 0x800000 (loaded by prologue())
@@ -435,4 +444,83 @@ def hit_clocks() -> int:
     m = EngineWithUnits(img.words, mem)
     m.run(10_000, stop={img.labels["halt"]})
     assert len(m.out.events) == 1 and m.regs[12] == 0 and m.mem[TRK + 1] >> 24 == 5
+    return m.cycle - img.labels["start"]
+
+
+# ------------------------------------------------------------------ CLOSE: a window's result
+def close_kernel(p: Program) -> Program:
+    """CLOSE of the head window of receiver r6 at tick r1: window t0 r2, end offset r3, pulse
+    seq r4 (8 bits), flags r5 (bit 0 init ping, bit 1 saw an echo, bit 2 that echo was
+    rejected by the gate, bit 3 the window's epoch), sensor r7 (its words at r8 = SENS + 32 s),
+    tracking state at r9. An empty window writes its event word; an empty or rejected tracking
+    window of the current epoch counts a miss, and K misses while tracking end the tracking
+    (due = min(due, now); r10 = 1: the caller cancels the sensor's windows); the last open
+    window of an init ping ends the init phase (tracking if the mode is track and a receiver
+    got an echo). Model: FastFiringModel._on_close."""
+    p.li(10, 0).li(17, 32).li(22, 2048)
+    p.ld(11, 8, S_FLAGS).andi(0, 5, 2)
+    p.b("ne", "close_hit")                              # an echo came: no event
+    p.andi(14, 4, 0xFF).andi(15, 5, 1)                  # the empty window's event word
+    p.mul(14, 14, 17).mul(15, 15, 22)                   # seq << 5; init_ping << 11
+    p.and_(12, 3, R_MASK24).rotb(13, 6, 1)              # tof = end - t0; rx << 24
+    p.rotb(14, 14, 1).mul(16, 7, 17)                    # seq << 29; sensor << 5
+    p.or_(12, 12, 13).li(13, -0x2000_0000)
+    p.and_(13, 14, 13).andi(14, 14, 0x1F)
+    p.or_(12, 12, 13).or_(14, 14, 16)
+    p.ori(14, 14, 0x400).or_(14, 14, 15)                # window_empty (bit 42), init_ping
+    p.st(12, 0, EVT_LO).st(14, 0, EVT_HI)
+    p.jmp("close_miss")
+    p.label("close_hit").andi(0, 5, 4).b("eq", "close_init")   # a sample: no miss
+    p.label("close_miss").andi(0, 5, 1).b("ne", "close_init")  # init pings count no misses
+    p.andi(12, 11, F_EPOCH).andi(13, 5, 8)
+    p.add(12, 12, 12)                                   # the sensor's epoch at bit 3
+    p.xor(0, 12, 13).b("ne", "close_done")              # an earlier epoch's window
+    p.ld(12, 9, 1).ld(14, 8, S_K).nop()
+    p.rotb(13, 12, 3)
+    p.andi(15, 13, 0xF0)                                # miss count << 4 (flags byte)
+    p.cmpi(15, 0xF0).b("eq", "close_sat")               # saturated at 15
+    p.addi(15, 15, 0x10).li(16, 0x1000_0000)
+    p.add(12, 12, 16)                                   # miss + 1 in word B (bits 31:28)
+    p.st(12, 9, 1)
+    p.label("close_sat").add(14, 14, 14)
+    p.add(14, 14, 14).andi(0, 11, F_TRACKING)
+    p.b("eq", "close_done")                             # not tracking: no safety
+    p.add(14, 14, 14)
+    p.add(14, 14, 14)                                   # K << 4
+    p.sub(0, 15, 14).b("lt", "close_done")              # fewer than K misses
+    p.andi(11, 11, ~F_TRACKING).li(10, 1)      # safety: re-initialise now
+    p.ld(12, 8, S_DUE).st(11, 8, S_FLAGS).nop()
+    p.sub(0, 1, 12).b("ge", "close_done")
+    p.st(1, 8, S_DUE).jmp("close_done")                 # due = min(due, now)
+    p.label("close_init").andi(0, 5, 1).b("eq", "close_done")
+    p.andi(12, 11, F_EPOCH).andi(13, 5, 8)
+    p.add(12, 12, 12)
+    p.xor(0, 12, 13).b("ne", "close_done")              # an earlier epoch's init ping
+    p.ld(12, 8, S_OPEN).nop().nop()
+    p.addi(12, 12, -1)
+    p.st(12, 8, S_OPEN).b("ne", "close_done")           # windows of the init ping still open
+    p.ld(13, 8, S_MODE).andi(11, 11, ~(F_IN_INIT | F_TRACKING))
+    p.andi(14, 11, F_ANY_TRK)
+    p.b("eq", "close_flags")
+    p.cmpi(13, 1).b("ne", "close_flags")
+    p.ori(11, 11, F_TRACKING)                           # track mode and an echo: tracking
+    p.label("close_flags").st(11, 8, S_FLAGS)
+    p.label("close_done")
+    return p
+
+
+def close_clocks() -> int:
+    """Clocks the CLOSE kernel takes for its longest path: an empty tracking window whose
+    miss reaches K (event word, miss count, safety, due)."""
+    now, k = 1 << 24, 3
+    a, b = pack_rx(True, 100_000, 7, 0, miss=k - 1)
+    mem = {TRK: a, TRK + 1: b, SENS + S_DUE: now + 10, SENS + S_FLAGS: F_TRACKING, SENS + S_K: k,
+           SENS + S_MODE: 1}
+    p = prologue(Program("close_clocks")).li(1, now).li(2, now - 150_000).li(3, 124_000).li(4, 7)
+    p.li(5, 0).li(6, 0).li(7, 0).li(8, SENS).li(9, TRK).label("start")
+    close_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, mem)
+    m.run(10_000, stop={img.labels["halt"]})
+    assert len(m.out.events) == 1 and m.regs[10] == 1 and m.mem[SENS + S_DUE] == now
     return m.cycle - img.labels["start"]
