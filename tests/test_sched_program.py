@@ -13,7 +13,8 @@ from multisonar.tools.sched_program import (BA, BB, BU, CAND, HC, HS, NUM_RX, TR
                                             Slot,
                                             SlotUnit, cand_clocks, cand_kernel, conf_clocks, conf_kernel,
                                             hit_clocks, hit_kernel, iel_clocks, iel_kernel, pack_rx, prologue,
-                                            close_clocks, close_kernel, SENS, S_DUE, S_FLAGS, S_OPEN, S_K, S_MODE, F_TRACKING,
+                                            close_clocks, close_kernel, issue_kernel, SENS, S_DUE, S_QUIET, S_SEQ,
+                                            S_TRK, S_FLAGS, S_OPEN, S_K, S_MODE, F_TRACKING,
                                             F_IN_INIT, F_EPOCH, F_ANY_TRK)
 from multisonar.tools.sched_ucode import Machine, Program
 
@@ -178,13 +179,14 @@ def issue_case(seed: int):
     model = FastFiringModel(Schedule(LAYOUT, [vs]), SyntheticEchoSource({}))
     s, c = model.sensors[0], model.sensors[0].cfg
     t = rng.randrange(1 << 24, 1 << 30)
-    model.now, s.due, s.quiet, s.seq = t, t, t, rng.randrange(1 << 16)
+    model.now, s.due, s.quiet = t, t, t
+    s.seq = rng.choice([rng.randrange(1 << 16), 0xFFFF, (1 << 16) + rng.randrange(1 << 16)])
     init = rng.random() < 0.3
+    lo, hi = c.te_limits()
+    for r in map(int, c.rx):   # an init ping also finds the states of an earlier track
+        s.rx[r] = random_state(rng, s.seq, lo, hi)
     if not init:
-        lo, hi = c.te_limits()
         s.tracking = True
-        for r in map(int, c.rx):
-            s.rx[r] = random_state(rng, s.seq, lo, hi)
         if not any(st.tracked for st in s.rx.values()):
             s.rx[int(c.rx[0])] = _RxState(tracked=True, tof=lo, seq=s.seq - 1)
     slots = {}
@@ -204,8 +206,12 @@ def issue_case(seed: int):
         late = e not in set(map(int, c.rx)) and rng.random() < 0.4
         model.blank_until[e] = t + rng.randrange(1 << 21) if late else t - rng.randrange(0, 1 << 20)
         model.tx_until[e] = t - rng.randrange(0, 1 << 20)
+    s.track_pulses = rng.choice([0, 5, 254, 255, 300])
+    s.epoch = rng.randrange(2)
     te = ({} if init else {r: model._predict(s, st, s.seq) for r, st in s.rx.items() if st.tracked})
-    before = {"bu": list(model.blank_until), "tu": list(model.tx_until)}
+    before = {"bu": list(model.blank_until), "tu": list(model.tx_until),
+              "sensor": sensor_words(s, c) | {S_SEQ: s.seq & 0xFFFF, S_TRK: min(s.track_pulses, 255)},
+              "rx": {r: pack_state(st) for r, st in s.rx.items()}}
     model._try_issue(s)
     return model, t, c, init, te, slots, before
 
@@ -381,3 +387,32 @@ def test_close_kernel_counts_misses_and_ends_init_as_the_model(seed):
 def test_close_kernel_clocks():
     """The CLOSE figure of bench_sched_engine.py (its longest path)."""
     assert 20 < close_clocks() < 200
+
+
+# ------------------------------------------------------------------ ISSUE
+@pytest.mark.parametrize("seed", range(60))
+def test_issue_kernel_updates_the_sensor_as_the_model(seed):
+    model, t, c, init, te, slots, before = issue_case(seed)
+    s = model.sensors[0]
+    pulse = model.pulses[-1]
+    base_s, trk = SENS, TRK
+    mem = {base_s + k: v for k, v in before["sensor"].items()}
+    for r, (a, b) in before["rx"].items():
+        mem[trk + 2 * r], mem[trk + 2 * r + 1] = a, b
+    rxm = sum(1 << int(r) for r in c.rx)
+    p = prologue(Program("issue")).li(1, t).li(2, pulse.period).li(3, len(pulse.windows))
+    p.li(4, int(init)).li(5, c.max_tof - c.blank).li(6, rxm).li(7, 0).li(8, base_s).li(9, trk)
+    p.label("start")
+    issue_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, mem)
+    m.run(10_000, stop={img.labels["halt"]})
+    records = [w for w in model.words if w >> 62 & 1]
+    assert m.out.events == records
+    after = sensor_words(s, c) | {S_SEQ: s.seq & 0xFFFF, S_TRK: min(s.track_pulses, 255)}
+    for k in (S_DUE, S_SEQ, S_OPEN, S_TRK):
+        assert m.mem[base_s + k] == after[k], k
+    assert m.mem[base_s + S_QUIET] == s.quiet & 0xFFFF_FFFF
+    assert m.mem[base_s + S_FLAGS] == after[S_FLAGS]
+    for r, st in s.rx.items():
+        assert (m.mem.get(trk + 2 * r, 0), m.mem.get(trk + 2 * r + 1, 0)) == pack_state(st)

@@ -10,8 +10,9 @@ complement) | flags << 24 (bit 24 tracked, 25 init, 26 vel, 31:28 miss count); t
 predicted T_E of receiver r at ``CAND + r``; per element tx_until (``TU + e``) and
 blank_until (``BU + e``); the candidate's blank interval of element e at ``BA + e``, ``BB + e``;
 per sensor s at ``SENS + 32 s``: due (S_DUE), quiet, pulse id (S_SEQ), flags (S_FLAGS:
-tracking, in_init, epoch, any receiver tracked), open init windows (S_OPEN), miss limit K
-(S_K), mode (S_MODE: 1 track).
+tracking, in_init, epoch, any receiver tracked), open init windows (S_OPEN), tracking pulses
+since the last init ping (S_TRK, saturating at 255), miss limit K (S_K), mode (S_MODE: 1
+track).
 
 The slot unit (:class:`SlotUnit`, a fixed stream unit the engine drives through I/O
 registers) scans the up to 16 reserved windows of one element, one per clock, against the
@@ -53,7 +54,7 @@ EVT_LO, EVT_HI = 0x420, 0x421   # an event word: low half, then the high half co
 
 # per-sensor words at SENS + 32 s
 SENS = 0x000
-S_DUE, S_QUIET, S_SEQ, S_FLAGS, S_OPEN, S_K, S_MODE = 0, 1, 3, 4, 5, 18, 23
+S_DUE, S_QUIET, S_SEQ, S_FLAGS, S_OPEN, S_TRK, S_K, S_MODE = 0, 1, 3, 4, 5, 6, 18, 23
 F_TRACKING, F_IN_INIT, F_EPOCH, F_ANY_TRK = 1, 2, 4, 8    # S_FLAGS bits
 MISS_MAX = 15
 
@@ -524,3 +525,42 @@ def close_clocks() -> int:
     m.run(10_000, stop={img.labels["halt"]})
     assert len(m.out.events) == 1 and m.regs[10] == 1 and m.mem[SENS + S_DUE] == now
     return m.cycle - img.labels["start"]
+
+
+# ------------------------------------------------------------------ ISSUE: the sensor's state
+def issue_kernel(p: Program) -> Program:
+    """ISSUE, the sensor's side of a pulse issued at t0 = r1 by sensor r7 (words at r8): the
+    pulse record (docs/fast_firing.md section 6; n_win r3, init ping r4 = 1), then pulse id + 1;
+    an init ping flips the epoch, starts the init phase with r3 open windows, clears the
+    tracking pulse count and the tracking states of the receivers in mask r6 (at r9 + 2 r);
+    a tracking pulse counts (saturating at 255); due = t0 + period r2, quiet = t0 + r5 (max
+    ToF - D). Model: the issue part of FastFiringModel._try_issue."""
+    p.ld(10, 8, S_SEQ).ld(11, 8, S_FLAGS).li(17, 32)
+    p.li(12, 2048).li(13, 8192)
+    p.mul(14, 7, 17).mul(15, 4, 12)                     # sensor << 5; init_ping << 11
+    p.mul(16, 10, 13).or_(14, 14, 3)                    # pulse id << 13; n_win
+    p.or_(14, 14, 15).lui(18, 0x40000)                  # bit 62 of the word: bit 30 of the high half
+    p.or_(14, 14, 16)
+    p.or_(14, 14, 18)
+    p.st(1, 0, EVT_LO).st(14, 0, EVT_HI)
+    p.addi(10, 10, 1).li(19, 0xFFFF)
+    p.add(12, 1, 2).add(13, 1, 5)                       # due, quiet
+    p.and_(10, 10, 19)                                  # the pulse id wraps at 2^16
+    p.st(10, 8, S_SEQ).st(12, 8, S_DUE).st(13, 8, S_QUIET)
+    p.tst(4).b("eq", "issue_track")
+    p.xori(11, 11, F_EPOCH)
+    p.andi(11, 11, ~(F_TRACKING | F_ANY_TRK))
+    p.ori(11, 11, F_IN_INIT)
+    p.st(11, 8, S_FLAGS).st(3, 8, S_OPEN).st(0, 8, S_TRK)
+    p.tst(6).b("eq", "issue_done")
+    p.label("issue_rx").lsb(10, 6).addi(11, 6, -1)
+    p.add(12, 10, 10)
+    p.add(12, 12, 9).and_(6, 6, 11)                     # the state's address; the mask without r
+    p.st(0, 12, 0).st(0, 12, 1).b("ne", "issue_rx")     # (flags of the mask's and)
+    p.jmp("issue_done")
+    p.label("issue_track").ld(10, 8, S_TRK).nop().nop()
+    p.cmpi(10, 255).b("eq", "issue_done")
+    p.addi(10, 10, 1)
+    p.st(10, 8, S_TRK)
+    p.label("issue_done")
+    return p
