@@ -14,7 +14,8 @@ from multisonar.tools.sched_program import (BA, BB, BU, CAND, HC, HS, NUM_RX, TR
                                             SlotUnit, cand_clocks, cand_kernel, conf_clocks, conf_kernel,
                                             hit_clocks, hit_kernel, iel_clocks, iel_kernel, pack_rx, prologue,
                                             close_clocks, close_kernel, issue_kernel, SENS, S_DUE, S_QUIET, S_SEQ,
-                                            S_TRK, S_FLAGS, S_OPEN, S_K, S_MODE, F_TRACKING,
+                                            S_TRK, S_FLAGS, S_OPEN, S_K, S_MODE, S_REINIT, S_SHARE, F_TRACKING,
+                                            sched_kernel, SCHED_GO, SCHED_HOLD, SCHED_QUIET, SCHED_NOT_YET,
                                             F_IN_INIT, F_EPOCH, F_ANY_TRK)
 from multisonar.tools.sched_ucode import Machine, Program
 
@@ -416,3 +417,82 @@ def test_issue_kernel_updates_the_sensor_as_the_model(seed):
     assert m.mem[base_s + S_FLAGS] == after[S_FLAGS]
     for r, st in s.rx.items():
         assert (m.mem.get(trk + 2 * r, 0), m.mem.get(trk + 2 * r + 1, 0)) == pack_state(st)
+
+
+# ------------------------------------------------------------------ SCHED
+class ProbeModel(FastFiringModel):
+    """The model with the outcomes of _try_issue's first part made visible: a hold (the EDF
+    rule's _hold_retry), reaching the candidate (_conflict, answered with a retry so nothing
+    issues) and a cancel."""
+
+    def __init__(self, *a, **kw):
+        super().__init__(*a, **kw)
+        self.seen = []
+
+    def _hold_retry(self, t):
+        self.seen.append("hold")
+        return None
+
+    def _conflict(self, t, blanks, wins, n_tx=0):
+        self.seen.append("go")
+        return t + 1
+
+    def _cancel(self, sensor):
+        self.seen.append("cancel")
+
+
+@pytest.mark.parametrize("seed", range(200))
+def test_sched_kernel_decides_as_the_model(seed):
+    rng = random.Random(seed)
+    n = rng.randrange(2, 6)
+    vs = []
+    for i in range(n):   # sensors on random elements: some share, some do not
+        e = rng.randrange(6 if rng.random() < 0.7 else NUM_RX)   # mostly a crowded sector
+        vs.append(VirtualSensor(f"s{i}", tx=[e], rx=[e, (e + 1) % NUM_RX], order=2,
+                                reinit_every=rng.choice([0, 0, 3, 8])))
+    lead = rng.choice([0, 4096, 32768])
+    model = ProbeModel(Schedule(LAYOUT, vs), SyntheticEchoSource({}), decision_lead=lead)
+    now = rng.randrange(1 << 22, 1 << 31)
+    model.now = now
+    t = now + lead
+    for s in model.sensors:
+        s.tracking = rng.random() < 0.5
+        s.in_init = not s.tracking and rng.random() < 0.3
+        s.due = t + rng.choice([0, 1, -1, rng.randrange(-100_000, 100_000)])
+        s.quiet = t + rng.choice([0, 1, -1, rng.randrange(-100_000, 100_000)])
+        s.track_pulses = rng.choice([0, 2, 3, 8, 20])
+        for r in map(int, s.cfg.rx):
+            s.rx[r] = _RxState(tracked=s.tracking)
+    if rng.random() < 0.3:   # equal dues (at t0 itself, or before): the lower id goes first
+        due = t - rng.choice([0, 5])
+        for s in model.sensors:
+            s.due = due
+    sid = rng.randrange(n)
+    mem = {}
+    for s in model.sensors:
+        base = SENS + 32 * s.cfg.id
+        mem.update({base + k: v for k, v in sensor_words(s, s.cfg).items()})
+        mem[base + S_QUIET] = s.quiet & 0xFFFF_FFFF
+        mem[base + S_TRK] = min(s.track_pulses, 255)
+        mem[base + S_REINIT] = s.cfg.reinit_every
+        mem[base + S_SHARE] = sum(1 << o for o in range(n) if o != s.cfg.id and model._shares[s.cfg.id][o])
+    s = model.sensors[sid]
+    heap_before = len(model._heap)
+    model._try_issue(s)
+    pushed = model._heap[heap_before:] if len(model._heap) > heap_before else []
+    p = prologue(Program("sched")).li(1, now).li(2, lead).li(7, sid).li(8, SENS + 32 * sid).label("start")
+    sched_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, mem)
+    m.run(10_000, stop={img.labels["halt"]})
+    outcome = m.regs[10]
+    if "go" in model.seen:
+        assert outcome == SCHED_GO and m.regs[12] == int(not s.tracking)
+    elif "hold" in model.seen:
+        assert outcome == SCHED_HOLD
+    elif pushed:
+        assert outcome == SCHED_QUIET and m.regs[11] == s.quiet & 0xFFFF_FFFF
+    else:
+        assert outcome == SCHED_NOT_YET
+    assert m.regs[13] == int("cancel" in model.seen)
+    assert bool(m.mem[SENS + 32 * sid + S_FLAGS] & F_TRACKING) == s.tracking

@@ -11,8 +11,9 @@ predicted T_E of receiver r at ``CAND + r``; per element tx_until (``TU + e``) a
 blank_until (``BU + e``); the candidate's blank interval of element e at ``BA + e``, ``BB + e``;
 per sensor s at ``SENS + 32 s``: due (S_DUE), quiet, pulse id (S_SEQ), flags (S_FLAGS:
 tracking, in_init, epoch, any receiver tracked), open init windows (S_OPEN), tracking pulses
-since the last init ping (S_TRK, saturating at 255), miss limit K (S_K), mode (S_MODE: 1
-track).
+since the last init ping (S_TRK, saturating at 255), miss limit K (S_K), reinit_every M
+(S_REINIT, 0 off), mode (S_MODE: 1 track), the other sensors sharing an element (S_SHARE,
+one bit per sensor).
 
 The slot unit (:class:`SlotUnit`, a fixed stream unit the engine drives through I/O
 registers) scans the up to 16 reserved windows of one element, one per clock, against the
@@ -55,6 +56,7 @@ EVT_LO, EVT_HI = 0x420, 0x421   # an event word: low half, then the high half co
 # per-sensor words at SENS + 32 s
 SENS = 0x000
 S_DUE, S_QUIET, S_SEQ, S_FLAGS, S_OPEN, S_TRK, S_K, S_MODE = 0, 1, 3, 4, 5, 6, 18, 23
+S_REINIT, S_SHARE = 22, 24
 F_TRACKING, F_IN_INIT, F_EPOCH, F_ANY_TRK = 1, 2, 4, 8    # S_FLAGS bits
 MISS_MAX = 15
 
@@ -563,4 +565,48 @@ def issue_kernel(p: Program) -> Program:
     p.addi(10, 10, 1)
     p.st(10, 8, S_TRK)
     p.label("issue_done")
+    return p
+
+
+# ------------------------------------------------------------------ SCHED: may the sensor decide?
+SCHED_NOT_YET, SCHED_QUIET, SCHED_HOLD, SCHED_GO = 0, 1, 2, 3
+
+
+def sched_kernel(p: Program) -> Program:
+    """SCHED, whether sensor r7 (words at r8) decides at tick r1 for t0 = r1 + P (P in r2):
+    r10 = SCHED_NOT_YET (in its init phase, or not due by t0), SCHED_QUIET (an init ping
+    before its quiet tick: r11 = the quiet tick, the retry t0), SCHED_HOLD (a sensor sharing an
+    element is eligible with an earlier (due, id)) or SCHED_GO (on to the candidate; r12 = 1
+    for an init ping). A tracking sensor with M = reinit_every tracking pulses since its init
+    ping stops tracking first (r13 = 1: the caller cancels its windows). Model: the part of
+    FastFiringModel._try_issue before the candidate, with _eligible."""
+    p.li(10, SCHED_NOT_YET).li(13, 0).li(12, 0)
+    p.add(14, 1, 2).ld(11, 8, S_FLAGS).ld(20, 8, S_DUE)   # t0 = now + P
+    p.nop()
+    p.andi(0, 11, F_IN_INIT).b("ne", "sched_done")
+    p.sub(0, 14, 20).b("lt", "sched_done")                # not due by t0
+    p.andi(0, 11, F_TRACKING).b("eq", "sched_init")
+    p.ld(15, 8, S_REINIT).ld(16, 8, S_TRK).nop()
+    p.tst(15).b("eq", "sched_edf")                        # reinit_every off
+    p.sub(0, 16, 15).b("lt", "sched_edf")
+    p.andi(11, 11, ~F_TRACKING).li(13, 1)                 # forced re-initialisation
+    p.st(11, 8, S_FLAGS)
+    p.label("sched_init").ld(15, 8, S_QUIET).li(12, 1).nop()
+    p.sub(0, 14, 15).b("ge", "sched_edf")
+    p.li(10, SCHED_QUIET).mov(11, 15).jmp("sched_done")
+    p.label("sched_edf").ld(16, 8, S_SHARE).li(17, 32)
+    p.label("sched_o").tst(16).b("eq", "sched_go")
+    p.lsb(18, 16).addi(19, 16, -1)
+    p.mul(21, 18, 17).and_(16, 16, 19)                    # o's words; the mask without o
+    p.ld(22, 21, SENS + S_FLAGS).ld(23, 21, SENS + S_DUE).ld(24, 21, SENS + S_QUIET)
+    p.andi(0, 22, F_IN_INIT).b("ne", "sched_o")           # o waits for its init result
+    p.sub(0, 14, 23).b("lt", "sched_o")                   # o not due by t0
+    p.andi(0, 22, F_TRACKING).b("ne", "sched_elig")
+    p.sub(0, 14, 24).b("lt", "sched_o")                   # o's init ping still quiet
+    p.label("sched_elig").sub(0, 23, 20).b("lt", "sched_hold")   # o due earlier
+    p.b("ne", "sched_o")
+    p.sub(0, 18, 7).b("ge", "sched_o")                    # the same due: the lower id first
+    p.label("sched_hold").li(10, SCHED_HOLD).jmp("sched_done")
+    p.label("sched_go").li(10, SCHED_GO)
+    p.label("sched_done")
     return p
