@@ -36,7 +36,7 @@ def main() -> int:
     args = ap.parse_args()
     sys.path.insert(0, str(ROOT / "host"))
     from multisonar.tools.sched_program import (NUM_RX, cand_clocks, close_clocks, conf_clocks, hit_clocks,
-                                                iel_clocks)
+                                                iel_clocks, order_clocks)
     from multisonar.tools.sched_ucode import random_program, sv_package
 
     work = ROOT / "build" / "bench" / "sched_engine"
@@ -80,6 +80,7 @@ def main() -> int:
     row["decision_clocks_24el_16slots"] = clocks + conf_full + iel
     row["hit_clocks"] = hit_clocks()
     row["close_clocks"] = close_clocks()
+    row["order_clocks_first_try"], row["order_clocks_8_tries"] = order_clocks(1), order_clocks(8)
     print(f"ms_sched_engine alone (ECP5, ROM {args.words} words, random program seed {args.seed}, "
           f"{len(image.words)} instructions)\n")
     keys = [k for k in row if k not in ("program_words", "rom_words") and "clocks" not in k]
@@ -97,6 +98,9 @@ def main() -> int:
           f"{row['hit_clocks']} clocks (ms_scheduler: 7, S_HIT's need + go, after the slot stream)")
     print(f"CLOSE kernel (sched_program.close_kernel: empty tracking window, K-th miss, safety): "
           f"{row['close_clocks']} clocks (ms_scheduler: 6, S_CLOSE's need + go)")
+    print(f"ORDER kernel (sched_program.order_kernel, with the divider unit): "
+          f"{row['order_clocks_first_try']} clocks when order 8 is feasible, {row['order_clocks_8_tries']} "
+          f"when only order 1 is (ms_scheduler: 5 per try)")
     print(f"CAND + CONF + IEL of a 24-element decision with full slots: "
           f"{row['decision_clocks_24el_16slots']} clocks (ms_scheduler: about 850 by its need() table)")
     args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -8,14 +8,14 @@ import pytest
 
 from multisonar.fastfiring import FastFiringModel, SyntheticEchoSource, _RxState, _Window
 from multisonar.layout import load_layout
-from multisonar.schedule import Schedule, VirtualSensor
+from multisonar.schedule import Schedule, VirtualSensor, effective_order, min_tof_for_order, pulse_period
 from multisonar.tools.sched_program import (BA, BB, BU, CAND, HC, HS, NUM_RX, TRK, TU, WSLOTS, WV, EngineWithUnits,
                                             Slot,
                                             SlotUnit, cand_clocks, cand_kernel, conf_clocks, conf_kernel,
                                             hit_clocks, hit_kernel, iel_clocks, iel_kernel, pack_rx, prologue,
                                             close_clocks, close_kernel, issue_kernel, SENS, S_DUE, S_QUIET, S_SEQ,
                                             S_TRK, S_FLAGS, S_OPEN, S_K, S_MODE, S_REINIT, S_SHARE, F_TRACKING,
-                                            sched_kernel, SCHED_GO, SCHED_HOLD, SCHED_QUIET, SCHED_NOT_YET,
+                                            order_clocks, order_kernel, sched_kernel, SCHED_GO, SCHED_HOLD, SCHED_QUIET, SCHED_NOT_YET,
                                             F_IN_INIT, F_EPOCH, F_ANY_TRK)
 from multisonar.tools.sched_ucode import Machine, Program
 
@@ -496,3 +496,31 @@ def test_sched_kernel_decides_as_the_model(seed):
         assert outcome == SCHED_NOT_YET
     assert m.regs[13] == int("cancel" in model.seen)
     assert bool(m.mem[SENS + 32 * sid + S_FLAGS] & F_TRACKING) == s.tracking
+
+
+# ------------------------------------------------------------------ ORDER
+@pytest.mark.parametrize("seed", range(300))
+def test_order_kernel_finds_the_models_order_and_period(seed):
+    rng = random.Random(seed)
+    tv, tn, d = rng.randrange(1, 40_000), rng.randrange(1, 40_000), rng.randrange(1, 100_000)
+    order = rng.randrange(0, 9)
+    te_min = rng.randrange(1, 1 << 23)
+    te_max = te_min + rng.choice([0, 1, rng.randrange(0, 1 << 20)])
+    if rng.random() < 0.3:   # near an order's edge: T_E where order n just becomes feasible
+        n = rng.randrange(1, 9)
+        te_min = te_max = min_tof_for_order(n, tv, tn, d) + rng.choice([-1, 0, 1])
+    want_n = effective_order(order, te_min, te_max, tv, tn, d)
+    want_p = pulse_period(want_n, te_min, te_max, tv, tn, d)
+    p = prologue(Program("order")).li(1, order).li(2, te_min).li(3, te_max).li(4, tv).li(5, tn)
+    p.li(6, d).label("start")
+    order_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, {})
+    m.run(100_000, stop={img.labels["halt"]})
+    assert (m.regs[7], m.regs[8]) == (want_n, want_p)
+
+
+def test_order_kernel_clocks():
+    """The ORDER figures of bench_sched_engine.py: each further try costs the same."""
+    c1, c2, c8 = order_clocks(1), order_clocks(2), order_clocks(8)
+    assert c1 < c2 < c8 < 2000

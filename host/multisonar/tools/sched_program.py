@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from .sched_ucode import MASK32, Machine, Program, sext
+from ..schedule import min_tof_for_order
 
 NUM_RX = 24
 WSLOTS = 16
@@ -52,6 +53,10 @@ SU_LATENCY = WSLOTS + 4   # clocks from SU_GO to the results (a slot per clock, 
 W_T0, W_WS, W_WE, W_META, W_ADDR = 0x410, 0x411, 0x412, 0x413, 0x414
 TRIG_T, TRIG_EL, HD_T, HD_EL = 0x418, 0x419, 0x41C, 0x41D
 EVT_LO, EVT_HI = 0x420, 0x421   # an event word: low half, then the high half commits it
+# the divider: DIV_X = dividend (< 2^24), DIV_N = divisor (1..15) starts it; DIV_Q = floor(x / n)
+# DIV_LATENCY clocks later (a restoring divider, one quotient bit per clock)
+DIV_X, DIV_N, DIV_Q = 0x428, 0x429, 0x42A
+DIV_LATENCY = 26
 
 # per-sensor words at SENS + 32 s
 SENS = 0x000
@@ -199,6 +204,24 @@ class Outputs:
             self.events.append(data << 32 | self.regs.get(EVT_LO, 0))
 
 
+@dataclass
+class DivUnit:
+    """Model of the divider's contract (DIV_* above): a read of DIV_Q before the quotient is
+    ready returns garbage, so a program waits DIV_LATENCY clocks."""
+    x: int = 0
+    q: int = 0
+    done_at: int = -1
+
+    def write(self, cycle: int, addr: int, data: int) -> None:
+        if addr == DIV_X:
+            self.x = data & 0xFF_FFFF
+        elif addr == DIV_N:
+            self.q, self.done_at = self.x // max(1, data & 0xF), cycle + DIV_LATENCY
+
+    def read(self, cycle: int) -> int:
+        return self.q if cycle >= self.done_at else 0xDEAD_BEEF
+
+
 class EngineWithUnits(Machine):
     """The engine's model with its data memory below 0x400, the slot unit and IEL's outputs
     above."""
@@ -208,12 +231,17 @@ class EngineWithUnits(Machine):
         super().__init__(words, mem=mem)
         self.su = slot_unit if slot_unit is not None else SlotUnit()
         self.out = outputs if outputs is not None else Outputs()
+        self.div = DivUnit()
 
     def read(self, addr: int) -> int:
+        if addr == DIV_Q:
+            return self.div.read(self.cycle + 1)
         return self.su.read(self.cycle + 1, addr) if addr >= SU_TA else super().read(addr)
 
     def write(self, addr: int, data: int) -> None:
-        if addr >= W_T0:
+        if addr in (DIV_X, DIV_N):
+            self.div.write(self.cycle + 1, addr, data)
+        elif addr >= W_T0:
             self.out.write(addr, data)
         elif addr >= SU_TA:
             self.su.write(self.cycle + 1, addr, data)
@@ -610,3 +638,45 @@ def sched_kernel(p: Program) -> Program:
     p.label("sched_go").li(10, SCHED_GO)
     p.label("sched_done")
     return p
+
+
+# ------------------------------------------------------------------ ORDER: the effective order
+def order_kernel(p: Program) -> Program:
+    """ORDER, the largest n <= order r1 whose interlacing is feasible for predictions te_min r2
+    .. te_max r3 (T_V r4, T_N r5, blanking D r6): T_s = floor((te_min - T_V - D) / n) > 0 and
+    (n + 1) T_s >= te_max + T_N, tried from n = order down (the divider gives each T_s). Result:
+    r7 = n (0: none), r8 = the period (T_s, or te_max + T_N for n = 0). Model:
+    schedule.effective_order and pulse_period."""
+    p.sub(9, 2, 4).add(10, 3, 5)                   # te_min - T_V; te_max + T_N
+    p.mov(7, 1).mov(8, 10)                         # n = order
+    p.sub(9, 9, 6).b("le", "order_none")           # x = te_min - T_V - D <= 0: no T_s > 0
+    p.st(9, 0, DIV_X)
+    p.label("order_try").tst(7).b("eq", "order_none")
+    p.st(7, 0, DIV_N).li(11, DIV_LATENCY // 3)
+    p.label("order_wait").addi(11, 11, -1).nop().b("gt", "order_wait")
+    p.ld(12, 0, DIV_Q).mov(13, 7).li(14, 0)
+    p.label("order_mul").add(14, 14, 12).addi(13, 13, -1)   # (n + 1) T_s by n + 1 additions
+    p.b("ge", "order_mul")
+    p.tst(12).b("eq", "order_next")                # T_s = 0: infeasible
+    p.sub(0, 14, 10).b("lt", "order_next")
+    p.mov(8, 12).jmp("order_done")
+    p.label("order_next").addi(7, 7, -1).jmp("order_try")
+    p.label("order_none").li(7, 0).mov(8, 10)
+    p.label("order_done")
+    return p
+
+
+def order_clocks(tries: int = 1) -> int:
+    """Clocks the ORDER kernel takes when the ``tries``-th order it tries (from 8 down) is the
+    first feasible one."""
+    tv = tn = d = 10_000
+    n = 9 - tries
+    te = min_tof_for_order(n, tv, tn, d)
+    p = prologue(Program("order_clocks")).li(1, 8).li(2, te).li(3, te).li(4, tv).li(5, tn).li(6, d)
+    p.label("start")
+    order_kernel(p).label("halt").jmp("halt")
+    img = p.assemble()
+    m = EngineWithUnits(img.words, {})
+    m.run(100_000, stop={img.labels["halt"]})
+    assert m.regs[7] == n
+    return m.cycle - img.labels["start"]
