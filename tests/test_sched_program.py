@@ -9,14 +9,16 @@ import pytest
 from multisonar.fastfiring import FastFiringModel, SyntheticEchoSource, _RxState, _Window
 from multisonar.layout import load_layout
 from multisonar.schedule import Schedule, VirtualSensor, effective_order, min_tof_for_order, pulse_period
-from multisonar.tools.sched_program import (BA, BB, BU, CAND, HC, HS, NUM_RX, TRK, TU, WSLOTS, WV, EngineWithUnits,
-                                            Slot,
-                                            SlotUnit, cand_clocks, cand_kernel, conf_clocks, conf_kernel,
-                                            hit_clocks, hit_kernel, iel_clocks, iel_kernel, pack_rx, prologue,
-                                            close_clocks, close_kernel, issue_kernel, SENS, S_DUE, S_QUIET, S_SEQ,
-                                            S_TRK, S_FLAGS, S_OPEN, S_K, S_MODE, S_REINIT, S_SHARE, F_TRACKING,
-                                            order_clocks, order_kernel, sched_kernel, SCHED_GO, SCHED_HOLD, SCHED_QUIET, SCHED_NOT_YET,
-                                            F_IN_INIT, F_EPOCH, F_ANY_TRK)
+from multisonar.tools.sched_program import (BA, BB, BU, CAND, F_ANY_TRK, F_EPOCH, F_IN_INIT,
+                                            F_TRACKING, HC, HS, NUM_RX, S_DUE, S_FLAGS, S_K,
+                                            S_MODE, S_OPEN, S_QUIET, S_REINIT, S_SEQ, S_SHARE,
+                                            S_TRK, SCHED_GO, SCHED_HOLD, SCHED_NOT_YET,
+                                            SCHED_QUIET, SENS, TRK, TU, WSLOTS, WV, cand_clocks,
+                                            cand_kernel, close_clocks, close_kernel, conf_clocks,
+                                            conf_kernel, EngineWithUnits, hit_clocks, hit_kernel,
+                                            iel_clocks, iel_kernel, issue_kernel, order_clocks,
+                                            order_kernel, pack_rx, prologue, sched_kernel, Slot,
+                                            SlotUnit)
 from multisonar.tools.sched_ucode import Machine, Program
 
 LAYOUT = load_layout("ring24")
