@@ -17,9 +17,9 @@ from multisonar.tools.sched_program import (BA, BB, BU, CAND, F_ANY_TRK, F_EPOCH
                                             cand_kernel, close_clocks, close_kernel, conf_clocks,
                                             conf_kernel, EngineWithUnits, hit_clocks, hit_kernel,
                                             iel_clocks, iel_kernel, issue_kernel, order_clocks,
-                                            order_kernel, pack_rx, prologue, sched_kernel, Slot,
+                                            order_kernel, pack_rx, prologue, run_kernel, sched_kernel, Slot,
                                             SlotUnit)
-from multisonar.tools.sched_ucode import Machine, Program
+from multisonar.tools.sched_ucode import Program, UcodeError
 
 LAYOUT = load_layout("ring24")
 
@@ -51,13 +51,9 @@ def run_cand(model: FastFiringModel, sensor: int, k: int, rng: random.Random):
         mem[base + 2 * r], mem[base + 2 * r + 1] = pack_state(st)
         mask |= 1 << r
     p = prologue(Program("cand")).li(1, mask).li(2, base).li(3, k & 0xFF).li(4, lo).li(5, hi)
-    p.label("start")
-    cand_kernel(p)
-    p.label("halt").jmp("halt")
-    img = p.assemble()
-    m = Machine(img.words, mem=mem)
-    m.run(100_000, stop={img.labels["halt"]})
-    return s, m, img
+    p
+    m, _ = run_kernel(p, cand_kernel, mem, max_cycles=100_000)
+    return s, m
 
 
 @pytest.mark.parametrize("seed", range(40))
@@ -68,7 +64,7 @@ def test_cand_kernel_predicts_as_the_model(seed):
     model = FastFiringModel(Schedule(LAYOUT, sensors), SyntheticEchoSource({}))
     sensor = rng.randrange(2)
     k = rng.randrange(1 << 16)
-    s, m, _ = run_cand(model, sensor, k, rng)
+    s, m = run_cand(model, sensor, k, rng)
     te = {r: model._predict(s, st, k) for r, st in s.rx.items() if st.tracked}
     got = {r: m.mem[CAND + r] for r in range(NUM_RX) if m.regs[8] >> r & 1}
     assert got == te
@@ -150,11 +146,8 @@ def test_conf_kernel_with_the_slot_unit_finds_the_models_retry(seed):
     mask = lambda es: sum(1 << e for e in es)  # noqa: E731
     p = prologue(Program("conf")).li(1, t).li(2, mask(touched)).li(3, mask(tx)).li(4, mask(rxs))
     p.li(5, tv).li(6, tn).li(9, mask(e for e, _, _ in blanks))
-    p.label("start")
-    conf_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, mem, su)
-    m.run(200_000, stop={img.labels["halt"]})
+    p
+    m, _ = run_kernel(p, conf_kernel, mem, su, max_cycles=200_000)
     assert bool(m.regs[7]) == (expect is not None)
     if expect is not None:
         assert m.regs[8] == expect & 0xFFFF_FFFF
@@ -241,11 +234,8 @@ def test_iel_kernel_writes_what_the_model_issues(seed):
     p = prologue(Program("iel")).li(1, t).li(2, mask(set(blk) | set(wins))).li(3, mask(c.tx))
     p.li(4, mask(wins)).li(9, mask(blk)).li(24, 0x5A).li(25, model.latency - 1)
     p.li(5, -c.blank if init else c.t_v).li(6, c.max_tof if init else c.t_n)
-    p.label("start")
-    iel_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, mem)
-    m.run(200_000, stop={img.labels["halt"]})
+    p
+    m, _ = run_kernel(p, iel_kernel, mem, max_cycles=200_000)
     for e in range(NUM_RX):
         assert m.mem[BU + e] == model.blank_until[e] and m.mem[TU + e] == model.tx_until[e], f"element {e}"
         new = [w for w in model.windows[e] if w.t0 == t]
@@ -310,11 +300,8 @@ def test_hit_kernel_samples_gates_and_reports_as_the_model(seed):
     mem = {base: before[0], base + 1: before[1]}
     flags = int(init) | int(w.epoch == s.epoch) << 1 | int(w.n_edges > 1) << 2
     p = prologue(Program("hit")).li(1, n).li(2, t0).li(3, k & 0xFF).li(4, flags).li(5, base)
-    p.li(6, rx).li(7, sensor).li(8, gate or 0).li(9, c.vmax).li(10, lo).li(11, hi).label("start")
-    hit_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, mem)
-    m.run(10_000, stop={img.labels["halt"]})
+    p.li(6, rx).li(7, sensor).li(8, gate or 0).li(9, c.vmax).li(10, lo).li(11, hi)
+    m, _ = run_kernel(p, hit_kernel, mem, max_cycles=10_000)
     assert m.out.events == model.words
     assert (m.mem[base], m.mem[base + 1]) == pack_state(s.rx[rx])
     assert m.regs[12] == int(w.rejected)
@@ -373,11 +360,8 @@ def test_close_kernel_counts_misses_and_ends_init_as_the_model(seed):
     flags = int(init) | int(w.n_edges > 0) << 1 | int(w.rejected) << 2 | (w.epoch & 1) << 3
     model._on_close(w)
     p = prologue(Program("close")).li(1, now).li(2, t0).li(3, we).li(4, w.seq & 0xFF).li(5, flags)
-    p.li(6, rx).li(7, sensor).li(8, base_s).li(9, trk).label("start")
-    close_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, mem)
-    m.run(10_000, stop={img.labels["halt"]})
+    p.li(6, rx).li(7, sensor).li(8, base_s).li(9, trk)
+    m, _ = run_kernel(p, close_kernel, mem, max_cycles=10_000)
     cancelled = any(r.__class__.__name__ == "SensorCancel" for r in model.records)
     assert m.out.events == [wd for wd in model.words if not wd >> 61 & 1]   # the cancel record is SAFE's
     assert m.regs[10] == int(cancelled)
@@ -405,11 +389,8 @@ def test_issue_kernel_updates_the_sensor_as_the_model(seed):
     rxm = sum(1 << int(r) for r in c.rx)
     p = prologue(Program("issue")).li(1, t).li(2, pulse.period).li(3, len(pulse.windows))
     p.li(4, int(init)).li(5, c.max_tof - c.blank).li(6, rxm).li(7, 0).li(8, base_s).li(9, trk)
-    p.label("start")
-    issue_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, mem)
-    m.run(10_000, stop={img.labels["halt"]})
+    p
+    m, _ = run_kernel(p, issue_kernel, mem, max_cycles=10_000)
     records = [w for w in model.words if w >> 62 & 1]
     assert m.out.events == records
     after = sensor_words(s, c) | {S_SEQ: s.seq & 0xFFFF, S_TRK: min(s.track_pulses, 255)}
@@ -482,11 +463,8 @@ def test_sched_kernel_decides_as_the_model(seed):
     heap_before = len(model._heap)
     model._try_issue(s)
     pushed = model._heap[heap_before:] if len(model._heap) > heap_before else []
-    p = prologue(Program("sched")).li(1, now).li(2, lead).li(7, sid).li(8, SENS + 32 * sid).label("start")
-    sched_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, mem)
-    m.run(10_000, stop={img.labels["halt"]})
+    p = prologue(Program("sched")).li(1, now).li(2, lead).li(7, sid).li(8, SENS + 32 * sid)
+    m, _ = run_kernel(p, sched_kernel, mem, max_cycles=10_000)
     outcome = m.regs[10]
     if "go" in model.seen:
         assert outcome == SCHED_GO and m.regs[12] == int(not s.tracking)
@@ -514,11 +492,8 @@ def test_order_kernel_finds_the_models_order_and_period(seed):
     want_n = effective_order(order, te_min, te_max, tv, tn, d)
     want_p = pulse_period(want_n, te_min, te_max, tv, tn, d)
     p = prologue(Program("order")).li(1, order).li(2, te_min).li(3, te_max).li(4, tv).li(5, tn)
-    p.li(6, d).label("start")
-    order_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, {})
-    m.run(100_000, stop={img.labels["halt"]})
+    p.li(6, d)
+    m, _ = run_kernel(p, order_kernel, {}, max_cycles=100_000)
     assert (m.regs[7], m.regs[8]) == (want_n, want_p)
 
 
@@ -526,3 +501,10 @@ def test_order_kernel_clocks():
     """The ORDER figures of bench_sched_engine.py: each further try costs the same."""
     c1, c2, c8 = order_clocks(1), order_clocks(2), order_clocks(8)
     assert c1 < c2 < c8 < 2000
+
+
+def test_a_kernel_that_does_not_finish_is_reported():
+    def spin(p):
+        return p.label("spin").jmp("spin")
+    with pytest.raises(UcodeError, match="spin did not finish in 50 clocks"):
+        run_kernel(Program("t"), spin, max_cycles=50)

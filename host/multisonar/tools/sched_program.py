@@ -26,10 +26,12 @@ SU_FLAGS bit 0 = any overlap, bit 1 = every slot taken (window on), bit 7 = busy
 
 from __future__ import annotations
 
+import random
 from dataclasses import dataclass, field
+from typing import Callable
 
-from .sched_ucode import MASK32, Machine, Program, sext
 from ..schedule import min_tof_for_order
+from .sched_ucode import MASK32, Machine, Program, UcodeError, sext
 
 NUM_RX = 24
 WSLOTS = 16
@@ -78,22 +80,29 @@ def pack_rx(tracked: bool, tof: int, seq: int, v: int, miss: int = 0, init: bool
 
 def cand_clocks(n_rx: int = NUM_RX, seed: int = 1) -> int:
     """Clocks the CAND kernel takes for ``n_rx`` tracked receivers (random states)."""
-    import random
-
-    from .sched_ucode import Machine
-
     rng = random.Random(seed)
     mem = {}
     for r in range(n_rx):
         mem[TRK + 2 * r], mem[TRK + 2 * r + 1] = pack_rx(True, rng.randrange(40_000, 200_000), 7,
                                                          rng.randrange(-500, 501))
     p = prologue(Program("cand_clocks")).li(1, (1 << n_rx) - 1).li(2, TRK).li(3, 8)
-    p.li(4, 30_000).li(5, 300_000).label("start")
-    cand_kernel(p).label("halt").jmp("halt")
+    p.li(4, 30_000).li(5, 300_000)
+    return run_kernel(p, cand_kernel, mem)[1]
+
+
+def run_kernel(p: Program, kernel: Callable[[Program], Program], mem: dict[int, int] | None = None,
+               slot_unit: "SlotUnit | None" = None, max_cycles: int = 1_000_000) -> tuple["EngineWithUnits", int]:
+    """Append ``kernel`` and a halt to ``p`` (the caller's set-up: constants and inputs), run it
+    on the engine's model with the unit models; the machine (its memory is ``mem``) and the
+    kernel's clocks. A kernel that does not reach its end within ``max_cycles`` is an error."""
+    p.label("kernel_start")
+    kernel(p).label("kernel_halt").jmp("kernel_halt")
     img = p.assemble()
-    m = Machine(img.words, mem=mem)
-    m.run(1_000_000, stop={img.labels["halt"]})
-    return m.cycle - img.labels["start"]
+    m = EngineWithUnits(img.words, mem if mem is not None else {}, slot_unit)
+    m.run(max_cycles, stop={img.labels["kernel_halt"]})
+    if m.pc != img.labels["kernel_halt"]:
+        raise UcodeError(f"{p.name}: {kernel.__name__} did not finish in {max_cycles} clocks")
+    return m, m.cycle - img.labels["kernel_start"]
 
 
 def prologue(p: Program) -> Program:
@@ -316,13 +325,10 @@ def conf_clocks(n_el: int = NUM_RX, n_tx: int = 3, slots: int = WSLOTS) -> int:
         su.windows[e] = [Slot(t - 10_000 * (k + 2), t - 10_000 * (k + 1), t) for k in range(slots)]
     allm, txm = (1 << n_el) - 1, (1 << n_tx) - 1
     p = prologue(Program("conf_clocks")).li(1, t).li(2, allm).li(3, txm).li(4, allm).li(5, tv)
-    p.li(6, tn).li(9, txm).label("start")
-    conf_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, mem, su)
-    m.run(1_000_000, stop={img.labels["halt"]})
+    p.li(6, tn).li(9, txm)
+    m, clocks = run_kernel(p, conf_kernel, mem, su, max_cycles=1_000_000)
     assert m.regs[7] == int(slots >= WSLOTS)   # only a full element can defer it
-    return m.cycle - img.labels["start"]
+    return clocks
 
 
 # ------------------------------------------------------------------ IEL: the issue's writes
@@ -387,13 +393,10 @@ def iel_clocks(n_el: int = NUM_RX, n_tx: int = 3) -> int:
         mem[WV + e], mem[HC + e], mem[HS + e] = 0b111, t + 10, 0x100
     allm, txm = (1 << n_el) - 1, (1 << n_tx) - 1
     p = prologue(Program("iel_clocks")).li(1, t).li(2, allm).li(3, txm).li(4, allm).li(9, txm)
-    p.li(5, 24_000).li(6, 24_000).li(24, 0).li(25, 2).label("start")
-    iel_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, mem)
-    m.run(1_000_000, stop={img.labels["halt"]})
+    p.li(5, 24_000).li(6, 24_000).li(24, 0).li(25, 2)
+    m, clocks = run_kernel(p, iel_kernel, mem, max_cycles=1_000_000)
     assert len(m.out.slots) == n_el and len(m.out.triggers) == n_tx
-    return m.cycle - img.labels["start"]
+    return clocks
 
 
 # ------------------------------------------------------------------ HIT: an echo in a window
@@ -469,13 +472,10 @@ def hit_clocks() -> int:
     mem = {TRK: a, TRK + 1: b}
     p = prologue(Program("hit_clocks")).li(1, t0 + 100_100).li(2, t0).li(3, k & 0xFF).li(4, 2)
     p.li(5, TRK).li(6, 0).li(7, 0).li(8, 2400).li(9, 24_000).li(10, 30_000).li(11, 300_000)
-    p.label("start")
-    hit_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, mem)
-    m.run(10_000, stop={img.labels["halt"]})
+    p
+    m, clocks = run_kernel(p, hit_kernel, mem, max_cycles=10_000)
     assert len(m.out.events) == 1 and m.regs[12] == 0 and m.mem[TRK + 1] >> 24 == 5
-    return m.cycle - img.labels["start"]
+    return clocks
 
 
 # ------------------------------------------------------------------ CLOSE: a window's result
@@ -548,13 +548,10 @@ def close_clocks() -> int:
     mem = {TRK: a, TRK + 1: b, SENS + S_DUE: now + 10, SENS + S_FLAGS: F_TRACKING, SENS + S_K: k,
            SENS + S_MODE: 1}
     p = prologue(Program("close_clocks")).li(1, now).li(2, now - 150_000).li(3, 124_000).li(4, 7)
-    p.li(5, 0).li(6, 0).li(7, 0).li(8, SENS).li(9, TRK).label("start")
-    close_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, mem)
-    m.run(10_000, stop={img.labels["halt"]})
+    p.li(5, 0).li(6, 0).li(7, 0).li(8, SENS).li(9, TRK)
+    m, clocks = run_kernel(p, close_kernel, mem, max_cycles=10_000)
     assert len(m.out.events) == 1 and m.regs[10] == 1 and m.mem[SENS + S_DUE] == now
-    return m.cycle - img.labels["start"]
+    return clocks
 
 
 # ------------------------------------------------------------------ ISSUE: the sensor's state
@@ -673,10 +670,7 @@ def order_clocks(tries: int = 1) -> int:
     n = 9 - tries
     te = min_tof_for_order(n, tv, tn, d)
     p = prologue(Program("order_clocks")).li(1, 8).li(2, te).li(3, te).li(4, tv).li(5, tn).li(6, d)
-    p.label("start")
-    order_kernel(p).label("halt").jmp("halt")
-    img = p.assemble()
-    m = EngineWithUnits(img.words, {})
-    m.run(100_000, stop={img.labels["halt"]})
+    p
+    m, clocks = run_kernel(p, order_kernel, {}, max_cycles=100_000)
     assert m.regs[7] == n
-    return m.cycle - img.labels["start"]
+    return clocks
