@@ -36,7 +36,7 @@ def main() -> int:
     args = ap.parse_args()
     sys.path.insert(0, str(ROOT / "host"))
     from multisonar.tools.sched_program import (NUM_RX, cand_clocks, close_clocks, conf_clocks, hit_clocks,
-                                                iel_clocks, order_clocks)
+                                                iel_clocks, order_clocks, scan_clocks)
     from multisonar.tools.sched_ucode import random_program, sv_package
 
     work = ROOT / "build" / "bench" / "sched_engine"
@@ -81,6 +81,8 @@ def main() -> int:
     row["hit_clocks"] = hit_clocks()
     row["close_clocks"] = close_clocks()
     row["order_clocks_first_try"], row["order_clocks_8_tries"] = order_clocks(1), order_clocks(8)
+    scans = scan_clocks()
+    row["edge_clocks"], row["head_clocks"], row["safe_clocks_24el"] = scans["edge"], scans["head"], scans["safe"]
     print(f"ms_sched_engine alone (ECP5, ROM {args.words} words, random program seed {args.seed}, "
           f"{len(image.words)} instructions)\n")
     keys = [k for k in row if k not in ("program_words", "rom_words") and "clocks" not in k]
@@ -101,6 +103,9 @@ def main() -> int:
     print(f"ORDER kernel (sched_program.order_kernel, with the divider unit): "
           f"{row['order_clocks_first_try']} clocks when order 8 is feasible, {row['order_clocks_8_tries']} "
           f"when only order 1 is (ms_scheduler: 5 per try)")
+    print(f"EDGE / HEAD kernels (slot unit scans): {scans['edge']} / {scans['head']} clocks "
+          f"(ms_scheduler: the slot stream, up to 20 / 22); SAFE on 24 elements: {scans['safe']} clocks "
+          f"(ms_scheduler: 72, 3 per element; it leaves a cancelled head to close)")
     print(f"CAND + CONF + IEL of a 24-element decision with full slots: "
           f"{row['decision_clocks_24el_16slots']} clocks (ms_scheduler: about 850 by its need() table)")
     args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -9,7 +9,7 @@ import pytest
 from multisonar.fastfiring import FastFiringModel, SyntheticEchoSource, _RxState, _Window
 from multisonar.layout import load_layout
 from multisonar.schedule import Schedule, VirtualSensor, effective_order, min_tof_for_order, pulse_period
-from multisonar.tools.sched_program import (BA, BB, BU, CAND, F_ANY_TRK, F_EPOCH, F_IN_INIT,
+from multisonar.tools.sched_program import (BA, BB, BU, CAND, edge_kernel, head_kernel, safe_kernel, scan_clocks, F_ANY_TRK, F_EPOCH, F_IN_INIT,
                                             F_TRACKING, HC, HS, NUM_RX, S_DUE, S_FLAGS, S_K,
                                             S_MODE, S_OPEN, S_QUIET, S_REINIT, S_SEQ, S_SHARE,
                                             S_TRK, SCHED_GO, SCHED_HOLD, SCHED_NOT_YET,
@@ -141,8 +141,12 @@ def test_conf_kernel_with_the_slot_unit_finds_the_models_retry(seed):
         mem[BA + e], mem[BB + e] = a, b
     for e, v in te.items():
         mem[CAND + e] = v
-    su = SlotUnit({e: [Slot(w.start & 0xFFFF_FFFF, w.end & 0xFFFF_FFFF, w.close & 0xFFFF_FFFF)
-                       for w in ws] for e, ws in enumerate(model.windows)})
+    su = SlotUnit()
+    for e, ws in enumerate(model.windows):   # the element's windows in random slots
+        ks = rng.sample(range(WSLOTS), len(ws))
+        for k, w in zip(ks, ws):
+            su.slots[e * WSLOTS + k] = Slot(w.start & 0xFFFF_FFFF, w.end & 0xFFFF_FFFF, w.close & 0xFFFF_FFFF)
+        mem[WV + e] = sum(1 << k for k in ks)
     mask = lambda es: sum(1 << e for e in es)  # noqa: E731
     p = prologue(Program("conf")).li(1, t).li(2, mask(touched)).li(3, mask(tx)).li(4, mask(rxs))
     p.li(5, tv).li(6, tn).li(9, mask(e for e, _, _ in blanks))
@@ -508,3 +512,110 @@ def test_a_kernel_that_does_not_finish_is_reported():
         return p.label("spin").jmp("spin")
     with pytest.raises(UcodeError, match="spin did not finish in 50 clocks"):
         run_kernel(Program("t"), spin, max_cycles=50)
+
+
+# ------------------------------------------------------------------ EDGE, HEAD, SAFE (slot unit scans)
+def element_windows(rng: random.Random, model, e: int, t: int, sensors: int = 1):
+    """Non-overlapping windows (as reservations keep them) on element e in random slots, with
+    distinct seq numbers (the slot's index) and closes; into the model and a slot unit."""
+    n = rng.randrange(0, WSLOTS + 1)
+    ks = rng.sample(range(WSLOTS), n)
+    start = t + rng.randrange(-200_000, 0)
+    ws = {}
+    for k in ks:
+        start += rng.randrange(1, 5_000)
+        end = start + rng.randrange(1, 20_000)
+        ws[k] = _Window(start, end, end - 1 + model.latency, rng.randrange(sensors), k, e, start - 1000,
+                        False, 0)
+        start = end
+    model.windows[e] = list(ws.values())
+    return ws
+
+
+def slot_state(ws_by_el: dict[int, dict[int, _Window]]):
+    su, mem = SlotUnit(), {}
+    for e, ws in ws_by_el.items():
+        for k, w in ws.items():
+            su.slots[e * WSLOTS + k] = Slot(w.start, w.end, w.close, w.sensor)
+        mem[WV + e] = sum(1 << k for k in ws)
+        if ws:
+            k = min(ws, key=lambda k: ws[k].close)
+            mem[HC + e], mem[HS + e] = ws[k].close, k | 0x100
+    return su, mem
+
+
+@pytest.mark.parametrize("seed", range(100))
+def test_edge_kernel_finds_the_models_window(seed):
+    rng = random.Random(seed)
+    model = FastFiringModel(Schedule(LAYOUT, [VirtualSensor("a", tx=[0], rx=[0])]), SyntheticEchoSource({}))
+    t = rng.randrange(1 << 22, 1 << 31)
+    ws = element_windows(rng, model, 0, t)
+    if ws and rng.random() < 0.7:   # inside a window, on its first or last tick, or just after it
+        w = rng.choice(list(ws.values()))
+        n = rng.choice([w.start, w.end - 1, w.end, rng.randrange(w.start, w.end)])
+    else:
+        n = t + rng.randrange(-250_000, 50_000)
+    su, mem = slot_state({0: ws})
+    model.sensors[0].rx[0] = _RxState()
+    model.now = n + model.latency
+    model._rise(0, n)
+    p = prologue(Program("edge")).li(1, n).li(6, 0)
+    m, _ = run_kernel(p, edge_kernel, mem, su)
+    found = [ev.seq for ev in model.events]          # the window's seq is its slot here
+    assert m.regs[10] == (found[0] if found else 0xFFFF_FFFF)
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_head_kernel_finds_the_next_window_to_close(seed):
+    rng = random.Random(seed)
+    model = FastFiringModel(Schedule(LAYOUT, [VirtualSensor("a", tx=[0], rx=[0])]), SyntheticEchoSource({}))
+    t = rng.randrange(1 << 22, 1 << 31)
+    ws = element_windows(rng, model, 0, t)
+    su, mem = slot_state({0: ws})
+    model.sensors[0].rx[0] = _RxState()
+    if ws:   # the head closes: out of the model's windows and out of WV
+        k = mem[HS] & 0xFF
+        model._on_close(ws[k])
+        mem[WV] &= ~(1 << k)
+        now = ws[k].close
+    else:
+        now = t
+    p = prologue(Program("head")).li(1, now).li(6, 0)
+    m, _ = run_kernel(p, head_kernel, mem, su)
+    rest = model.windows[0]
+    if rest:
+        first = min(rest, key=lambda w: w.close)
+        assert m.mem[HS] == first.seq | 0x100 and m.mem[HC] == first.close
+        assert m.out.heads == [(0, first.seq, first.close)]
+    else:
+        assert m.mem[HS] == 0 and m.out.heads == [(0, None, None)]
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_safe_kernel_cancels_the_sensors_windows_as_the_model(seed):
+    rng = random.Random(seed)
+    vs = [VirtualSensor(f"s{i}", tx=[i], rx=[i]) for i in range(3)]
+    model = FastFiringModel(Schedule(LAYOUT, vs), SyntheticEchoSource({}))
+    t = rng.randrange(1 << 22, 1 << 31)
+    ws_by_el = {e: element_windows(rng, model, e, t, sensors=3) for e in range(NUM_RX)}
+    su, mem = slot_state(ws_by_el)
+    sensor = rng.randrange(3)
+    model.now = t
+    model._cancel(sensor)
+    p = prologue(Program("safe")).li(1, t).li(7, sensor)
+    m, _ = run_kernel(p, safe_kernel, mem, su)
+    assert m.out.events == model.words
+    for e in range(NUM_RX):
+        rest = {w.seq for w in model.windows[e]}
+        assert m.mem[WV + e] == sum(1 << k for k in rest), f"element {e}"
+        if rest:
+            first = min(model.windows[e], key=lambda w: w.close)
+            assert m.mem[HS + e] == first.seq | 0x100 and m.mem[HC + e] == first.close
+        else:
+            assert m.mem.get(HS + e, 0) == 0
+
+
+def test_scan_kernel_clocks():
+    """The EDGE / HEAD / SAFE figures of bench_sched_engine.py (each checks its own result)."""
+    c = scan_clocks()
+    assert 20 < c["edge"] < 100 and 20 < c["head"] < 100 and 24 * 20 < c["safe"] < 24 * 120

@@ -47,11 +47,12 @@ HS = 0x3E8            # per element: the head's slot | 0x100 while there is a he
 
 # the slot unit's I/O registers (bus addresses above the data memory)
 SU_TA, SU_TB, SU_TWA, SU_TWB, SU_GO = 0x400, 0x401, 0x402, 0x403, 0x404
-SU_X, SU_FLAGS, SU_MINC = 0x405, 0x406, 0x407
+SU_X, SU_FLAGS, SU_MINC, SU_VALID = 0x405, 0x406, 0x407, 0x408
+SU_CONF, SU_EDGE, SU_HEAD, SU_SENSOR = 0, 1 << 10, 2 << 10, 3 << 10   # SU_GO modes
 SU_LATENCY = WSLOTS + 4   # clocks from SU_GO to the results (a slot per clock, four stages)
 # outputs of IEL: a window slot written (fields, then the address commits it), a trigger
 # (tick, then the element commits it), a head set for the close detector (tick, then element |
-# slot << 8 commits it)
+# slot << 8 commits it; element | 1 << 16: the element has no head)
 W_T0, W_WS, W_WE, W_META, W_ADDR = 0x410, 0x411, 0x412, 0x413, 0x414
 TRIG_T, TRIG_EL, HD_T, HD_EL = 0x418, 0x419, 0x41C, 0x41D
 EVT_LO, EVT_HI = 0x420, 0x421   # an event word: low half, then the high half commits it
@@ -151,13 +152,18 @@ class Slot:
     start: int
     end: int
     close: int
+    sensor: int = 0
 
 
 @dataclass
 class SlotUnit:
-    """Model of the slot unit's contract (module docstring); ``windows[e]`` the element's
-    reserved windows (valid slots)."""
-    windows: dict[int, list[Slot]] = field(default_factory=dict)
+    """Model of the slot unit's contract (module docstring): ``slots[e * WSLOTS + k]`` the
+    windows in the WIN memory; the element's valid slots are the SU_VALID mask the engine
+    writes before SU_GO. Modes (SU_GO bits 11:10): SU_CONF (above); SU_EDGE, the slot whose
+    [start, end) holds tick TA (SU_X, found: bit 0); SU_HEAD, the slot closing first after TA
+    (SU_X, its close SU_MINC, found: bit 0); SU_SENSOR, the mask of the slots of sensor TA
+    (SU_X)."""
+    slots: dict[int, Slot] = field(default_factory=dict)
     regs: dict[int, int] = field(default_factory=dict)
     done_at: int = -1
     x: int = 0
@@ -168,18 +174,30 @@ class SlotUnit:
         self.regs[addr] = data
         if addr != SU_GO:
             return
-        e, bon, won = data & 0xFF, data >> 8 & 1, data >> 9 & 1
+        e, bon, won, mode = data & 0xFF, data >> 8 & 1, data >> 9 & 1, data & (3 << 10)
         ta, tb, twa, twb = (self.regs.get(a, 0) for a in (SU_TA, SU_TB, SU_TWA, SU_TWB))
-        ws = self.windows.get(e, [])
-        best = None
-        for w in ws:
-            for on, lo, hi in ((bon, ta, tb), (won, twa, twb)):
-                rel = sext(w.end - lo, 32)
-                if on and rel > 0 and sext(w.start - hi, 32) < 0:
-                    best = rel if best is None else max(best, rel)
-        self.x = (best or 0) & MASK32
-        self.flags = int(best is not None) | int(bool(won) and len(ws) >= WSLOTS) << 1
-        self.minc = min((w.close for w in ws), key=lambda c: sext(c - ta, 32), default=0) & MASK32
+        valid = self.regs.get(SU_VALID, 0)
+        ws = [(k, self.slots[e * WSLOTS + k]) for k in range(WSLOTS) if valid >> k & 1]
+        self.x = self.flags = self.minc = 0
+        if mode == SU_CONF:
+            best = None
+            for _, w in ws:
+                for on, lo, hi in ((bon, ta, tb), (won, twa, twb)):
+                    rel = sext(w.end - lo, 32)
+                    if on and rel > 0 and sext(w.start - hi, 32) < 0:
+                        best = rel if best is None else max(best, rel)
+            self.x = (best or 0) & MASK32
+            self.flags = int(best is not None) | int(bool(won) and len(ws) >= WSLOTS) << 1
+            self.minc = min((w.close for _, w in ws), key=lambda c: sext(c - ta, 32), default=0) & MASK32
+        elif mode == SU_EDGE:
+            hold = [k for k, w in ws if sext(ta - w.start, 32) >= 0 and sext(ta - w.end, 32) < 0]
+            self.x, self.flags = (hold[0], 1) if hold else (0, 0)
+        elif mode == SU_HEAD:
+            if ws:
+                k, w = min(ws, key=lambda kw: sext(kw[1].close - ta, 32))
+                self.x, self.minc, self.flags = k, w.close & MASK32, 1
+        else:
+            self.x = sum(1 << k for k, w in ws if w.sensor == ta)
         self.done_at = cycle + SU_LATENCY
 
     def read(self, cycle: int, addr: int) -> int:
@@ -207,6 +225,8 @@ class Outputs:
             self.slots[data] = tuple(self.regs.get(a, 0) for a in (W_T0, W_WS, W_WE, W_META))
         elif addr == TRIG_EL:
             self.triggers.append((self.regs.get(TRIG_T, 0), data))
+        elif addr == HD_EL and data >> 16 & 1:   # the element has no head any more
+            self.heads.append((data & 0xFF, None, None))
         elif addr == HD_EL:
             self.heads.append((data & 0xFF, data >> 8, self.regs.get(HD_T, 0)))
         elif addr == EVT_HI:
@@ -278,7 +298,8 @@ def conf_kernel(p: Program) -> Program:
     p.st(13, 0, SU_TA).st(14, 0, SU_TB)
     p.add(17, 17, 1).add(18, 18, 1)            # t0 + wa, t0 + wb
     p.st(17, 0, SU_TWA).st(18, 0, SU_TWB)
-    p.mov(21, 10).and_(20, 12, 9)              # SU_GO: the element; blank on?
+    p.ld(24, 10, WV).mov(21, 10)
+    p.st(24, 0, SU_VALID).and_(20, 12, 9)      # SU_GO: the element; blank on?
     p.b("eq", "conf_noblk").ori(21, 21, 0x100)
     p.label("conf_noblk").and_(20, 12, 4)      # window on?
     p.b("eq", "conf_nowin").ori(21, 21, 0x200)
@@ -322,7 +343,9 @@ def conf_clocks(n_el: int = NUM_RX, n_tx: int = 3, slots: int = WSLOTS) -> int:
         mem[TU + e] = mem[BU + e] = t - 1000
         mem[CAND + e] = 200_000
         mem[BA + e], mem[BB + e] = 100 * e, 100 * e + 50_000
-        su.windows[e] = [Slot(t - 10_000 * (k + 2), t - 10_000 * (k + 1), t) for k in range(slots)]
+        for k in range(slots):
+            su.slots[e * WSLOTS + k] = Slot(t - 10_000 * (k + 2), t - 10_000 * (k + 1), t)
+        mem[WV + e] = (1 << slots) - 1
     allm, txm = (1 << n_el) - 1, (1 << n_tx) - 1
     p = prologue(Program("conf_clocks")).li(1, t).li(2, allm).li(3, txm).li(4, allm).li(5, tv)
     p.li(6, tn).li(9, txm)
@@ -674,3 +697,98 @@ def order_clocks(tries: int = 1) -> int:
     m, clocks = run_kernel(p, order_kernel, {}, max_cycles=100_000)
     assert m.regs[7] == n
     return clocks
+
+
+# ------------------------------------------------------------------ the slot unit's other scans
+def _su_scan(p: Program, tag: str, el: int, ta: int, mode: int) -> Program:
+    """Start the slot unit on element register ``el`` (its valid slots from WV) with TA from
+    register ``ta`` in ``mode``, and wait for it; r23 = SU_FLAGS. Uses r20, r21."""
+    p.ld(20, el, WV).ori(21, el, mode)
+    p.st(20, 0, SU_VALID).st(ta, 0, SU_TA).st(21, 0, SU_GO)
+    p.label(f"{tag}_wait").ld(23, 0, SU_FLAGS).nop().nop()
+    p.andi(0, 23, 0x80).b("ne", f"{tag}_wait")
+    return p
+
+
+def edge_kernel(p: Program) -> Program:
+    """EDGE, the window of receiver r6 holding the edge timestamp r1: r10 = its slot, or -1
+    outside every window (the edge is gated). Model: the window search of FastFiringModel._rise."""
+    _su_scan(p, "edge", 6, 1, SU_EDGE)
+    p.li(10, -1).andi(0, 23, 1)
+    p.b("eq", "edge_done")
+    p.ld(10, 0, SU_X)
+    p.label("edge_done")
+    return p
+
+
+def _head_rescan(p: Program, tag: str) -> Program:
+    """Element r6's head after its windows changed: the slot closing first after tick r1, into
+    HC / HS and to the close detector, or no head. Uses r20-r23, r25, r26."""
+    _su_scan(p, tag, 6, 1, SU_HEAD)
+    p.andi(0, 23, 1).b("eq", f"{tag}_none")
+    p.ld(25, 0, SU_X).ld(26, 0, SU_MINC).li(21, 256)
+    p.ori(20, 25, 0x100).mul(21, 25, 21)
+    p.st(26, 6, HC).st(20, 6, HS).or_(21, 21, 6)
+    p.st(26, 0, HD_T).st(21, 0, HD_EL).jmp(f"{tag}_done")
+    p.label(f"{tag}_none").lui(21, 0x10).st(0, 6, HS)       # 1 << 16: no head
+    p.or_(21, 21, 6)
+    p.st(21, 0, HD_EL)
+    p.label(f"{tag}_done")
+    return p
+
+
+def head_kernel(p: Program) -> Program:
+    """HEAD, element r6's next window to close (after its head closed at tick r1, its slot
+    cleared from WV): the earliest close of its remaining windows, or none. Model: the
+    element's windows after FastFiringModel._on_close removes one."""
+    return _head_rescan(p, "head")
+
+
+def safe_kernel(p: Program) -> Program:
+    """SAFE, the cancel of sensor r7 at tick r1: the cancel record (docs/fast_firing.md section
+    6), then on every element the sensor's windows leave WV, and where the head was one of them
+    the head is found again. Model: FastFiringModel._cancel."""
+    p.li(17, 32).lui(18, 0x60000)                           # bits 62, 61: bits 30, 29 of the high half
+    p.mul(19, 7, 17)
+    p.or_(19, 19, 18)                                       # sensor << 5 (bit 37)
+    p.st(1, 0, EVT_LO).st(19, 0, EVT_HI)
+    p.li(6, NUM_RX - 1)
+    p.label("safe_el")
+    _su_scan(p, "safe_scan", 6, 7, SU_SENSOR)
+    p.ld(22, 0, SU_X).ld(24, 6, WV).ld(25, 6, HS)
+    p.tst(22).b("eq", "safe_next")                          # no window of the sensor here
+    p.andn(24, 24, 22).andi(26, 25, 0xFF)
+    p.st(24, 6, WV).li(21, 1)
+    p.andi(0, 25, 0x100).b("eq", "safe_next")               # no head
+    p.call("safe_bit")                                      # r21 = 1 << head slot
+    p.and_(0, 21, 22).b("eq", "safe_next")                  # the head stays
+    _head_rescan(p, "safe_head")
+    p.label("safe_next").addi(6, 6, -1).nop().b("ge", "safe_el")
+    p.jmp("safe_done")
+    p.label("safe_bit").tst(26).b("eq", "safe_bit_ret")     # r21 <<= r26 (a slot index < 16)
+    p.add(21, 21, 21).addi(26, 26, -1).jmp("safe_bit")
+    p.label("safe_bit_ret").ret()
+    p.label("safe_done")
+    return p
+
+
+def scan_clocks() -> dict[str, int]:
+    """Clocks of EDGE (an edge in a window), HEAD (a new head found) and SAFE (24 elements,
+    every one holding a window of the cancelled sensor, half of them its head)."""
+    t = 1 << 24
+    su, mem = SlotUnit(), {}
+    for e in range(NUM_RX):
+        for k in range(4):
+            su.slots[e * WSLOTS + k] = Slot(t + 1000 * k, t + 1000 * k + 500, t + 1000 * k + 502, k % 2)
+        mem[WV + e], mem[HS + e], mem[HC + e] = 0b1111, 0x100 | (e % 2), t + 1000 * (e % 2) + 502
+    out = {}
+    p = prologue(Program("edge_clocks")).li(1, t + 2100).li(6, 0)
+    m, out["edge"] = run_kernel(p, edge_kernel, dict(mem), su)
+    assert m.regs[10] == 2
+    p = prologue(Program("head_clocks")).li(1, t).li(6, 0)
+    m, out["head"] = run_kernel(p, head_kernel, dict(mem), su)
+    assert m.mem[HS] == 0x100
+    p = prologue(Program("safe_clocks")).li(1, t).li(7, 1)
+    m, out["safe"] = run_kernel(p, safe_kernel, dict(mem), su)
+    assert all(m.mem[WV + e] == 0b0101 for e in range(NUM_RX))
+    return out
