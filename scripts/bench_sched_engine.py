@@ -105,7 +105,7 @@ def main() -> int:
           f"when only order 1 is (ms_scheduler: 5 per try)")
     print(f"EDGE / HEAD kernels (slot unit scans): {scans['edge']} / {scans['head']} clocks "
           f"(ms_scheduler: the slot stream, up to 20 / 22); SAFE on 24 elements: {scans['safe']} clocks "
-          f"(ms_scheduler: 72, 3 per element; it leaves a cancelled head to close)")
+          f"(ms_scheduler: 72, 3 per element; both leave a cancelled head to close)")
     print(f"CAND + CONF + IEL of a 24-element decision with full slots: "
           f"{row['decision_clocks_24el_16slots']} clocks (ms_scheduler: about 850 by its need() table)")
     args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -746,8 +746,9 @@ def head_kernel(p: Program) -> Program:
 
 def safe_kernel(p: Program) -> Program:
     """SAFE, the cancel of sensor r7 at tick r1: the cancel record (docs/fast_firing.md section
-    6), then on every element the sensor's windows leave WV, and where the head was one of them
-    the head is found again. Model: FastFiringModel._cancel."""
+    6), then on every element the sensor's windows leave WV. Heads stay as they are (as in
+    ms_scheduler): a cancelled head still reaches its close tick, where the caller finds its
+    slot no longer valid, writes nothing for it and runs HEAD. Model: FastFiringModel._cancel."""
     p.li(17, 32).lui(18, 0x60000)                           # bits 62, 61: bits 30, 29 of the high half
     p.mul(19, 7, 17)
     p.or_(19, 19, 18)                                       # sensor << 5 (bit 37)
@@ -755,26 +756,15 @@ def safe_kernel(p: Program) -> Program:
     p.li(6, NUM_RX - 1)
     p.label("safe_el")
     _su_scan(p, "safe_scan", 6, 7, SU_SENSOR)
-    p.ld(22, 0, SU_X).ld(24, 6, WV).ld(25, 6, HS)
-    p.tst(22).b("eq", "safe_next")                          # no window of the sensor here
-    p.andn(24, 24, 22).andi(26, 25, 0xFF)
-    p.st(24, 6, WV).li(21, 1)
-    p.andi(0, 25, 0x100).b("eq", "safe_next")               # no head
-    p.call("safe_bit")                                      # r21 = 1 << head slot
-    p.and_(0, 21, 22).b("eq", "safe_next")                  # the head stays
-    _head_rescan(p, "safe_head")
-    p.label("safe_next").addi(6, 6, -1).nop().b("ge", "safe_el")
-    p.jmp("safe_done")
-    p.label("safe_bit").tst(26).b("eq", "safe_bit_ret")     # r21 <<= r26 (a slot index < 16)
-    p.add(21, 21, 21).addi(26, 26, -1).jmp("safe_bit")
-    p.label("safe_bit_ret").ret()
-    p.label("safe_done")
+    p.ld(22, 0, SU_X).ld(24, 6, WV).nop()
+    p.andn(24, 24, 22)
+    p.st(24, 6, WV).addi(6, 6, -1).nop().b("ge", "safe_el")
     return p
 
 
 def scan_clocks() -> dict[str, int]:
     """Clocks of EDGE (an edge in a window), HEAD (a new head found) and SAFE (24 elements,
-    every one holding a window of the cancelled sensor, half of them its head)."""
+    every one holding windows of the cancelled sensor)."""
     t = 1 << 24
     su, mem = SlotUnit(), {}
     for e in range(NUM_RX):
