@@ -1,0 +1,199 @@
+"""Kernels of the events of a tick: EDGE (the window an edge falls in), HIT (its echo), CLOSE
+(a window's result), HEAD (the next window to close) and SAFE (a sensor's windows cancelled)."""
+
+from __future__ import annotations
+
+from ..sched_ucode import Program
+from .layout import (EVT_HI, EVT_LO, F_ANY_TRK, F_EPOCH, F_IN_INIT, F_TRACKING, HC, HD_EL, HD_T, HS,
+                     NUM_RX, R_MASK24, R_SIGN24, SU_EDGE, SU_FLAGS, SU_GO, SU_HEAD, SU_MINC,
+                     SU_SENSOR, SU_TA, SU_VALID, SU_X, S_DUE, S_FLAGS, S_K, S_MODE, S_OPEN, WV)
+
+
+# ------------------------------------------------------------------ HIT: an echo in a window
+def hit_kernel(p: Program) -> Program:
+    """HIT, an edge at tick r1 in a window (t0 r2, pulse seq r3 (8 bits), flags r4: bit 0 init
+    ping, bit 1 of the sensor's current epoch, bit 2 the window saw an echo before) of receiver
+    r6 of sensor r7, tracking state at r5 (words A, B); gate r8 (0 off), v_max r9, T_E limits
+    r10 / r11. The first echo writes its event word (docs/fast_firing.md section 6) and, for a
+    window of the current epoch, updates the tracking state (an init ping's first echo starts
+    the track; a tracking window's first echo is a sample if the pulse gap is 1..127, with
+    velocity when the gap is 1 after a tracking sample) unless the gated miss rule rejects it
+    (r12 = 1: then the window counts as a miss). A later echo does nothing. Model:
+    FastFiringModel._rise and _sample (max_echoes_per_window = 1)."""
+    p.li(12, 0).li(30, -0x2000_0000).li(17, 32)           # r30 = 0xE0000000
+    p.andi(0, 4, 4).b("ne", "hit_done")                  # not the first echo: no event
+    p.sub(14, 1, 2).andi(16, 3, 0xFF)
+    p.and_(14, 14, R_MASK24).mul(16, 16, 17)             # tof; seq << 5
+    p.rotb(15, 6, 1).rotb(16, 16, 1)                     # rx << 24; seq << 29 (bits 2:0 low, 7:3 high)
+    p.and_(18, 16, 30).mul(20, 7, 17)                    # seq bits of the low half; sensor << 5
+    p.or_(15, 15, 18).andi(19, 16, 0x1F)
+    p.or_(15, 15, 14).or_(19, 19, 20)                    # low half; high half: seq, sensor
+    p.andi(21, 4, 1).li(22, 2048)
+    p.mul(21, 21, 22)                                    # init_ping << 11 (bit 43)
+    p.ori(19, 19, 0x300)                                 # in_window, first_echo (bits 40, 41)
+    p.or_(19, 19, 21)
+    p.st(15, 0, EVT_LO).st(19, 0, EVT_HI)
+    p.andi(0, 4, 2).b("eq", "hit_done")                  # an earlier epoch's window: no sample
+    p.ld(23, 5, 0).ld(24, 5, 1)
+    p.andi(0, 4, 1).b("ne", "hit_init")
+    p.rotb(25, 24, 3).rotb(26, 23, 3)                    # flags byte; seq byte of the state
+    p.andi(0, 25, 1).b("eq", "hit_done")                 # not tracked: no sample, no gate
+    p.andi(26, 26, 0xFF).and_(18, 24, R_MASK24)
+    p.sub(27, 3, 26).xor(18, 18, R_SIGN24)
+    p.andi(27, 27, 0xFF).sub(18, 18, R_SIGN24)           # gap (8 bits); v
+    p.and_(20, 23, R_MASK24)                             # the state's tof
+    p.tst(8).b("eq", "hit_sample")                       # gate off
+    p.andi(0, 25, 4).b("eq", "hit_sample")               # velocity not measured: no gate
+    p.xori(21, 27, 0x80)
+    p.addi(21, 21, -128)                                 # the gap, signed
+    p.mul(22, 21, 18)
+    p.add(22, 22, 20)                                    # prediction, then its clamp
+    p.cmp(22, 10).b("ge", "hit_lo").mov(22, 10)
+    p.label("hit_lo").cmp(22, 11).b("le", "hit_hi").mov(22, 11)
+    p.label("hit_hi").sub(22, 14, 22).b("ge", "hit_abs").sub(22, 0, 22)
+    p.label("hit_abs").cmp(22, 8).b("le", "hit_sample")
+    p.li(12, 1).jmp("hit_done")                          # rejected: counts as a miss at close
+    p.label("hit_sample").tst(27).b("eq", "hit_done")    # gap 0: no sample
+    p.andi(0, 27, 0x80).b("ne", "hit_done")              # gap 128..255 (negative): no sample
+    p.li(26, 0).li(21, 1)                                # v, flags: tracked
+    p.cmpi(27, 1).b("ne", "hit_write")
+    p.andi(0, 25, 2).b("ne", "hit_write")                # after the init ping's sample: no v
+    p.sub(26, 14, 20).sub(22, 0, 9)                      # v = tof - last tof, within +-v_max
+    p.cmp(26, 9).b("le", "hit_vhi").mov(26, 9)
+    p.label("hit_vhi").cmp(26, 22).b("ge", "hit_vlo").mov(26, 22)
+    p.label("hit_vlo").li(21, 5)                         # tracked, vel
+    p.label("hit_write").andi(16, 3, 0xFF).and_(26, 26, R_MASK24)
+    p.rotb(16, 16, 1).rotb(21, 21, 1)
+    p.or_(23, 14, 16).or_(24, 26, 21)
+    p.st(23, 5, 0).st(24, 5, 1).jmp("hit_done")
+    p.label("hit_init").andi(16, 3, 0xFF).li(21, 3)      # an init ping's echo: tracked, init
+    p.rotb(16, 16, 1).rotb(21, 21, 1)
+    p.or_(23, 14, 16)
+    p.st(23, 5, 0).st(21, 5, 1)
+    p.label("hit_done")
+    return p
+
+
+# ------------------------------------------------------------------ CLOSE: a window's result
+def close_kernel(p: Program) -> Program:
+    """CLOSE of the head window of receiver r6 at tick r1: window t0 r2, end offset r3, pulse
+    seq r4 (8 bits), flags r5 (bit 0 init ping, bit 1 saw an echo, bit 2 that echo was
+    rejected by the gate, bit 3 the window's epoch), sensor r7 (its words at r8 = SENS + 32 s),
+    tracking state at r9. An empty window writes its event word; an empty or rejected tracking
+    window of the current epoch counts a miss, and K misses while tracking end the tracking
+    (due = min(due, now); r10 = 1: the caller cancels the sensor's windows); the last open
+    window of an init ping ends the init phase (tracking if the mode is track and a receiver
+    got an echo). Model: FastFiringModel._on_close."""
+    p.li(10, 0).li(17, 32).li(22, 2048)
+    p.ld(11, 8, S_FLAGS).andi(0, 5, 2)
+    p.b("ne", "close_hit")                              # an echo came: no event
+    p.andi(14, 4, 0xFF).andi(15, 5, 1)                  # the empty window's event word
+    p.mul(14, 14, 17).mul(15, 15, 22)                   # seq << 5; init_ping << 11
+    p.and_(12, 3, R_MASK24).rotb(13, 6, 1)              # tof = end - t0; rx << 24
+    p.rotb(14, 14, 1).mul(16, 7, 17)                    # seq << 29; sensor << 5
+    p.or_(12, 12, 13).li(13, -0x2000_0000)
+    p.and_(13, 14, 13).andi(14, 14, 0x1F)
+    p.or_(12, 12, 13).or_(14, 14, 16)
+    p.ori(14, 14, 0x400).or_(14, 14, 15)                # window_empty (bit 42), init_ping
+    p.st(12, 0, EVT_LO).st(14, 0, EVT_HI)
+    p.jmp("close_miss")
+    p.label("close_hit").andi(0, 5, 4).b("eq", "close_init")   # a sample: no miss
+    p.label("close_miss").andi(0, 5, 1).b("ne", "close_init")  # init pings count no misses
+    p.andi(12, 11, F_EPOCH).andi(13, 5, 8)
+    p.add(12, 12, 12)                                   # the sensor's epoch at bit 3
+    p.xor(0, 12, 13).b("ne", "close_done")              # an earlier epoch's window
+    p.ld(12, 9, 1).ld(14, 8, S_K).nop()
+    p.rotb(13, 12, 3)
+    p.andi(15, 13, 0xF0)                                # miss count << 4 (flags byte)
+    p.cmpi(15, 0xF0).b("eq", "close_sat")               # saturated at 15
+    p.addi(15, 15, 0x10).li(16, 0x1000_0000)
+    p.add(12, 12, 16)                                   # miss + 1 in word B (bits 31:28)
+    p.st(12, 9, 1)
+    p.label("close_sat").add(14, 14, 14)
+    p.add(14, 14, 14).andi(0, 11, F_TRACKING)
+    p.b("eq", "close_done")                             # not tracking: no safety
+    p.add(14, 14, 14)
+    p.add(14, 14, 14)                                   # K << 4
+    p.sub(0, 15, 14).b("lt", "close_done")              # fewer than K misses
+    p.andi(11, 11, ~F_TRACKING).li(10, 1)      # safety: re-initialise now
+    p.ld(12, 8, S_DUE).st(11, 8, S_FLAGS).nop()
+    p.sub(0, 1, 12).b("ge", "close_done")
+    p.st(1, 8, S_DUE).jmp("close_done")                 # due = min(due, now)
+    p.label("close_init").andi(0, 5, 1).b("eq", "close_done")
+    p.andi(12, 11, F_EPOCH).andi(13, 5, 8)
+    p.add(12, 12, 12)
+    p.xor(0, 12, 13).b("ne", "close_done")              # an earlier epoch's init ping
+    p.ld(12, 8, S_OPEN).nop().nop()
+    p.addi(12, 12, -1)
+    p.st(12, 8, S_OPEN).b("ne", "close_done")           # windows of the init ping still open
+    p.ld(13, 8, S_MODE).andi(11, 11, ~(F_IN_INIT | F_TRACKING))
+    p.andi(14, 11, F_ANY_TRK)
+    p.b("eq", "close_flags")
+    p.cmpi(13, 1).b("ne", "close_flags")
+    p.ori(11, 11, F_TRACKING)                           # track mode and an echo: tracking
+    p.label("close_flags").st(11, 8, S_FLAGS)
+    p.label("close_done")
+    return p
+
+
+# ------------------------------------------------------------------ the slot unit's other scans
+def _su_scan(p: Program, tag: str, el: int, ta: int, mode: int) -> Program:
+    """Start the slot unit on element register ``el`` (its valid slots from WV) with TA from
+    register ``ta`` in ``mode``, and wait for it; r23 = SU_FLAGS. Uses r20, r21."""
+    p.ld(20, el, WV).ori(21, el, mode)
+    p.st(20, 0, SU_VALID).st(ta, 0, SU_TA).st(21, 0, SU_GO)
+    p.label(f"{tag}_wait").ld(23, 0, SU_FLAGS).nop().nop()
+    p.andi(0, 23, 0x80).b("ne", f"{tag}_wait")
+    return p
+
+
+def edge_kernel(p: Program) -> Program:
+    """EDGE, the window of receiver r6 holding the edge timestamp r1: r10 = its slot, or -1
+    outside every window (the edge is gated). Model: the window search of FastFiringModel._rise."""
+    _su_scan(p, "edge", 6, 1, SU_EDGE)
+    p.li(10, -1).andi(0, 23, 1)
+    p.b("eq", "edge_done")
+    p.ld(10, 0, SU_X)
+    p.label("edge_done")
+    return p
+
+
+def _head_rescan(p: Program, tag: str) -> Program:
+    """Element r6's head after its windows changed: the slot closing first after tick r1, into
+    HC / HS and to the close detector, or no head. Uses r20-r23, r25, r26."""
+    _su_scan(p, tag, 6, 1, SU_HEAD)
+    p.andi(0, 23, 1).b("eq", f"{tag}_none")
+    p.ld(25, 0, SU_X).ld(26, 0, SU_MINC).li(21, 256)
+    p.ori(20, 25, 0x100).mul(21, 25, 21)
+    p.st(26, 6, HC).st(20, 6, HS).or_(21, 21, 6)
+    p.st(26, 0, HD_T).st(21, 0, HD_EL).jmp(f"{tag}_done")
+    p.label(f"{tag}_none").lui(21, 0x10).st(0, 6, HS)       # 1 << 16: no head
+    p.or_(21, 21, 6)
+    p.st(21, 0, HD_EL)
+    p.label(f"{tag}_done")
+    return p
+
+
+def head_kernel(p: Program) -> Program:
+    """HEAD, element r6's next window to close (after its head closed at tick r1, its slot
+    cleared from WV): the earliest close of its remaining windows, or none. Model: the
+    element's windows after FastFiringModel._on_close removes one."""
+    return _head_rescan(p, "head")
+
+
+def safe_kernel(p: Program) -> Program:
+    """SAFE, the cancel of sensor r7 at tick r1: the cancel record (docs/fast_firing.md section
+    6), then on every element the sensor's windows leave WV. Heads stay as they are (as in
+    ms_scheduler): a cancelled head still reaches its close tick, where the caller finds its
+    slot no longer valid, writes nothing for it and runs HEAD. Model: FastFiringModel._cancel."""
+    p.li(17, 32).lui(18, 0x60000)                           # bits 62, 61: bits 30, 29 of the high half
+    p.mul(19, 7, 17)
+    p.or_(19, 19, 18)                                       # sensor << 5 (bit 37)
+    p.st(1, 0, EVT_LO).st(19, 0, EVT_HI)
+    p.li(6, NUM_RX - 1)
+    p.label("safe_el")
+    _su_scan(p, "safe_scan", 6, 7, SU_SENSOR)
+    p.ld(22, 0, SU_X).ld(24, 6, WV).nop()
+    p.andn(24, 24, 22)
+    p.st(24, 6, WV).addi(6, 6, -1).nop().b("ge", "safe_el")
+    return p

@@ -1,0 +1,68 @@
+"""The scheduler engine's data memory and I/O map (docs/sched_engine.md).
+
+Data memory (32-bit words): the tracking state of (sensor s, receiver r) at
+``TRK + 2 * (24 s + r)``: word A = tof[23:0] | seq[7:0] << 24, word B = v[23:0] (two's
+complement) | flags << 24 (bit 24 tracked, 25 init, 26 vel, 31:28 miss count); the candidate's
+predicted T_E of receiver r at ``CAND + r``; per element tx_until (``TU + e``) and
+blank_until (``BU + e``), valid slots (``WV + e``), the head's close tick and slot | 0x100
+(``HC + e``, ``HS + e``); the candidate's blank interval of element e at ``BA + e``, ``BB + e``;
+per sensor s at ``SENS + 32 s``: due (S_DUE), quiet, pulse id (S_SEQ), flags (S_FLAGS:
+tracking, in_init, epoch, any receiver tracked), open init windows (S_OPEN), tracking pulses
+since the last init ping (S_TRK, saturating at 255), miss limit K (S_K), reinit_every M
+(S_REINIT, 0 off), mode (S_MODE: 1 track), the other sensors sharing an element (S_SHARE,
+one bit per sensor).
+"""
+
+from __future__ import annotations
+
+from ..sched_ucode import Program
+
+NUM_RX = 24
+WSLOTS = 16
+TRK = 0x100           # tracking state, 2 words per (sensor, receiver): 0x100..0x27F
+TU = 0x340            # per element: tx_until (absolute tick)
+BU = 0x358            # per element: blank_until (absolute tick)
+BA = 0x370            # the candidate's blank interval [a, b) of element e (offsets from t0)
+BB = 0x388
+CAND = 0x3A0          # candidate T_E per receiver
+WV = 0x3B8            # per element: valid reserved-window slots (bit mask)
+HC = 0x3D0            # per element: the head's (earliest) close tick
+HS = 0x3E8            # per element: the head's slot | 0x100 while there is a head
+
+# the slot unit's I/O registers (bus addresses above the data memory)
+SU_TA, SU_TB, SU_TWA, SU_TWB, SU_GO = 0x400, 0x401, 0x402, 0x403, 0x404
+SU_X, SU_FLAGS, SU_MINC, SU_VALID = 0x405, 0x406, 0x407, 0x408
+SU_CONF, SU_EDGE, SU_HEAD, SU_SENSOR = 0, 1 << 10, 2 << 10, 3 << 10   # SU_GO modes
+SU_LATENCY = WSLOTS + 4   # clocks from SU_GO to the results (a slot per clock, four stages)
+# outputs of IEL: a window slot written (fields, then the address commits it), a trigger
+# (tick, then the element commits it), a head set for the close detector (tick, then element |
+# slot << 8 commits it; element | 1 << 16: the element has no head)
+W_T0, W_WS, W_WE, W_META, W_ADDR = 0x410, 0x411, 0x412, 0x413, 0x414
+TRIG_T, TRIG_EL, HD_T, HD_EL = 0x418, 0x419, 0x41C, 0x41D
+EVT_LO, EVT_HI = 0x420, 0x421   # an event word: low half, then the high half commits it
+# the divider: DIV_X = dividend (< 2^24), DIV_N = divisor (1..15) starts it; DIV_Q = floor(x / n)
+# DIV_LATENCY clocks later (a restoring divider, one quotient bit per clock)
+DIV_X, DIV_N, DIV_Q = 0x428, 0x429, 0x42A
+DIV_LATENCY = 26
+
+# per-sensor words at SENS + 32 s
+SENS = 0x000
+S_DUE, S_QUIET, S_SEQ, S_FLAGS, S_OPEN, S_TRK, S_K, S_MODE = 0, 1, 3, 4, 5, 6, 18, 23
+S_REINIT, S_SHARE = 22, 24
+F_TRACKING, F_IN_INIT, F_EPOCH, F_ANY_TRK = 1, 2, 4, 8    # S_FLAGS bits
+MISS_MAX = 15
+
+# register conventions of the kernels
+R_MASK24, R_SIGN24 = 28, 29   # constants 0xFFFFFF and 0x800000 (loaded by prologue())
+
+
+def pack_rx(tracked: bool, tof: int, seq: int, v: int, miss: int = 0, init: bool = False,
+            vel: bool = False) -> tuple[int, int]:
+    """The two data-memory words of a receiver's tracking state (words A and B above)."""
+    flags = int(tracked) | int(init) << 1 | int(vel) << 2 | (miss & 0xF) << 4
+    return (tof & 0xFF_FFFF) | (seq & 0xFF) << 24, (v & 0xFF_FFFF) | flags << 24
+
+
+def prologue(p: Program) -> Program:
+    """Constants every kernel relies on."""
+    return p.li(R_MASK24, 0xFF_FFFF).li(R_SIGN24, 0x80_0000)
