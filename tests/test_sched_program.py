@@ -19,6 +19,7 @@ from multisonar.tools.sched_program import (BA, BB, BU, CAND, edge_kernel, head_
                                             iel_clocks, iel_kernel, issue_kernel, order_clocks,
                                             order_kernel, pack_rx, prologue, run_kernel, sched_kernel, Slot,
                                             SlotUnit)
+from multisonar.tools.sched_program.system import EchoPath
 from multisonar.tools.sched_ucode import Program, UcodeError
 
 LAYOUT = load_layout("ring24")
@@ -617,3 +618,51 @@ def test_scan_kernel_clocks():
     """The EDGE / HEAD / SAFE figures of bench_sched_engine.py (each checks its own result)."""
     c = scan_clocks()
     assert 20 < c["edge"] < 100 and 20 < c["head"] < 100 and 24 * 20 < c["safe"] < 24 * 120
+
+
+# ------------------------------------------------------------------ the receive path of a whole-program run
+class RiseRecorder(FastFiringModel):
+    """The model, recording every filtered rise (detection tick, receiver, run start)."""
+
+    def __init__(self, *a, **kw):
+        super().__init__(*a, **kw)
+        self.rise_log = []
+
+    def _rise(self, rx, n):
+        self.rise_log.append((self.now, rx, n))
+        super()._rise(rx, n)
+
+
+@pytest.mark.parametrize("scene,glitch", [("corridor", 2), ("person_crossing", 6)])
+def test_echo_path_gives_the_models_rises(scene, glitch):
+    """EchoPath fed with the model's pulses (fired at their decision ticks, in order) and the
+    same noise gives the very rises the model processes: edges, noise, glitches and merged runs."""
+    import numpy as np
+
+    from multisonar.demo import demo_sensors
+    from multisonar.fastfiring import SceneEchoSource
+    from multisonar.scene import load_scene
+
+    sc = load_scene(scene)
+    sched = Schedule(sc.layout, demo_sensors("demo"), temperature_c=sc.temperature_c)
+    lead, span = 4096, 9_600_000   # 0.2 s
+    model = RiseRecorder(sched, SceneEchoSource(sc, rng=np.random.default_rng(3)), decision_lead=lead,
+                         glitch_min=glitch)
+    model.run(span)
+    path = EchoPath(sc.layout.n, SceneEchoSource(sc, rng=np.random.default_rng(3)), glitch)
+    path.noise(0, span)
+    cfg = {c.id: c for c in model.cfg}
+    fires = [(p.t0 - lead, p.t0, p.sensor) for p in model.pulses]
+    got, fi = [], 0
+    while True:
+        nxt = [t for t in (path.next_tick(), fires[fi][0] if fi < len(fires) else None) if t is not None]
+        if not nxt or min(nxt) >= span:
+            break
+        t = min(nxt)
+        got += [(t, rx, n) for rx, n in path.rises(t)]
+        while fi < len(fires) and fires[fi][0] == t:
+            c = cfg[fires[fi][2]]
+            path.fire(fires[fi][1], c.tx.copy(), c.delays.copy())
+            fi += 1
+    assert len(model.rise_log) > 50
+    assert got == model.rise_log

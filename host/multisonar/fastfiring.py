@@ -396,6 +396,23 @@ class _Line:
         if i > 32:
             del self.starts[:i], self.ends[:i]
 
+    def rises(self, n: int, g: int) -> bool:
+        """The run starting at ``n`` is processed (at tick n + latency): whether the filtered
+        level rises there (runs are processed in order; glitch_min ``g``)."""
+        if n <= self.last:
+            return False
+        i = bisect_right(self.starts, n) - 1
+        if i < 0 or self.starts[i] != n:
+            return False  # merged into an earlier run
+        e = self.ends[i]
+        prev_end = self.ends[i - 1] if i > 0 else None
+        self.last = n
+        if self.high and prev_end is not None and n - prev_end < g:
+            return False  # gap shorter than glitch_min: the filtered level never fell
+        self.high = e - n >= g
+        self.prune()
+        return self.high
+
 
 class FastFiringModel:
     """Cycle-level model of scheduler + receive gating. ``run`` may be called repeatedly."""
@@ -510,20 +527,7 @@ class FastFiringModel:
         self._push(start + self.latency, _EDGE, rx, start)
 
     def _on_edge(self, rx: int, n: int) -> None:
-        line = self.lines[rx]
-        if n <= line.last:
-            return
-        i = bisect_right(line.starts, n) - 1
-        if i < 0 or line.starts[i] != n:
-            return  # merged into an earlier run
-        e = line.ends[i]
-        prev_end = line.ends[i - 1] if i > 0 else None
-        line.last = n
-        if line.high and prev_end is not None and n - prev_end < self.g:
-            return  # gap shorter than glitch_min: the filtered level never fell
-        line.high = e - n >= self.g
-        line.prune()
-        if line.high:
+        if self.lines[rx].rises(n, self.g):
             self._rise(rx, n)
 
     def _rise(self, rx: int, n: int) -> None:
