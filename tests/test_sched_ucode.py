@@ -133,3 +133,10 @@ def test_rtl_package_and_rom_image():
     lines = img.hex(depth=4).splitlines()
     assert len(lines) == 4 and all(len(x) == 9 for x in lines) and lines[3] == "000000000"
     assert [decode(int(x, 16)).op for x in lines[:3]] == ["lui", "nop", "ori"]  # ori reads lui
+
+
+def test_mul_keeps_the_flags():
+    m = run(Program().li(1, 5).li(2, 7).cmp(1, 1).mul(3, 1, 2))
+    assert m.z and m.regs[3] == 35
+    img = Program().cmp(1, 1).mul(3, 1, 2).b("eq", "x").label("x").assemble()
+    assert img.nops_inserted == 0   # the branch reads the compare's flags, two instructions back

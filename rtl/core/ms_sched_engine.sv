@@ -214,7 +214,7 @@ module ms_sched_engine
     if (rst_i) begin
       z_q <= 1'b0;
       n_q <= 1'b0;
-    end else if (x_fn_q != FN_NONE) begin
+    end else if (x_fn_q != FN_NONE && x_fn_q != FN_MUL) begin  // MUL keeps the flags (Fmax)
       z_q <= (x_fn_q == FN_LSB) ? (x_onehot == '0) : (x_res == '0);
       n_q <= x_res[31];
     end

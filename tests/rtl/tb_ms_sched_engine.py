@@ -106,6 +106,9 @@ def directed_program() -> Program:
     p.li(26, 0).call("sub1").addi(26, 26, 1).call("sub1").jmp("after")
     p.label("sub1").addi(26, 26, 5).ret()
     p.label("after").st(26, 0, 0x403)
+    # mul keeps the flags: Z from the compare survives a non-zero product
+    p.li(28, 0x77).li(1, 5).li(2, 7).nop().cmp(1, 1).mul(3, 1, 2).b("eq", "mul_kept").li(28, 1)
+    p.label("mul_kept").st(28, 0, 0x404).st(3, 0, 0x405)
     # every condition after a subtraction: taken and not taken
     for i, (a, b) in enumerate([(5, 5), (4, 5), (5, 4), (0x8000_0000, 1), (1, 0x8000_0000)]):
         p.li(1, a).li(2, b).nop().cmp(1, 2).nop()
