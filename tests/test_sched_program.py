@@ -545,19 +545,26 @@ def slot_state(ws_by_el: dict[int, dict[int, _Window]]):
     return su, mem
 
 
-@pytest.mark.parametrize("seed", range(100))
-def test_edge_kernel_finds_the_models_window(seed):
+def one_element_case(seed: int):
+    """A one-sensor model whose element 0 holds random windows (element_windows), and the
+    same windows in a slot unit and the data memory."""
     rng = random.Random(seed)
     model = FastFiringModel(Schedule(LAYOUT, [VirtualSensor("a", tx=[0], rx=[0])]), SyntheticEchoSource({}))
+    model.sensors[0].rx[0] = _RxState()
     t = rng.randrange(1 << 22, 1 << 31)
     ws = element_windows(rng, model, 0, t)
+    su, mem = slot_state({0: ws})
+    return rng, model, t, ws, su, mem
+
+
+@pytest.mark.parametrize("seed", range(100))
+def test_edge_kernel_finds_the_models_window(seed):
+    rng, model, t, ws, su, mem = one_element_case(seed)
     if ws and rng.random() < 0.7:   # inside a window, on its first or last tick, or just after it
         w = rng.choice(list(ws.values()))
         n = rng.choice([w.start, w.end - 1, w.end, rng.randrange(w.start, w.end)])
     else:
         n = t + rng.randrange(-250_000, 50_000)
-    su, mem = slot_state({0: ws})
-    model.sensors[0].rx[0] = _RxState()
     model.now = n + model.latency
     model._rise(0, n)
     p = prologue(Program("edge")).li(1, n).li(6, 0)
@@ -568,12 +575,7 @@ def test_edge_kernel_finds_the_models_window(seed):
 
 @pytest.mark.parametrize("seed", range(60))
 def test_head_kernel_finds_the_next_window_to_close(seed):
-    rng = random.Random(seed)
-    model = FastFiringModel(Schedule(LAYOUT, [VirtualSensor("a", tx=[0], rx=[0])]), SyntheticEchoSource({}))
-    t = rng.randrange(1 << 22, 1 << 31)
-    ws = element_windows(rng, model, 0, t)
-    su, mem = slot_state({0: ws})
-    model.sensors[0].rx[0] = _RxState()
+    rng, model, t, ws, su, mem = one_element_case(seed)
     if ws:   # the head closes: out of the model's windows and out of WV
         k = mem[HS] & 0xFF
         model._on_close(ws[k])
