@@ -9,7 +9,7 @@ import pytest
 from multisonar.fastfiring import FastFiringModel, SyntheticEchoSource, _RxState, _Window
 from multisonar.layout import load_layout
 from multisonar.schedule import Schedule, VirtualSensor, effective_order, min_tof_for_order, pulse_period
-from multisonar.tools.sched_program import (BA, BB, BU, CAND, edge_kernel, head_kernel, safe_kernel, scan_clocks, F_ANY_TRK, F_EPOCH, F_IN_INIT,
+from multisonar.tools.sched_program import (BA, BB, BU, CAND, R_MASK24, R_SIGN24, edge_kernel, head_kernel, safe_kernel, scan_clocks, F_ANY_TRK, F_EPOCH, F_IN_INIT,
                                             F_TRACKING, HC, HS, NUM_RX, S_DUE, S_FLAGS, S_K,
                                             S_MODE, S_OPEN, S_QUIET, S_REINIT, S_SEQ, S_SHARE,
                                             S_TRK, SCHED_GO, SCHED_HOLD, SCHED_NOT_YET,
@@ -668,3 +668,14 @@ def test_echo_path_gives_the_models_rises(scene, glitch):
             fi += 1
     assert len(model.rise_log) > 50
     assert got == model.rise_log
+
+
+@pytest.mark.parametrize("kernel", [cand_kernel, conf_kernel, iel_kernel, issue_kernel, sched_kernel,
+                                    order_kernel, hit_kernel, close_kernel, edge_kernel, head_kernel,
+                                    safe_kernel])
+def test_kernels_keep_the_constant_registers(kernel):
+    """No kernel writes the registers prologue() loads (a whole program runs them in turn)."""
+    p = Program("k")
+    kernel(p)
+    written = {i.writes() for i in p.items if not isinstance(i, str)}
+    assert not written & {R_MASK24, R_SIGN24}

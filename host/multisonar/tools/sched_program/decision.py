@@ -131,21 +131,21 @@ def iel_kernel(p: Program) -> Program:
     p.label("iel_notx").and_(20, 12, 4)
     p.b("eq", "iel_next")
     p.ld(15, 10, CAND).ld(17, 10, WV)
-    p.mul(28, 10, 26)                        # the element's first slot address, e * 16
+    p.mul(7, 10, 26)                         # the element's first slot address, e * 16
     p.sub(18, 15, 5).add(19, 15, 6)          # ws, we
     p.xori(21, 17, -1)                       # free slots
     p.lsb(22, 21).addi(23, 21, -1)           # the lowest; its one-hot bit below
-    p.andn(23, 21, 23).add(28, 28, 22)
+    p.andn(23, 21, 23).add(7, 7, 22)
     p.or_(17, 17, 23).add(30, 1, 19)
     p.st(17, 10, WV).st(1, 0, W_T0).st(18, 0, W_WS).st(19, 0, W_WE).st(24, 0, W_META)
-    p.st(28, 0, W_ADDR).add(30, 30, 25)      # the window's close tick t0 + we - 1 + L
+    p.st(7, 0, W_ADDR).add(30, 30, 25)       # the window's close tick t0 + we - 1 + L
     p.ld(16, 10, HS).ld(13, 10, HC).nop()
     p.andi(0, 16, 0x100).b("eq", "iel_head")
     p.sub(0, 30, 13).b("ge", "iel_next")     # the head closes first: keep it
-    p.label("iel_head").mul(29, 22, 27).st(30, 10, HC)
+    p.label("iel_head").mul(8, 22, 27).st(30, 10, HC)
     p.ori(16, 22, 0x100).st(30, 0, HD_T)
-    p.st(16, 10, HS).or_(29, 29, 10)
-    p.st(29, 0, HD_EL)
+    p.st(16, 10, HS).or_(8, 8, 10)
+    p.st(8, 0, HD_EL)
     p.label("iel_next").tst(2).b("ne", "iel_loop")
     p.label("iel_done")
     return p
