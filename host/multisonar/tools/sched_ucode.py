@@ -106,10 +106,12 @@ def encode(insn: Insn, target: int = 0) -> int:
     return (code << 30) | (rd << 25) | (ra << 20) | (rb << 15) | (imm & ((1 << IMM_BITS) - 1))
 
 
+_OP_NAMES = {c: n for n, (c, _) in OPCODES.items()}
+
+
 def decode(word: int) -> Insn:
     code = (word >> 30) & 0x3F
-    names = {c: n for n, (c, _) in OPCODES.items()}
-    op = names.get(code, "nop")
+    op = _OP_NAMES.get(code, "nop")
     fmt = OPCODES[op][1]
     rd, ra, rb, imm = (word >> 25) & 0x1F, (word >> 20) & 0x1F, (word >> 15) & 0x1F, word & 0x7FFF
     if fmt in ("i", "l", "s"):
@@ -141,13 +143,19 @@ class Program:
     def __init__(self, name: str = "program") -> None:
         self.name = name
         self.items: list[Insn | str] = []   # instructions and labels (str) in order
+        self._count = 0                      # instructions among the items
 
     # ---- raw instructions
     def _emit(self, insn: Insn) -> "Program":
         if not insn.where:
-            insn.where = f"{self.name}[{sum(isinstance(i, Insn) for i in self.items)}] {insn.op}"
+            insn.where = f"{self.name}[{self._count}] {insn.op}"
+        self._count += 1
         self.items.append(insn)
         return self
+
+    def _imm15(self, op: str, value: int, what: str) -> None:
+        if not -(1 << (IMM_BITS - 1)) <= value < (1 << (IMM_BITS - 1)):
+            raise UcodeError(f"{self.name}: {op} {what} {value} outside the signed 15-bit range")
 
     def label(self, name: str) -> "Program":
         if name in self.items:
@@ -166,8 +174,7 @@ class Program:
 
     def _i(op: str) -> Callable:  # noqa: N805
         def f(self: "Program", rd: int, ra: int, imm: int) -> "Program":
-            if not -(1 << (IMM_BITS - 1)) <= imm < (1 << (IMM_BITS - 1)):
-                raise UcodeError(f"{self.name}: {op} immediate {imm} outside the signed 15-bit range")
+            self._imm15(op, imm, "immediate")
             return self._emit(Insn(op, rd, ra, 0, imm))
         f.__name__ = op
         return f
@@ -199,8 +206,7 @@ class Program:
         return self._mem("st", 0, ra, rb, off)
 
     def _mem(self, op: str, rd: int, ra: int, rb: int, off: int) -> "Program":
-        if not -(1 << (IMM_BITS - 1)) <= off < (1 << (IMM_BITS - 1)):
-            raise UcodeError(f"{self.name}: {op} offset {off} outside the signed 15-bit range")
+        self._imm15(op, off, "offset")
         return self._emit(Insn(op, rd, ra, rb, off))
 
     def b(self, cond: str, target: str) -> "Program":
@@ -285,9 +291,8 @@ class Program:
 
 
 def hazard(first: Insn, second: Insn) -> bool:
-    """``second`` executes right after ``first`` and reads its result or flags too early."""
-    if first.op in ("b", "call", "ret"):
-        return False   # writes nothing the next instruction reads
+    """``second`` executes right after ``first`` and reads its result or flags too early
+    (branches, call and ret write neither)."""
     w = first.writes()
     if w and w in second.reads():
         return True
@@ -378,11 +383,11 @@ class Machine:
     def run(self, max_cycles: int, stop: Iterable[int] = ()) -> int:
         """Execute until the pc reaches an address of ``stop`` or ``max_cycles`` clocks."""
         stops = set(stop)
+        code = [decode(w) for w in self.words]   # each word decoded once, not per clock
+        nop = decode(0)
         prev: Insn | None = None
         while self.cycle < max_cycles and self.pc not in stops:
-            word = self.words[self.pc] if self.pc < len(self.words) else 0
-            insn = decode(word)
-            insn.where = f"pc {self.pc}"
+            insn = code[self.pc] if self.pc < len(code) else nop
             if prev is not None and hazard(prev, insn):
                 raise UcodeError(f"pc {self.pc}: hazard with the instruction before ({prev.op})")
             self.step(insn)
