@@ -52,7 +52,6 @@ def run_cand(model: FastFiringModel, sensor: int, k: int, rng: random.Random):
         mem[base + 2 * r], mem[base + 2 * r + 1] = pack_state(st)
         mask |= 1 << r
     p = prologue(Program("cand")).li(1, mask).li(2, base).li(3, k & 0xFF).li(4, lo).li(5, hi)
-    p
     m, _ = run_kernel(p, cand_kernel, mem, max_cycles=100_000)
     return s, m
 
@@ -151,7 +150,6 @@ def test_conf_kernel_with_the_slot_unit_finds_the_models_retry(seed):
     mask = lambda es: sum(1 << e for e in es)  # noqa: E731
     p = prologue(Program("conf")).li(1, t).li(2, mask(touched)).li(3, mask(tx)).li(4, mask(rxs))
     p.li(5, tv).li(6, tn).li(9, mask(e for e, _, _ in blanks))
-    p
     m, _ = run_kernel(p, conf_kernel, mem, su, max_cycles=200_000)
     assert bool(m.regs[7]) == (expect is not None)
     if expect is not None:
@@ -239,7 +237,6 @@ def test_iel_kernel_writes_what_the_model_issues(seed):
     p = prologue(Program("iel")).li(1, t).li(2, mask(set(blk) | set(wins))).li(3, mask(c.tx))
     p.li(4, mask(wins)).li(9, mask(blk)).li(24, 0x5A).li(25, model.latency - 1)
     p.li(5, -c.blank if init else c.t_v).li(6, c.max_tof if init else c.t_n)
-    p
     m, _ = run_kernel(p, iel_kernel, mem, max_cycles=200_000)
     for e in range(NUM_RX):
         assert m.mem[BU + e] == model.blank_until[e] and m.mem[TU + e] == model.tx_until[e], f"element {e}"
@@ -394,7 +391,6 @@ def test_issue_kernel_updates_the_sensor_as_the_model(seed):
     rxm = sum(1 << int(r) for r in c.rx)
     p = prologue(Program("issue")).li(1, t).li(2, pulse.period).li(3, len(pulse.windows))
     p.li(4, int(init)).li(5, c.max_tof - c.blank).li(6, rxm).li(7, 0).li(8, base_s).li(9, trk)
-    p
     m, _ = run_kernel(p, issue_kernel, mem, max_cycles=10_000)
     records = [w for w in model.words if w >> 62 & 1]
     assert m.out.events == records

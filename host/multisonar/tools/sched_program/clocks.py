@@ -26,6 +26,15 @@ def cand_clocks(n_rx: int = NUM_RX, seed: int = 1) -> int:
     return run_kernel(p, cand_kernel, mem)[1]
 
 
+def _candidate_elements(mem: dict[int, int], n_el: int, t: int) -> None:
+    """Elements 0..n_el-1 of a candidate at t0 = t: reservations over before it, T_E 200,000,
+    blank intervals [100 e, 100 e + 50,000)."""
+    for e in range(n_el):
+        mem[TU + e] = mem[BU + e] = t - 1000
+        mem[CAND + e] = 200_000
+        mem[BA + e], mem[BB + e] = 100 * e, 100 * e + 50_000
+
+
 def conf_clocks(n_el: int = NUM_RX, n_tx: int = 3, slots: int = WSLOTS) -> int:
     """Clocks the CONF kernel takes for a candidate touching ``n_el`` elements, all with a
     window, the first ``n_tx`` also tx elements, each holding ``slots`` reserved windows that
@@ -33,17 +42,15 @@ def conf_clocks(n_el: int = NUM_RX, n_tx: int = 3, slots: int = WSLOTS) -> int:
     t, tv, tn = 1 << 24, 24_000, 24_000
     mem: dict[int, int] = {}
     su = SlotUnit()
+    _candidate_elements(mem, n_el, t)
     for e in range(n_el):
-        mem[TU + e] = mem[BU + e] = t - 1000
-        mem[CAND + e] = 200_000
-        mem[BA + e], mem[BB + e] = 100 * e, 100 * e + 50_000
         for k in range(slots):
             su.slots[e * WSLOTS + k] = Slot(t - 10_000 * (k + 2), t - 10_000 * (k + 1), t)
         mem[WV + e] = (1 << slots) - 1
     allm, txm = (1 << n_el) - 1, (1 << n_tx) - 1
     p = prologue(Program("conf_clocks")).li(1, t).li(2, allm).li(3, txm).li(4, allm).li(5, tv)
     p.li(6, tn).li(9, txm)
-    m, clocks = run_kernel(p, conf_kernel, mem, su, max_cycles=1_000_000)
+    m, clocks = run_kernel(p, conf_kernel, mem, su)
     assert m.regs[7] == int(slots >= WSLOTS)   # only a full element can defer it
     return clocks
 
@@ -53,15 +60,13 @@ def iel_clocks(n_el: int = NUM_RX, n_tx: int = 3) -> int:
     element's head kept: its windows close earlier), the first ``n_tx`` also tx elements."""
     t = 1 << 24
     mem: dict[int, int] = {}
+    _candidate_elements(mem, n_el, t)
     for e in range(n_el):
-        mem[TU + e] = mem[BU + e] = t - 1000
-        mem[CAND + e] = 200_000
-        mem[BA + e], mem[BB + e] = 100 * e, 100 * e + 50_000
         mem[WV + e], mem[HC + e], mem[HS + e] = 0b111, t + 10, 0x100
     allm, txm = (1 << n_el) - 1, (1 << n_tx) - 1
     p = prologue(Program("iel_clocks")).li(1, t).li(2, allm).li(3, txm).li(4, allm).li(9, txm)
     p.li(5, 24_000).li(6, 24_000).li(24, 0).li(25, 2)
-    m, clocks = run_kernel(p, iel_kernel, mem, max_cycles=1_000_000)
+    m, clocks = run_kernel(p, iel_kernel, mem)
     assert len(m.out.slots) == n_el and len(m.out.triggers) == n_tx
     return clocks
 
@@ -74,7 +79,6 @@ def hit_clocks() -> int:
     mem = {TRK: a, TRK + 1: b}
     p = prologue(Program("hit_clocks")).li(1, t0 + 100_100).li(2, t0).li(3, k & 0xFF).li(4, 2)
     p.li(5, TRK).li(6, 0).li(7, 0).li(8, 2400).li(9, 24_000).li(10, 30_000).li(11, 300_000)
-    p
     m, clocks = run_kernel(p, hit_kernel, mem, max_cycles=10_000)
     assert len(m.out.events) == 1 and m.regs[12] == 0 and m.mem[TRK + 1] >> 24 == 5
     return clocks
@@ -101,7 +105,6 @@ def order_clocks(tries: int = 1) -> int:
     n = 9 - tries
     te = min_tof_for_order(n, tv, tn, d)
     p = prologue(Program("order_clocks")).li(1, 8).li(2, te).li(3, te).li(4, tv).li(5, tn).li(6, d)
-    p
     m, clocks = run_kernel(p, order_kernel, {}, max_cycles=100_000)
     assert m.regs[7] == n
     return clocks

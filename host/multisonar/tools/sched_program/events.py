@@ -9,6 +9,28 @@ from .layout import (EVT_HI, EVT_LO, F_ANY_TRK, F_EPOCH, F_IN_INIT, F_TRACKING, 
                      SU_SENSOR, SU_TA, SU_VALID, SU_X, S_DUE, S_FLAGS, S_K, S_MODE, S_OPEN, WV)
 
 
+def _tof_event(p: Program, tof: int, seq: int, rx: int, sensor: int, flags: int, kind: int,
+               tmp: tuple[int, int, int, int, int]) -> Program:
+    """Write a ToF event word (docs/fast_firing.md section 6): tof (register, 24 bits), rx, the
+    pulse seq's low byte, the sensor, the init_ping bit from bit 0 of register ``flags`` and
+    ``kind``, the in_window / first_echo / window_empty bits as bits of the high half (0x300:
+    a first echo, 0x400: an empty window). Packed without a shifter: seq << 29 is seq << 5
+    rotated right a byte (its bits 2:0 land in the low half, 7:3 in the high one). Uses the
+    five ``tmp`` registers; ``tof`` and the inputs stay."""
+    a, b, c, d, e = tmp
+    p.li(a, 32).andi(b, seq, 0xFF)
+    p.mul(b, b, a).rotb(c, rx, 1)                       # seq << 5; rx << 24
+    p.rotb(b, b, 1).mul(d, sensor, a)                   # seq << 29; sensor << 5 (bit 37)
+    p.li(e, -0x2000_0000)
+    p.and_(a, b, e).andi(b, b, 0x1F)                    # seq bits of the low half; of the high half
+    p.or_(c, c, a).or_(b, b, d)
+    p.or_(c, c, tof).andi(d, flags, 1)                  # low half; init_ping
+    p.li(a, 2048)
+    p.mul(d, d, a).ori(b, b, kind)                      # init_ping << 11 (bit 43); kind
+    p.or_(b, b, d)
+    return p.st(c, 0, EVT_LO).st(b, 0, EVT_HI)
+
+
 # ------------------------------------------------------------------ HIT: an echo in a window
 def hit_kernel(p: Program) -> Program:
     """HIT, an edge at tick r1 in a window (t0 r2, pulse seq r3 (8 bits), flags r4: bit 0 init
@@ -20,19 +42,10 @@ def hit_kernel(p: Program) -> Program:
     velocity when the gap is 1 after a tracking sample) unless the gated miss rule rejects it
     (r12 = 1: then the window counts as a miss). A later echo does nothing. Model:
     FastFiringModel._rise and _sample (max_echoes_per_window = 1)."""
-    p.li(12, 0).li(30, -0x2000_0000).li(17, 32)           # r30 = 0xE0000000
-    p.andi(0, 4, 4).b("ne", "hit_done")                  # not the first echo: no event
-    p.sub(14, 1, 2).andi(16, 3, 0xFF)
-    p.and_(14, 14, R_MASK24).mul(16, 16, 17)             # tof; seq << 5
-    p.rotb(15, 6, 1).rotb(16, 16, 1)                     # rx << 24; seq << 29 (bits 2:0 low, 7:3 high)
-    p.and_(18, 16, 30).mul(20, 7, 17)                    # seq bits of the low half; sensor << 5
-    p.or_(15, 15, 18).andi(19, 16, 0x1F)
-    p.or_(15, 15, 14).or_(19, 19, 20)                    # low half; high half: seq, sensor
-    p.andi(21, 4, 1).li(22, 2048)
-    p.mul(21, 21, 22)                                    # init_ping << 11 (bit 43)
-    p.ori(19, 19, 0x300)                                 # in_window, first_echo (bits 40, 41)
-    p.or_(19, 19, 21)
-    p.st(15, 0, EVT_LO).st(19, 0, EVT_HI)
+    p.li(12, 0).andi(0, 4, 4).b("ne", "hit_done")        # not the first echo: no event
+    p.sub(14, 1, 2)
+    p.and_(14, 14, R_MASK24)                             # tof
+    _tof_event(p, 14, 3, 6, 7, 4, 0x300, (15, 16, 18, 19, 20))   # in_window, first_echo
     p.andi(0, 4, 2).b("eq", "hit_done")                  # an earlier epoch's window: no sample
     p.ld(23, 5, 0).ld(24, 5, 1)
     p.andi(0, 4, 1).b("ne", "hit_init")
@@ -84,18 +97,10 @@ def close_kernel(p: Program) -> Program:
     (due = min(due, now); r10 = 1: the caller cancels the sensor's windows); the last open
     window of an init ping ends the init phase (tracking if the mode is track and a receiver
     got an echo). Model: FastFiringModel._on_close."""
-    p.li(10, 0).li(17, 32).li(22, 2048)
-    p.ld(11, 8, S_FLAGS).andi(0, 5, 2)
+    p.li(10, 0).ld(11, 8, S_FLAGS).andi(0, 5, 2)
     p.b("ne", "close_hit")                              # an echo came: no event
-    p.andi(14, 4, 0xFF).andi(15, 5, 1)                  # the empty window's event word
-    p.mul(14, 14, 17).mul(15, 15, 22)                   # seq << 5; init_ping << 11
-    p.and_(12, 3, R_MASK24).rotb(13, 6, 1)              # tof = end - t0; rx << 24
-    p.rotb(14, 14, 1).mul(16, 7, 17)                    # seq << 29; sensor << 5
-    p.or_(12, 12, 13).li(13, -0x2000_0000)
-    p.and_(13, 14, 13).andi(14, 14, 0x1F)
-    p.or_(12, 12, 13).or_(14, 14, 16)
-    p.ori(14, 14, 0x400).or_(14, 14, 15)                # window_empty (bit 42), init_ping
-    p.st(12, 0, EVT_LO).st(14, 0, EVT_HI)
+    p.and_(18, 3, R_MASK24)                             # tof = end - t0
+    _tof_event(p, 18, 4, 6, 7, 5, 0x400, (12, 13, 14, 15, 16))   # window_empty
     p.jmp("close_miss")
     p.label("close_hit").andi(0, 5, 4).b("eq", "close_init")   # a sample: no miss
     p.label("close_miss").andi(0, 5, 1).b("ne", "close_init")  # init pings count no misses
