@@ -140,3 +140,10 @@ def test_mul_keeps_the_flags():
     assert m.z and m.regs[3] == 35
     img = Program().cmp(1, 1).mul(3, 1, 2).b("eq", "x").label("x").assemble()
     assert img.nops_inserted == 0   # the branch reads the compare's flags, two instructions back
+
+
+@pytest.mark.parametrize("value, want", [(-5, 10), (10, 10), (15, 15), (20, 20), (99, 20),
+                                         (0x8000_0000, 10)])
+def test_clamp(value, want):
+    m = run(Program().li(1, value).li(2, 10).li(3, 20).clamp(1, 2, 3).clamp(1, 2, 3))
+    assert m.regs[1] == want

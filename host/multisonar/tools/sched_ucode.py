@@ -138,7 +138,7 @@ class Image:
 class Program:
     """Builds a program instruction by instruction: ``p.add(3, 1, 2)``, ``p.label("loop")``,
     ``p.b("ne", "loop")``. Pseudo-instructions: ``li``, ``mov``, ``cmp``, ``cmpi``, ``tst``,
-    ``jmp``."""
+    ``clamp``, ``jmp``."""
 
     def __init__(self, name: str = "program") -> None:
         self.name = name
@@ -244,6 +244,12 @@ class Program:
 
     def tst(self, ra: int) -> "Program":
         return self.or_(0, ra, 0)
+
+    def clamp(self, rd: int, lo: int, hi: int) -> "Program":
+        """rd = min(max(rd, lo), hi) with the modulo compares (signed rd - lo, rd - hi)"""
+        tag = f"__clamp{self._count}"
+        self.cmp(rd, lo).b("ge", f"{tag}_lo").mov(rd, lo)
+        return self.label(f"{tag}_lo").cmp(rd, hi).b("le", f"{tag}_hi").mov(rd, hi).label(f"{tag}_hi")
 
     # ---- assembly
     def assemble(self, depth: int = 512, strict: bool = False) -> Image:

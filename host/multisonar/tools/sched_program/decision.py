@@ -35,9 +35,7 @@ def cand_kernel(p: Program) -> Program:
     p.andi(17, 17, 0xFF)
     p.mul(20, 17, 18)
     p.add(20, 20, 19)                      # prediction
-    p.cmp(20, 4).b("ge", "cand_lo").mov(20, 4)           # clamp to [lo, hi]
-    p.label("cand_lo").cmp(20, 5).b("le", "cand_hi").mov(20, 5)
-    p.label("cand_hi").st(20, 10, CAND)
+    p.clamp(20, 4, 5).st(20, 10, CAND)                  # clamped to [lo, hi]
     p.cmp(20, 6).b("ge", "cand_min").mov(6, 20)           # te_min, te_max
     p.label("cand_min").cmp(20, 7).b("le", "cand_max").mov(7, 20)
     p.label("cand_max")

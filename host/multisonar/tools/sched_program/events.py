@@ -61,9 +61,8 @@ def hit_kernel(p: Program) -> Program:
     p.addi(21, 21, -128)                                 # the gap, signed
     p.mul(22, 21, 18)
     p.add(22, 22, 20)                                    # prediction, then its clamp
-    p.cmp(22, 10).b("ge", "hit_lo").mov(22, 10)
-    p.label("hit_lo").cmp(22, 11).b("le", "hit_hi").mov(22, 11)
-    p.label("hit_hi").sub(22, 14, 22).b("ge", "hit_abs").sub(22, 0, 22)
+    p.clamp(22, 10, 11)
+    p.sub(22, 14, 22).b("ge", "hit_abs").sub(22, 0, 22)
     p.label("hit_abs").cmp(22, 8).b("le", "hit_sample")
     p.li(12, 1).jmp("hit_done")                          # rejected: counts as a miss at close
     p.label("hit_sample").tst(27).b("eq", "hit_done")    # gap 0: no sample
@@ -72,9 +71,8 @@ def hit_kernel(p: Program) -> Program:
     p.cmpi(27, 1).b("ne", "hit_write")
     p.andi(0, 25, 2).b("ne", "hit_write")                # after the init ping's sample: no v
     p.sub(26, 14, 20).sub(22, 0, 9)                      # v = tof - last tof, within +-v_max
-    p.cmp(26, 9).b("le", "hit_vhi").mov(26, 9)
-    p.label("hit_vhi").cmp(26, 22).b("ge", "hit_vlo").mov(26, 22)
-    p.label("hit_vlo").li(21, 5)                         # tracked, vel
+    p.clamp(26, 22, 9)
+    p.li(21, 5)                                          # tracked, vel
     p.label("hit_write").andi(16, 3, 0xFF).and_(26, 26, R_MASK24)
     p.rotb(16, 16, 1).rotb(21, 21, 1)
     p.or_(23, 14, 16).or_(24, 26, 21)
