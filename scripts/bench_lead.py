@@ -69,16 +69,19 @@ def corridor_run(lead: int, seed: int) -> tuple[int, int]:
             sum(p.init for p in res.pulses))
 
 
+def _map(fn: Any, seeds: range, workers: int) -> list[Any]:
+    """fn over seeds, in order, on ``workers`` processes (one: in this process)."""
+    if workers > 1:
+        with ProcessPoolExecutor(max_workers=workers) as ex:
+            return list(ex.map(fn, seeds))
+    return [fn(s) for s in seeds]
+
+
 def corridor_samples(lead: int, seeds: range, workers: int) -> dict[str, Any]:
     """Mean and spread over ``seeds`` of corridor_run."""
     import statistics
 
-    fn = partial(corridor_run, lead)
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as ex:
-            runs = list(ex.map(fn, seeds))
-    else:
-        runs = [fn(s) for s in seeds]
+    runs = _map(partial(corridor_run, lead), seeds, workers)
     samples = [r[0] for r in runs]
     return {"corridor_tracking_samples": round(statistics.mean(samples), 1),
             "corridor_samples_std": round(statistics.stdev(samples), 1) if len(samples) > 1 else 0.0,
@@ -114,14 +117,7 @@ def measure(lead: int, trials: int, seed: int, workers: int, sensors: dict[str, 
         row[f"ring_{key}_hz"] = round(m["full_ring_hz"], 2)
         row[f"ring_{key}_first_sweep_ms"] = round(m["track_start_tick"] / TICK_HZ * 1e3, 2)
     row.update(corridor_samples(lead, range(corridor_seeds), workers))
-    fn = partial(run_trial, decision_lead=lead)
-    seeds = range(seed, seed + trials)
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as ex:
-            res = list(ex.map(fn, seeds))
-    else:
-        res = [fn(s) for s in seeds]
-    s = summarise(res)
+    s = summarise(_map(partial(run_trial, decision_lead=lead), range(seed, seed + trials), workers))
     row.update(safety_trials=s["trials"], safety_within_bound=s["detected"], safety_late=s["late"],
                safety_missed=s["missed"], safety_worst_pulses=s["latency_pulses_max"],
                safety_worst_ms=round(s["latency_ms_max"], 2), safety_samples=s["samples"])
