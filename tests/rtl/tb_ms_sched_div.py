@@ -9,7 +9,7 @@ import random
 import cocotb
 from cocotb.triggers import FallingEdge
 
-from multisonar.tools.sched_program import DIV_LATENCY, DivUnit
+from multisonar.tools.sched_program import DIV_LATENCY, DIV_N, DIV_X, DivUnit
 from tbutil import start_and_reset
 
 
@@ -37,8 +37,8 @@ async def quotients_equal_the_model(dut):
     for n in range(16):
         for x in xs + [rng.getrandbits(24) for _ in range(20)]:
             q, clocks = await divide(dut, x, n)
-            model.write(0, 0x428, x)
-            model.write(0, 0x429, n)
+            model.write(0, DIV_X, x)
+            model.write(0, DIV_N, n)
             assert q == model.read(DIV_LATENCY) == x // max(n, 1), f"{x} / {n}: {q}"
             assert clocks == 25
 
