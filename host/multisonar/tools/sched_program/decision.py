@@ -9,7 +9,7 @@ from .layout import (BA, BB, BU, CAND, DIV_LATENCY, DIV_N, DIV_Q, DIV_X, EVT_HI,
                      F_EPOCH, F_IN_INIT, F_TRACKING, HC, HD_EL, HD_T, HS, R_MASK24, R_SIGN24, SENS,
                      SU_FLAGS, SU_GO, SU_MINC, SU_TA, SU_TB, SU_TWA, SU_TWB, SU_VALID, SU_X, S_DUE,
                      S_FLAGS, S_OPEN, S_QUIET, S_REINIT, S_SEQ, S_SHARE, S_TRK, TRIG_EL, TRIG_T, TU,
-                     WV, W_ADDR, W_META, W_T0, W_WE, W_WS)
+                     WH, WR, WV, W_ADDR, W_META, W_T0, W_WE, W_WS)
 
 
 def cand_kernel(p: Program) -> Program:
@@ -106,7 +106,8 @@ def iel_kernel(p: Program) -> Program:
     [te - T_V, te + T_N) with te = CAND + e; an init ping uses te = 0, T_V = -D, T_N = R):
     blank_until and (tx) tx_until = max(, t0 + b); a trigger at t0 + a per tx element; the
     window in the element's lowest free slot (WV), its fields from r1, the offsets and the
-    meta word r24; the head (HC / HS and the close detector) when the new window closes first.
+    meta word r24 (its echo flags WH / WR cleared); the head (HC / HS and the close detector)
+    when the new window closes first.
     Close tick = t0 + we + r25 (r25 = L - 1). Model: the issue part of _try_issue."""
     p.li(26, 16).li(27, 256)
     p.tst(2).b("eq", "iel_done")
@@ -137,6 +138,9 @@ def iel_kernel(p: Program) -> Program:
     p.or_(17, 17, 23).add(30, 1, 19)
     p.st(17, 10, WV).st(1, 0, W_T0).st(18, 0, W_WS).st(19, 0, W_WE).st(24, 0, W_META)
     p.st(7, 0, W_ADDR).add(30, 30, 25)       # the window's close tick t0 + we - 1 + L
+    p.ld(13, 10, WH).ld(16, 10, WR).nop()    # the slot's echo flags start clear
+    p.andn(13, 13, 23).andn(16, 16, 23)
+    p.st(13, 10, WH).st(16, 10, WR)
     p.ld(16, 10, HS).ld(13, 10, HC).nop()
     p.andi(0, 16, 0x100).b("eq", "iel_head")
     p.sub(0, 30, 13).b("ge", "iel_next")     # the head closes first: keep it

@@ -28,6 +28,10 @@ CAND = 0x3A0          # candidate T_E per receiver
 WV = 0x3B8            # per element: valid reserved-window slots (bit mask)
 HC = 0x3D0            # per element: the head's (earliest) close tick
 HS = 0x3E8            # per element: the head's slot | 0x100 while there is a head
+WH = 0x280            # per element: slots whose window saw an echo (bit mask)
+WR = 0x298            # per element: slots whose first echo the miss gate rejected
+ONEHOT = 0x2B0        # ONEHOT + k = 1 << k, k < 32 (written by the loader; no shifter)
+MAIN = 0x2D0          # the main loop's variables (M_* offsets)
 
 # the slot unit's I/O registers (bus addresses above the data memory)
 SU_TA, SU_TB, SU_TWA, SU_TWB, SU_GO = 0x400, 0x401, 0x402, 0x403, 0x404
@@ -44,12 +48,33 @@ EVT_LO, EVT_HI = 0x420, 0x421   # an event word: low half, then the high half co
 # DIV_LATENCY clocks later (a restoring divider, one quotient bit per clock)
 DIV_X, DIV_N, DIV_Q = 0x428, 0x429, 0x42A
 DIV_LATENCY = 26
+# the main loop's hardware (sched_program.system): the tick counter; the work queue's head
+# (Q_STAT bit 0: a word {Q_T, Q_E edges, Q_C closes} is visible, a write of Q_POP drops it);
+# the WIN read port (write the slot address to WIN_RA, its fields from two clocks later)
+TICK, Q_STAT, Q_T, Q_E, Q_C, Q_POP = 0x430, 0x431, 0x432, 0x433, 0x434, 0x435
+WIN_RA, WIN_T0, WIN_WE, WIN_META = 0x438, 0x439, 0x43A, 0x43B
+# the blank offsets of (sensor s, element e): a at BLK + 64 s + e, b at BLK + 64 s + 32 + e (the
+# sensor RAM's blank-offset half, mapped on the bus; today's ms_scheduler keeps them there)
+BLK = 0x800
 
 # per-sensor words at SENS + 32 s
 SENS = 0x000
 S_DUE, S_QUIET, S_SEQ, S_FLAGS, S_OPEN, S_TRK, S_K, S_MODE = 0, 1, 3, 4, 5, 6, 18, 23
 S_REINIT, S_SHARE = 22, 24
+# the table's words the main loop reads (the loader writes them): next evaluation (as a t0),
+# element masks (tx, rx, with a blank interval), order, T_V, T_N, blanking D, max ToF R, T_E
+# limits, v_max, R - D, start phase, receivers
+S_NXT, S_TX, S_RX, S_BLK, S_ORDER, S_TV, S_TN, S_D, S_RMAX = 2, 7, 8, 9, 10, 11, 12, 13, 14
+S_LO, S_HI, S_VMAX, S_QOFF, S_PHASE, S_NRX = 15, 16, 19, 20, 21, 25
 F_TRACKING, F_IN_INIT, F_EPOCH, F_ANY_TRK = 1, 2, 4, 8    # S_FLAGS bits
+F_WAKE, F_HOLD, F_ACT = 16, 32, 64   # re-evaluate now; held by EDF; a sensor of the table
+NUM_VS = 8
+# main-loop variables at MAIN + M_*: the start tick, decision lead P, L = edge latency, the
+# miss gate, the next logical tick, the current one, its edges and closes left, td and armed,
+# the sensor of the SCHED phase, saved kernel results
+M_START, M_P, M_L, M_GATE, M_ENG, M_CUR, M_EDGES, M_CLOSES = range(8)
+M_TD, M_ARMED, M_S, M_RX, M_SLOT, M_RES, M_QUIET, M_INIT = range(8, 16)
+M_WIN, M_NWIN, M_TV, M_TN, M_PERIOD, M_T0, M_FLAGS = range(16, 23)
 MISS_MAX = 15
 
 # register conventions of the kernels
