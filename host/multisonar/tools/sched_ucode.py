@@ -252,14 +252,16 @@ class Program:
         return self.label(f"{tag}_lo").cmp(rd, hi).b("le", f"{tag}_hi").mov(rd, hi).label(f"{tag}_hi")
 
     # ---- assembly
-    def assemble(self, depth: int = 512, strict: bool = False) -> Image:
-        """Resolve labels, insert a NOP wherever an instruction reads a register or the flags
-        its neighbour before it produces (``strict``: refuse instead), encode. Errors name
-        the instruction: unknown label, program longer than ``depth``."""
+    def assemble(self, depth: int = 512, strict: bool = False, schedule: bool = True) -> Image:
+        """Resolve labels, reorder each basic block so that fewer neighbours depend on each
+        other (``schedule``, see :func:`schedule_block`), insert a NOP wherever an instruction
+        reads a register or the flags its neighbour before it produces (``strict``: refuse
+        instead), encode. Errors name the instruction: unknown label, program longer than
+        ``depth``."""
         out: list[Insn | str] = []
         prev: Insn | None = None
         nops = 0
-        for item in self.items:
+        for item in (self._scheduled() if schedule else self.items):
             if isinstance(item, str):
                 out.append(item)
                 continue
@@ -294,6 +296,74 @@ class Program:
                            f"imm={item.imm}{' -> ' + item.target if item.target else ''}")
             words.append(encode(item, tgt))
         return Image(words, labels, listing, nops)
+
+
+    def _scheduled(self) -> list[Insn | str]:
+        """The items with each basic block scheduled. A block ends at a label, a branch, call
+        or ret (kept last); an explicit ``nop`` is a barrier nothing moves across."""
+        out: list[Insn | str] = []
+        block: list[Insn] = []
+        for item in self.items:
+            if isinstance(item, str) or item.op == "nop":
+                out += schedule_block(block)
+                block = []
+                out.append(item)
+            elif item.op in CONTROL_OPS:
+                out += schedule_block(block + [item])
+                block = []
+            else:
+                block.append(item)
+        return out + schedule_block(block)
+
+
+CONTROL_OPS = frozenset({"b", "call", "ret"})
+_FLAGS = NREGS   # the flags, as one more register for the dependences
+
+
+def _uses(insn: Insn) -> tuple[set[int], set[int]]:
+    """(what ``insn`` reads, what it writes): registers, and the flags as register _FLAGS."""
+    reads, writes = insn.reads(), {insn.writes()} - {0}
+    if insn.op == "b" and insn.rd != CONDS["al"]:
+        reads = reads | {_FLAGS}
+    if insn.op in FLAG_OPS:
+        writes.add(_FLAGS)
+    return reads, writes
+
+
+def schedule_block(block: list[Insn]) -> list[Insn]:
+    """A basic block in an order with fewer hazards between neighbours: a greedy list
+    scheduler over the block's dependences (register and flag reads / writes in either order,
+    and every bus access kept in program order: I/O has side effects and the WIN port and the
+    units count clocks between accesses, which only grow). The block's control instruction
+    stays last. Each step takes, among the instructions whose predecessors are placed, one
+    that does not read what the last placed one produces, the one heading the longest chain
+    first (ties: program order). Every register and the flags end as in program order."""
+    n = len(block)
+    if n < 3:
+        return list(block)
+    uses = [_uses(i) for i in block]
+    preds: list[set[int]] = [set() for _ in range(n)]
+    for j in range(n):
+        rj, wj = uses[j]
+        for i in range(j):
+            ri, wi = uses[i]
+            if (wi & rj or ri & wj or wi & wj or (block[i].op in ("ld", "st") and block[j].op in ("ld", "st"))
+                    or block[j].op in CONTROL_OPS):
+                preds[j].add(i)
+    height = [1] * n
+    for j in reversed(range(n)):
+        for i in preds[j]:
+            height[i] = max(height[i], height[j] + 1)
+    placed: list[int] = []
+    done: set[int] = set()
+    while len(placed) < n:
+        ready = [j for j in range(n) if j not in done and preds[j] <= done]
+        last = block[placed[-1]] if placed else None
+        calm = [j for j in ready if last is None or not hazard(last, block[j])]
+        pick = max(calm or ready, key=lambda j: (height[j], -j))
+        placed.append(pick)
+        done.add(pick)
+    return [block[j] for j in placed]
 
 
 def hazard(first: Insn, second: Insn) -> bool:

@@ -5,7 +5,7 @@ IEL (windows, reservations, triggers, heads)."""
 from __future__ import annotations
 
 from ..sched_ucode import Program
-from .layout import (BA, BB, BU, CAND, DIV_LATENCY, DIV_N, DIV_Q, DIV_X, EVT_HI, EVT_LO, F_ANY_TRK,
+from .layout import (BA, BB, BU, CAND, DIV_N, DIV_Q, DIV_STAT, DIV_X, EVT_HI, EVT_LO, F_ANY_TRK,
                      F_EPOCH, F_IN_INIT, F_TRACKING, HC, HD_EL, HD_T, HS, R_MASK24, R_SIGN24, SENS,
                      SU_FLAGS, SU_GO, SU_MINC, SU_TA, SU_TB, SU_TWA, SU_TWB, SU_VALID, SU_X, S_DUE,
                      S_FLAGS, S_OPEN, S_QUIET, S_REINIT, S_SEQ, S_SHARE, S_TRK, TRIG_EL, TRIG_T, TU,
@@ -76,16 +76,16 @@ def conf_kernel(p: Program) -> Program:
     p.sub(22, 16, 13).b("le", "conf_notx")     # tx_until - (t0 + a) > 0: retry
     p.call("conf_fold")
     p.label("conf_notx").tst(20).b("eq", "conf_wait")
-    p.ld(16, 10, BU).nop().nop()
+    p.ld(16, 10, BU)
     p.sub(22, 16, 17).b("le", "conf_wait")     # blank_until - (t0 + wa) > 0: retry
     p.call("conf_fold")
-    p.label("conf_wait").ld(23, 0, SU_FLAGS).nop().nop()
+    p.label("conf_wait").ld(23, 0, SU_FLAGS)
     p.andi(0, 23, 0x80).b("ne", "conf_wait")
     p.andi(0, 23, 1).b("eq", "conf_full")
-    p.ld(22, 0, SU_X).nop().nop()
+    p.ld(22, 0, SU_X)
     p.call("conf_fold")
     p.label("conf_full").andi(0, 23, 2).b("eq", "conf_next")
-    p.ld(22, 0, SU_MINC).nop().nop()
+    p.ld(22, 0, SU_MINC)
     p.sub(22, 22, 1)                           # the earliest close, relative to t0
     p.call("conf_fold")
     p.label("conf_next").tst(2).b("ne", "conf_loop")
@@ -122,7 +122,7 @@ def iel_kernel(p: Program) -> Program:
     p.st(14, 10, BU)
     p.label("iel_bu").and_(20, 12, 3)
     p.b("eq", "iel_notx")
-    p.ld(16, 10, TU).ld(13, 10, BA).nop()
+    p.ld(16, 10, TU).ld(13, 10, BA)
     p.add(15, 13, 1)                         # the trigger tick t0 + a
     p.sub(0, 14, 16).b("le", "iel_tu")       # later than tx_until?
     p.st(14, 10, TU)
@@ -138,10 +138,10 @@ def iel_kernel(p: Program) -> Program:
     p.or_(17, 17, 23).add(30, 1, 19)
     p.st(17, 10, WV).st(1, 0, W_T0).st(18, 0, W_WS).st(19, 0, W_WE).st(24, 0, W_META)
     p.st(7, 0, W_ADDR).add(30, 30, 25)       # the window's close tick t0 + we - 1 + L
-    p.ld(13, 10, WH).ld(16, 10, WR).nop()    # the slot's echo flags start clear
+    p.ld(13, 10, WH).ld(16, 10, WR)    # the slot's echo flags start clear
     p.andn(13, 13, 23).andn(16, 16, 23)
     p.st(13, 10, WH).st(16, 10, WR)
-    p.ld(16, 10, HS).ld(13, 10, HC).nop()
+    p.ld(16, 10, HS).ld(13, 10, HC)
     p.andi(0, 16, 0x100).b("eq", "iel_head")
     p.sub(0, 30, 13).b("ge", "iel_next")     # the head closes first: keep it
     p.label("iel_head").mul(8, 22, 27).st(30, 10, HC)
@@ -184,7 +184,7 @@ def issue_kernel(p: Program) -> Program:
     p.add(12, 12, 9).and_(6, 6, 11)                     # the state's address; the mask without r
     p.st(0, 12, 0).st(0, 12, 1).b("ne", "issue_rx")     # (flags of the mask's and)
     p.jmp("issue_done")
-    p.label("issue_track").ld(10, 8, S_TRK).nop().nop()
+    p.label("issue_track").ld(10, 8, S_TRK)
     p.cmpi(10, 255).b("eq", "issue_done")
     p.addi(10, 10, 1)
     p.st(10, 8, S_TRK)
@@ -206,16 +206,15 @@ def sched_kernel(p: Program) -> Program:
     FastFiringModel._try_issue before the candidate, with _eligible."""
     p.li(10, SCHED_NOT_YET).li(13, 0).li(12, 0)
     p.add(14, 1, 2).ld(11, 8, S_FLAGS).ld(20, 8, S_DUE)   # t0 = now + P
-    p.nop()
     p.andi(0, 11, F_IN_INIT).b("ne", "sched_done")
     p.sub(0, 14, 20).b("lt", "sched_done")                # not due by t0
     p.andi(0, 11, F_TRACKING).b("eq", "sched_init")
-    p.ld(15, 8, S_REINIT).ld(16, 8, S_TRK).nop()
+    p.ld(15, 8, S_REINIT).ld(16, 8, S_TRK)
     p.tst(15).b("eq", "sched_edf")                        # reinit_every off
     p.sub(0, 16, 15).b("lt", "sched_edf")
     p.andi(11, 11, ~F_TRACKING).li(13, 1)                 # forced re-initialisation
     p.st(11, 8, S_FLAGS)
-    p.label("sched_init").ld(15, 8, S_QUIET).li(12, 1).nop()
+    p.label("sched_init").ld(15, 8, S_QUIET).li(12, 1)
     p.sub(0, 14, 15).b("ge", "sched_edf")
     p.li(10, SCHED_QUIET).mov(11, 15).jmp("sched_done")
     p.label("sched_edf").ld(16, 8, S_SHARE).li(17, 32)
@@ -248,8 +247,9 @@ def order_kernel(p: Program) -> Program:
     p.sub(9, 9, 6).b("le", "order_none")           # x = te_min - T_V - D <= 0: no T_s > 0
     p.st(9, 0, DIV_X)
     p.label("order_try").tst(7).b("eq", "order_none")
-    p.st(7, 0, DIV_N).li(11, DIV_LATENCY // 3)
-    p.label("order_wait").addi(11, 11, -1).nop().b("gt", "order_wait")
+    p.st(7, 0, DIV_N)
+    p.label("order_wait").ld(11, 0, DIV_STAT)
+    p.andi(0, 11, 0x80).b("ne", "order_wait")          # the divider is busy
     p.ld(12, 0, DIV_Q).mov(13, 7).li(14, 0)
     p.label("order_mul").add(14, 14, 12).addi(13, 13, -1)   # (n + 1) T_s by n + 1 additions
     p.b("ge", "order_mul")

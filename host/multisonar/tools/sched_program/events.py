@@ -105,7 +105,7 @@ def close_kernel(p: Program) -> Program:
     p.andi(12, 11, F_EPOCH).andi(13, 5, 8)
     p.add(12, 12, 12)                                   # the sensor's epoch at bit 3
     p.xor(0, 12, 13).b("ne", "close_done")              # an earlier epoch's window
-    p.ld(12, 9, 1).ld(14, 8, S_K).nop()
+    p.ld(12, 9, 1).ld(14, 8, S_K)
     p.rotb(13, 12, 3)
     p.andi(15, 13, 0xF0)                                # miss count << 4 (flags byte)
     p.cmpi(15, 0xF0).b("eq", "close_sat")               # saturated at 15
@@ -119,14 +119,14 @@ def close_kernel(p: Program) -> Program:
     p.add(14, 14, 14)                                   # K << 4
     p.sub(0, 15, 14).b("lt", "close_done")              # fewer than K misses
     p.andi(11, 11, ~F_TRACKING).li(10, 1)      # safety: re-initialise now
-    p.ld(12, 8, S_DUE).st(11, 8, S_FLAGS).nop()
+    p.ld(12, 8, S_DUE).st(11, 8, S_FLAGS)
     p.sub(0, 1, 12).b("ge", "close_done")
     p.st(1, 8, S_DUE).jmp("close_done")                 # due = min(due, now)
     p.label("close_init").andi(0, 5, 1).b("eq", "close_done")
     p.andi(12, 11, F_EPOCH).andi(13, 5, 8)
     p.add(12, 12, 12)
     p.xor(0, 12, 13).b("ne", "close_done")              # an earlier epoch's init ping
-    p.ld(12, 8, S_OPEN).nop().nop()
+    p.ld(12, 8, S_OPEN)
     p.addi(12, 12, -1)
     p.st(12, 8, S_OPEN).b("ne", "close_done")           # windows of the init ping still open
     p.ld(13, 8, S_MODE).andi(11, 11, ~(F_IN_INIT | F_TRACKING))
@@ -145,7 +145,7 @@ def _su_scan(p: Program, tag: str, el: int, ta: int, mode: int) -> Program:
     register ``ta`` in ``mode``, and wait for it; r23 = SU_FLAGS. Uses r20, r21."""
     p.ld(20, el, WV).ori(21, el, mode)
     p.st(20, 0, SU_VALID).st(ta, 0, SU_TA).st(21, 0, SU_GO)
-    p.label(f"{tag}_wait").ld(23, 0, SU_FLAGS).nop().nop()
+    p.label(f"{tag}_wait").ld(23, 0, SU_FLAGS)
     p.andi(0, 23, 0x80).b("ne", f"{tag}_wait")
     return p
 
@@ -196,7 +196,7 @@ def safe_kernel(p: Program) -> Program:
     p.li(6, NUM_RX - 1)
     p.label("safe_el")
     _su_scan(p, "safe_scan", 6, 7, SU_SENSOR)
-    p.ld(22, 0, SU_X).ld(24, 6, WV).nop()
+    p.ld(22, 0, SU_X).ld(24, 6, WV)
     p.andn(24, 24, 22)
-    p.st(24, 6, WV).addi(6, 6, -1).nop().b("ge", "safe_el")
+    p.st(24, 6, WV).addi(6, 6, -1).b("ge", "safe_el")
     return p

@@ -45,8 +45,9 @@ W_T0, W_WS, W_WE, W_META, W_ADDR = 0x410, 0x411, 0x412, 0x413, 0x414
 TRIG_T, TRIG_EL, HD_T, HD_EL = 0x418, 0x419, 0x41C, 0x41D
 EVT_LO, EVT_HI = 0x420, 0x421   # an event word: low half, then the high half commits it
 # the divider: DIV_X = dividend (< 2^24), DIV_N = divisor (1..15) starts it; DIV_Q = floor(x / n)
-# DIV_LATENCY clocks later (a restoring divider, one quotient bit per clock)
-DIV_X, DIV_N, DIV_Q = 0x428, 0x429, 0x42A
+# once DIV_STAT bit 7 (busy) falls, at most DIV_LATENCY clocks later (a restoring divider, one
+# quotient bit per clock)
+DIV_X, DIV_N, DIV_Q, DIV_STAT = 0x428, 0x429, 0x42A, 0x42B
 DIV_LATENCY = 26
 # the main loop's hardware (sched_program.system): the tick counter; the work queue's head
 # (Q_STAT bit 0: a word {Q_T, Q_E edges, Q_C closes} is visible, a write of Q_POP drops it);

@@ -28,17 +28,17 @@ variables live in data memory (MAIN + M_*), so each kernel gets its inputs afres
 from __future__ import annotations
 
 from ..sched_ucode import Program
-from .decision import (SCHED_HOLD, SCHED_NOT_YET, SCHED_QUIET, cand_kernel, conf_kernel,
-                       iel_kernel, issue_kernel, order_kernel, sched_kernel)
+from .decision import (SCHED_HOLD, SCHED_NOT_YET, SCHED_QUIET, cand_kernel, conf_kernel, iel_kernel,
+                       issue_kernel, order_kernel, sched_kernel)
 from .events import close_kernel, edge_kernel, head_kernel, hit_kernel, safe_kernel
 from .layout import (BA, BB, BLK, BU, CAND, F_ACT, F_ANY_TRK, F_EPOCH, F_HOLD, F_IN_INIT, F_WAKE,
                      HC, HS, MAIN, M_ARMED, M_CLOSES, M_CUR, M_EDGES, M_ENG, M_FLAGS, M_GATE,
-                     M_INIT, M_L, M_NWIN, M_P, M_PERIOD, M_QUIET, M_RES, M_RX, M_S, M_SLOT,
-                     M_START, M_T0, M_TD, M_TN, M_TV, M_WIN, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E,
-                     Q_POP, Q_STAT, Q_T, SENS, S_BLK, S_D, S_DUE, S_FLAGS, S_HI, S_LO, S_NRX,
-                     S_NXT, S_OPEN, S_ORDER, S_PHASE, S_QOFF, S_QUIET, S_RMAX, S_RX, S_SEQ, S_TN,
-                     S_TRK, S_TV, S_TX, S_VMAX, TICK, TRK, TU, WH, WIN_META, WIN_RA, WIN_T0,
-                     WIN_WE, WR, WSLOTS, WV, prologue)
+                     M_INIT, M_L, M_NWIN, M_P, M_PERIOD, M_QUIET, M_RES, M_RX, M_S, M_SLOT, M_START,
+                     M_T0, M_TD, M_TN, M_TV, M_WIN, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT,
+                     Q_T, SENS, S_BLK, S_D, S_DUE, S_FLAGS, S_HI, S_LO, S_NRX, S_NXT, S_OPEN,
+                     S_ORDER, S_PHASE, S_QOFF, S_QUIET, S_RMAX, S_RX, S_SEQ, S_TN, S_TRK, S_TV,
+                     S_TX, S_VMAX, TICK, TRK, TU, WH, WIN_META, WIN_RA, WIN_T0, WIN_WE, WR, WSLOTS,
+                     WV, prologue)
 
 POLL = "poll"   # the idle poll loop's label (the harness skips whole turns of it)
 

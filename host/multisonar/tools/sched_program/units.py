@@ -16,10 +16,10 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from ..sched_ucode import MASK32, Machine, Program, UcodeError, sext
-from .layout import (DIV_LATENCY, DIV_N, DIV_Q, DIV_X, EVT_HI, EVT_LO, HD_EL, HD_T, SU_CONF,
-                     SU_EDGE, SU_FLAGS, SU_GO, SU_HEAD, SU_LATENCY, SU_MINC, SU_TA, SU_TB, SU_TWA,
-                     SU_TWB, SU_VALID, SU_X, TRIG_EL, TRIG_T, WSLOTS, W_ADDR, W_META, W_T0, W_WE,
-                     W_WS)
+from .layout import (DIV_LATENCY, DIV_N, DIV_Q, DIV_STAT, DIV_X, EVT_HI, EVT_LO, HD_EL, HD_T,
+                     SU_CONF, SU_EDGE, SU_FLAGS, SU_GO, SU_HEAD, SU_LATENCY, SU_MINC, SU_TA, SU_TB,
+                     SU_TWA, SU_TWB, SU_VALID, SU_X, TRIG_EL, TRIG_T, WSLOTS, W_ADDR, W_META, W_T0,
+                     W_WE, W_WS)
 
 
 def run_kernel(p: Program, kernel: Callable[[Program], Program], mem: dict[int, int] | None = None,
@@ -125,8 +125,8 @@ class Outputs:
 
 @dataclass
 class DivUnit:
-    """Model of the divider's contract (DIV_* above): a read of DIV_Q before the quotient is
-    ready returns garbage, so a program waits DIV_LATENCY clocks."""
+    """Model of the divider's contract (DIV_* above): DIV_STAT reads 0x80 (busy) for
+    DIV_LATENCY clocks after a start, and a read of DIV_Q before then returns garbage."""
     x: int = 0
     q: int = 0
     done_at: int = -1
@@ -137,7 +137,9 @@ class DivUnit:
         elif addr == DIV_N:
             self.q, self.done_at = self.x // max(1, data & 0xF), cycle + DIV_LATENCY
 
-    def read(self, cycle: int) -> int:
+    def read(self, cycle: int, addr: int = DIV_Q) -> int:
+        if addr == DIV_STAT:
+            return 0x80 if cycle < self.done_at else 0
         return self.q if cycle >= self.done_at else 0xDEAD_BEEF
 
 
@@ -153,8 +155,8 @@ class EngineWithUnits(Machine):
         self.div = DivUnit()
 
     def read(self, addr: int) -> int:
-        if addr == DIV_Q:
-            return self.div.read(self.cycle + 1)
+        if addr in (DIV_Q, DIV_STAT):
+            return self.div.read(self.cycle + 1, addr)
         return self.su.read(self.cycle + 1, addr) if addr >= SU_TA else super().read(addr)
 
     def write(self, addr: int, data: int) -> None:
