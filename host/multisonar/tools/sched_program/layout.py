@@ -37,7 +37,8 @@ MAIN = 0x2D0          # the main loop's variables (M_* offsets)
 SU_TA, SU_TB, SU_TWA, SU_TWB, SU_GO = 0x400, 0x401, 0x402, 0x403, 0x404
 SU_X, SU_FLAGS, SU_MINC, SU_VALID = 0x405, 0x406, 0x407, 0x408
 SU_CONF, SU_EDGE, SU_HEAD, SU_SENSOR = 0, 1 << 10, 2 << 10, 3 << 10   # SU_GO modes
-SU_LATENCY = WSLOTS + 4   # clocks from SU_GO to the results (a slot per clock, four stages)
+SU_LATENCY = WSLOTS + 4   # clocks from SU_GO to the results, all slots valid (a valid slot per
+                          # clock, four stages)
 # outputs of IEL: a window slot written (fields, then the address commits it), a trigger
 # (tick, then the element commits it), a head set for the close detector (tick, then element |
 # slot << 8 commits it; element | 1 << 16: the element has no head)
@@ -68,14 +69,16 @@ S_REINIT, S_SHARE = 22, 24
 S_NXT, S_TX, S_RX, S_BLK, S_ORDER, S_TV, S_TN, S_D, S_RMAX = 2, 7, 8, 9, 10, 11, 12, 13, 14
 S_LO, S_HI, S_VMAX, S_QOFF, S_PHASE, S_NRX = 15, 16, 19, 20, 21, 25
 F_TRACKING, F_IN_INIT, F_EPOCH, F_ANY_TRK = 1, 2, 4, 8    # S_FLAGS bits
-F_WAKE, F_HOLD, F_ACT = 16, 32, 64   # re-evaluate now; held by EDF; a sensor of the table
 NUM_VS = 8
 # main-loop variables at MAIN + M_*: the start tick, decision lead P, L = edge latency, the
 # miss gate, the next logical tick, the current one, its edges and closes left, td and armed,
-# the sensor of the SCHED phase, saved kernel results
+# the sensor of the SCHED phase, saved kernel results; sensor masks: the table's sensors
+# (M_ACT, the loader's), those to re-evaluate now (M_WAKE), those EDF holds (M_HOLD), those the
+# SCHED phase has still to visit (M_SREM)
 M_START, M_P, M_L, M_GATE, M_ENG, M_CUR, M_EDGES, M_CLOSES = range(8)
 M_TD, M_ARMED, M_S, M_RX, M_SLOT, M_RES, M_QUIET, M_INIT = range(8, 16)
 M_WIN, M_NWIN, M_TV, M_TN, M_PERIOD, M_T0, M_FLAGS = range(16, 23)
+M_ACT, M_WAKE, M_HOLD, M_SREM = range(23, 27)
 MISS_MAX = 15
 
 # register conventions of the kernels

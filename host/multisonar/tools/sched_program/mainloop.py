@@ -31,14 +31,14 @@ from ..sched_ucode import Program
 from .decision import (SCHED_HOLD, SCHED_NOT_YET, SCHED_QUIET, cand_kernel, conf_kernel, iel_kernel,
                        issue_kernel, order_kernel, sched_kernel)
 from .events import close_kernel, edge_kernel, head_kernel, hit_kernel, safe_kernel
-from .layout import (BA, BB, BLK, BU, CAND, F_ACT, F_ANY_TRK, F_EPOCH, F_HOLD, F_IN_INIT, F_WAKE,
-                     HC, HS, MAIN, M_ARMED, M_CLOSES, M_CUR, M_EDGES, M_ENG, M_FLAGS, M_GATE,
-                     M_INIT, M_L, M_NWIN, M_P, M_PERIOD, M_QUIET, M_RES, M_RX, M_S, M_SLOT, M_START,
-                     M_T0, M_TD, M_TN, M_TV, M_WIN, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT,
-                     Q_T, SENS, S_BLK, S_D, S_DUE, S_FLAGS, S_HI, S_LO, S_NRX, S_NXT, S_OPEN,
-                     S_ORDER, S_PHASE, S_QOFF, S_QUIET, S_RMAX, S_RX, S_SEQ, S_TN, S_TRK, S_TV,
-                     S_TX, S_VMAX, TICK, TRK, TU, WH, WIN_META, WIN_RA, WIN_T0, WIN_WE, WR, WSLOTS,
-                     WV, prologue)
+from .layout import (BA, BB, BLK, BU, CAND, F_ANY_TRK, F_EPOCH, F_IN_INIT, HC, HS, MAIN, M_ACT,
+                     M_ARMED, M_CLOSES, M_CUR, M_EDGES, M_ENG, M_FLAGS, M_GATE, M_HOLD, M_INIT, M_L,
+                     M_NWIN, M_P, M_PERIOD, M_QUIET, M_RES, M_RX, M_S, M_SLOT, M_SREM, M_WAKE,
+                     M_START, M_T0, M_TD, M_TN, M_TV, M_WIN, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E,
+                     Q_POP, Q_STAT, Q_T, SENS, S_BLK, S_D, S_DUE, S_FLAGS, S_HI, S_LO, S_NRX, S_NXT,
+                     S_OPEN, S_ORDER, S_PHASE, S_QOFF, S_QUIET, S_RMAX, S_RX, S_SEQ, S_TN, S_TRK,
+                     S_TV, S_TX, S_VMAX, TICK, TRK, TU, WH, WIN_META, WIN_RA, WIN_T0, WIN_WE, WR,
+                     WSLOTS, WV, prologue)
 
 POLL = "poll"   # the idle poll loop's label (the harness skips whole turns of it)
 
@@ -82,17 +82,22 @@ def _meta_fields(p: Program, meta: int, seq: int, sensor: int, bits: int) -> Pro
     return p.andi(sensor, sensor, 0xFF).andi(bits, bits, 3)
 
 
-def _wake_all(p: Program, tag: str, keep: int | None = None) -> Program:
-    """Set F_WAKE of every sensor (but sensor register ``keep``). Uses r17-r20."""
-    p.li(17, NUM_VS - 1).li(18, 32)
-    p.label(f"{tag}_s")
-    if keep is not None:
-        p.sub(0, 17, keep).b("eq", f"{tag}_next")
-    p.mul(19, 17, 18).ld(20, 19, SENS + S_FLAGS)
-    p.ori(20, 20, F_WAKE)
-    p.st(20, 19, SENS + S_FLAGS)
-    p.label(f"{tag}_next").addi(17, 17, -1).b("ge", f"{tag}_s")
-    return p
+def _wake(p: Program, sensor: int) -> Program:
+    """Sensor register ``sensor`` re-evaluates in this tick's SCHED phase. Uses r17, r18."""
+    p.ld(17, sensor, ONEHOT)
+    _get(p, 18, M_WAKE)
+    p.or_(18, 18, 17)
+    return _put(p, 18, M_WAKE)
+
+
+def _wake_others(p: Program, sensor: int) -> Program:
+    """Every sensor of the table but ``sensor`` re-evaluates. Uses r17, r18."""
+    p.ld(17, sensor, ONEHOT)
+    _get(p, 18, M_ACT)
+    p.andn(18, 18, 17)
+    _get(p, 17, M_WAKE)
+    p.or_(18, 18, 17)
+    return _put(p, 18, M_WAKE)
 
 
 # ------------------------------------------------------------------ INIT and IDLE
@@ -100,34 +105,39 @@ def _init(p: Program) -> None:
     _get(p, 1, M_START).li(7, NUM_VS - 1)
     p.label("init_s")
     _sensor_words(p, 8, 7)
-    p.ld(10, 8, S_PHASE).ld(11, 8, S_FLAGS)
-    p.add(10, 10, 1).andi(11, 11, F_ACT)
-    p.st(10, 8, S_DUE).st(10, 8, S_NXT).st(1, 8, S_QUIET).st(11, 8, S_FLAGS)
+    p.ld(10, 8, S_PHASE)
+    p.add(10, 10, 1)
+    p.st(10, 8, S_DUE).st(10, 8, S_NXT).st(1, 8, S_QUIET).st(0, 8, S_FLAGS)
     p.st(0, 8, S_SEQ).st(0, 8, S_OPEN).st(0, 8, S_TRK)
     p.addi(7, 7, -1).b("ge", "init_s")
     p.li(6, NUM_RX - 1)
     p.label("init_e").st(1, 6, BU).st(1, 6, TU).st(0, 6, WV).st(0, 6, HS).st(0, 6, WH)
     p.st(0, 6, WR).addi(6, 6, -1).b("ge", "init_e")
     _put(p, 1, M_ENG)
+    _put(p, 0, M_WAKE)
+    _put(p, 0, M_HOLD)
 
 
 def _idle(p: Program) -> None:
     p.label("idle")
     _get(p, 1, M_ENG)
     _get(p, 2, M_P)
-    p.add(3, 1, 2).li(4, 0x7FFF_FFFF).li(7, NUM_VS - 1)   # eng + P; the least offset (none)
-    p.label("td_s")
+    _get(p, 9, M_ACT)
+    _get(p, 15, M_WAKE)
+    _get(p, 16, M_HOLD)
+    p.add(3, 1, 2).li(4, 0x7FFF_FFFF)                  # eng + P; the least offset (none)
+    p.and_(15, 15, 9).andn(16, 9, 16)                  # woken; not held
+    p.or_(9, 15, 16)                                    # the sensors td depends on
+    p.label("td_s").tst(9).b("eq", "td_done")
+    p.lsb(7, 9).addi(11, 9, -1)
+    p.and_(9, 9, 11)
     _sensor_words(p, 8, 7)
-    p.ld(11, 8, S_FLAGS).ld(12, 8, S_NXT)
-    p.andi(0, 11, F_ACT).b("eq", "td_next")
-    p.andi(0, 11, F_IN_INIT).b("ne", "td_next")
-    p.andi(0, 11, F_WAKE).b("ne", "td_now")
-    p.andi(0, 11, F_HOLD).b("ne", "td_next")
+    p.ld(11, 8, S_FLAGS).ld(12, 8, S_NXT).ld(13, 7, ONEHOT)
+    p.andi(0, 11, F_IN_INIT).b("ne", "td_s")
+    p.and_(0, 15, 13).b("ne", "td_now")
     p.sub(13, 12, 3).b("le", "td_now")                  # its t0 is due by eng + P
-    p.cmp(13, 4).b("ge", "td_next")
-    p.mov(4, 13)
-    p.label("td_next").addi(7, 7, -1).b("ge", "td_s")
-    p.jmp("td_done")
+    p.cmp(13, 4).b("ge", "td_s")
+    p.mov(4, 13).jmp("td_s")
     p.label("td_now").li(4, 0)
     p.label("td_done").add(5, 1, 4).li(6, 0x7FFF_FFFF)
     p.xor(6, 6, 4)                                      # armed: r6 != 0
@@ -196,12 +206,12 @@ def _edges(p: Program) -> None:
     p.or_(17, 17, 15)
     p.st(17, 6, WR)
     p.label("edge_kept").andi(0, 4, 2).b("eq", "edge_next")   # an earlier epoch's window
+    _wake(p, 7)
+    p.andi(0, 4, 1).b("eq", "edge_next")
     _sensor_words(p, 8, 7)
     p.ld(11, 8, S_FLAGS)
-    p.ori(11, 11, F_WAKE)
-    p.andi(0, 4, 1).b("eq", "edge_wake")
     p.ori(11, 11, F_ANY_TRK)                            # an init ping's echo: a track exists
-    p.label("edge_wake").st(11, 8, S_FLAGS).jmp("edge_next")
+    p.st(11, 8, S_FLAGS).jmp("edge_next")
 
 
 def _closes(p: Program) -> None:
@@ -242,11 +252,10 @@ def _closes(p: Program) -> None:
     _sensor_words(p, 8, 7)
     _tracking_base(p, 9, 7, 6)
     close_kernel(p)                                     # r10 = 1: the safety rule cancels
-    p.ld(11, 8, S_FLAGS)
-    p.ori(11, 11, F_WAKE)
-    p.st(11, 8, S_FLAGS)
+    _wake(p, 7)
     p.tst(10).b("eq", "close_head")
-    _wake_all(p, "close_wake")
+    _get(p, 11, M_ACT)
+    _put(p, 11, M_WAKE)                                 # every sensor re-evaluates
     _get(p, 1, M_CUR)
     p.call("safe_sub")
     p.label("close_head")
@@ -258,21 +267,30 @@ def _closes(p: Program) -> None:
 
 # ------------------------------------------------------------------ SCHED
 def _sched(p: Program) -> None:
-    p.label("sp_phase").li(7, 0)
-    _put(p, 7, M_S)
+    p.label("sp_phase")
+    _get(p, 9, M_ACT)
+    _put(p, 9, M_SREM)
     p.label("sp_s")
-    _current_sensor(p)
-    p.ld(11, 8, S_FLAGS).ld(12, 8, S_NXT)
+    _get(p, 9, M_SREM)
+    p.tst(9).b("eq", "sp_end")
+    p.lsb(7, 9).addi(11, 9, -1)
+    p.and_(9, 9, 11)
+    _put(p, 9, M_SREM)
+    _put(p, 7, M_S)
+    _sensor_words(p, 8, 7)
+    p.ld(11, 8, S_FLAGS).ld(12, 8, S_NXT).ld(13, 7, ONEHOT)
+    _get(p, 15, M_WAKE)
+    _get(p, 16, M_HOLD)
     _get(p, 1, M_CUR)
     _get(p, 2, M_P)
-    p.andi(0, 11, F_ACT).b("eq", "sp_next")
-    p.andi(0, 11, F_IN_INIT).b("ne", "sp_next")
-    p.andi(0, 11, F_WAKE).b("ne", "sp_eval")
-    p.andi(0, 11, F_HOLD).b("ne", "sp_next")
+    p.andi(0, 11, F_IN_INIT).b("ne", "sp_s")
+    p.and_(0, 15, 13).b("ne", "sp_eval")
+    p.and_(0, 16, 13).b("ne", "sp_s")
     p.add(14, 1, 2)
-    p.sub(0, 14, 12).b("lt", "sp_next")              # before its next evaluation
-    p.label("sp_eval").andi(11, 11, ~(F_WAKE | F_HOLD))
-    p.st(11, 8, S_FLAGS)
+    p.sub(0, 14, 12).b("lt", "sp_s")                   # before its next evaluation
+    p.label("sp_eval").andn(15, 15, 13).andn(16, 16, 13)
+    _put(p, 15, M_WAKE)
+    _put(p, 16, M_HOLD)
     sched_kernel(p)
     _put(p, 10, M_RES)
     _put(p, 11, M_QUIET)
@@ -284,21 +302,20 @@ def _sched(p: Program) -> None:
     _get(p, 10, M_RES)
     p.cmpi(10, SCHED_NOT_YET).b("ne", "sp_quiet")
     p.ld(13, 8, S_DUE)
-    p.st(13, 8, S_NXT).jmp("sp_next")
+    p.st(13, 8, S_NXT).jmp("sp_s")
     p.label("sp_quiet").cmpi(10, SCHED_QUIET).b("ne", "sp_hold")
     _get(p, 13, M_QUIET)
-    p.st(13, 8, S_NXT).jmp("sp_next")
+    p.st(13, 8, S_NXT).jmp("sp_s")
     p.label("sp_hold").cmpi(10, SCHED_HOLD).b("ne", "sp_go")
-    p.ld(11, 8, S_FLAGS)
-    p.ori(11, 11, F_HOLD)
-    p.st(11, 8, S_FLAGS).jmp("sp_next")
+    p.ld(13, 7, ONEHOT)
+    _get(p, 16, M_HOLD)
+    p.or_(16, 16, 13)
+    _put(p, 16, M_HOLD)
+    p.jmp("sp_s")
     p.label("sp_go")
     _decision(p)
-    p.label("sp_next")
-    _get(p, 7, M_S)
-    p.addi(7, 7, 1)
-    _put(p, 7, M_S)
-    p.cmpi(7, NUM_VS).b("ne", "sp_s")
+    p.jmp("sp_s")
+    p.label("sp_end")
     _get(p, 1, M_CUR)
     p.addi(1, 1, 1)
     _put(p, 1, M_ENG)
@@ -355,7 +372,7 @@ def _decision(p: Program) -> None:
     p.tst(7).b("eq", "dec_issue")
     p.mov(13, 8)
     _current_sensor(p)
-    p.st(13, 8, S_NXT).jmp("sp_next")
+    p.st(13, 8, S_NXT).jmp("sp_s")
     p.label("dec_issue")
     _current_sensor(p)
     _get(p, 1, M_T0)
@@ -368,7 +385,7 @@ def _decision(p: Program) -> None:
     _current_sensor(p)
     p.ld(13, 8, S_DUE)
     p.st(13, 8, S_NXT)                                  # next evaluation at the new due
-    _wake_all(p, "dec_wake", keep=7)
+    _wake_others(p, 7)
     # the windows' meta word: the pulse's seq (before ISSUE's + 1), init, the new epoch, sensor
     p.ld(13, 8, S_SEQ).ld(14, 8, S_FLAGS)
     _get(p, 4, M_INIT)

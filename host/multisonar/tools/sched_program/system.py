@@ -17,9 +17,9 @@ from typing import Any
 
 from ...fastfiring import _Line, _rows
 from ..sched_ucode import MASK32
-from .layout import (BLK, EVT_HI, F_ACT, HD_EL, MAIN, M_CUR, M_ENG, M_GATE, M_L, M_P, M_START,
+from .layout import (BLK, EVT_HI, HD_EL, MAIN, M_CUR, M_ENG, M_ACT, M_GATE, M_L, M_P, M_START,
                      M_ARMED, M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT, Q_T, SENS,
-                     S_BLK, S_D, S_FLAGS, S_HI, S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE, S_QOFF,
+                     S_BLK, S_D, S_HI, S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE, S_QOFF,
                      S_REINIT, S_RMAX, S_RX, S_SHARE, S_TN, S_TV, S_TX, S_VMAX, TICK, TRIG_EL,
                      WIN_META, WIN_RA, WIN_T0, WIN_WE, W_ADDR)
 from .units import EngineWithUnits, Slot
@@ -97,7 +97,7 @@ def sensor_words(c: Any, shares: int, reinit_every: int | None = None) -> dict[i
              S_ORDER: c.order, S_TV: c.t_v, S_TN: c.t_n, S_D: c.blank, S_RMAX: c.max_tof,
              S_LO: lo, S_HI: hi, S_VMAX: c.vmax, S_QOFF: c.max_tof - c.blank, S_PHASE: c.phase,
              S_NRX: len(c.rx), S_K: c.miss_limit, S_MODE: 1 if c.mode.value == "track" else 2,
-             S_REINIT: int(m or 0), S_SHARE: shares, S_FLAGS: F_ACT}
+             S_REINIT: int(m or 0), S_SHARE: shares}
     out = {base + k: v & MASK32 for k, v in words.items()}
     for e, a, b in blanks:
         out[BLK + 64 * c.id + e], out[BLK + 64 * c.id + 32 + e] = a, b
@@ -183,7 +183,8 @@ class EngineSystem:
         self.lead, self.start, self.qdepth = int(decision_lead), int(start_tick), qdepth
         mem: dict[int, int] = {ONEHOT + k: 1 << k for k in range(32)}
         mem.update({MAIN + M_START: self.start, MAIN + M_P: self.lead, MAIN + M_L: self.latency,
-                    MAIN + M_GATE: int(miss_gate or 0)})
+                    MAIN + M_GATE: int(miss_gate or 0),
+                    MAIN + M_ACT: sum(1 << c.id for c in self.cfg)})
         touch = [set(map(int, c.tx)) | set(map(int, c.xtalk_elements)) | set(map(int, c.rx))
                  for c in self.cfg]
         for c in self.cfg:

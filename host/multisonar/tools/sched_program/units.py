@@ -2,9 +2,10 @@
 unit, the divider, the output strobes), the engine's model with them, and run_kernel.
 
 The slot unit (:class:`SlotUnit`, a fixed stream unit the engine drives through I/O
-registers) scans the up to 16 reserved windows of one element, one per clock, against the
+registers) scans the valid ones of the up to 16 reserved windows of one element, one per
+clock (results four clocks after the last; SU_LATENCY with every slot valid), against the
 candidate's blank interval [TA, TB) and window [TWA, TWB) (absolute ticks, written before
-SU_GO = element | blank on << 8 | window on << 9) and gives, SU_LATENCY clocks later, SU_X =
+SU_GO = element | blank on << 8 | window on << 9) and gives, when busy falls, SU_X =
 the latest retry relative to TA / TWA among the windows it overlaps (end - TA, end - TWA),
 SU_FLAGS bit 0 = any overlap, bit 1 = every slot taken (window on), bit 7 = busy, and SU_MINC
 = the earliest close tick of the element's windows.
@@ -88,7 +89,7 @@ class SlotUnit:
                 self.x, self.minc, self.flags = k, w.close & MASK32, 1
         else:
             self.x = sum(1 << k for k, w in ws if w.sensor == ta)
-        self.done_at = cycle + SU_LATENCY
+        self.done_at = cycle + len(ws) + SU_LATENCY - WSLOTS   # a valid slot per clock
 
     def read(self, cycle: int, addr: int) -> int:
         busy = cycle < self.done_at
