@@ -23,6 +23,7 @@ rtl/soc/ms_soc.sv
 $GEN/rtl/ms_ucode_pkg.sv
 rtl/core/ms_sched_engine.sv
 rtl/core/ms_sched_div.sv
+rtl/core/ms_sched_slot.sv
 rtl/core/ms_sched_workq.sv
 rtl/core/ms_sched_cfg.sv
 rtl/core/ms_scheduler.sv
