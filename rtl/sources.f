@@ -21,11 +21,13 @@ rtl/soc/ms_pico_bridge.sv
 rtl/soc/ms_vex_bridge.sv
 rtl/soc/ms_soc.sv
 $GEN/rtl/ms_ucode_pkg.sv
+$GEN/rtl/ms_sched_io_pkg.sv
 rtl/core/ms_sched_engine.sv
 rtl/core/ms_sched_div.sv
 rtl/core/ms_sched_slot.sv
 rtl/core/ms_sched_workq.sv
 rtl/core/ms_sched_cfg.sv
+rtl/core/ms_sched_uc.sv
 rtl/core/ms_scheduler.sv
 rtl/ms_sonar_core.sv
 rtl/ms_system.sv

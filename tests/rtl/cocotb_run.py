@@ -52,10 +52,12 @@ def rtl_sources() -> list[Path]:
 def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = None,
                parameters: Mapping[str, object] | None = None, icarus_ok: bool = True,
                extra_env: Mapping[str, str] | None = None, extra_sources: Sequence[Path] = (),
-               variant: str = "", testcase: Sequence[str] | None = None) -> None:
+               variant: str = "", testcase: Sequence[str] | None = None,
+               defines: Mapping[str, object] | None = None) -> None:
     """Build ``top`` and run the cocotb tests in tests/rtl/<tb_module>.py; fail on any failure.
     ``variant`` names a build with other parameters (its own build directory, so it does not
-    rebuild the default one); ``testcase`` runs only the tests named."""
+    rebuild the default one); ``testcase`` runs only the tests named; ``defines`` are the
+    build's `define macros."""
     from cocotb_tools.check_results import get_results
     from cocotb_tools.runner import get_runner
 
@@ -79,7 +81,7 @@ def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = Non
         build_args = ["-g2012"]
     runner = get_runner(sim)
     runner.build(sources=srcs, hdl_toplevel=top, build_dir=build_dir, parameters=dict(parameters or {}),
-                 build_args=build_args, timescale=("1ns", "1ps"), waves=waves,
+                 defines=dict(defines or {}), build_args=build_args, timescale=("1ns", "1ps"), waves=waves,
                  log_file=build_dir / "build.log")
     results = runner.test(hdl_toplevel=top, test_module=tb_module, test_dir=Path(__file__).parent,
                           build_dir=build_dir, waves=waves, extra_env=dict(extra_env or {}), plusargs=plusargs,

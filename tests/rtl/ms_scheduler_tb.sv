@@ -6,13 +6,16 @@
 // testbench reads at the end: every event word, and every trigger as {element, tick it fires}
 // (the tick of the arming cycle plus trig_delay_o, i.e. when ms_tx_phaser would trigger it).
 // The whole virtual-sensor table is driven as flat vectors (sensor s at bits [s*W +: W]).
+// With SCHED_UC defined it wraps ms_sched_uc (the scheduler on the microcoded engine,
+// UCODE_FILE its program) instead, without the load check of ms_scheduler's internals.
 module ms_scheduler_tb #(
   parameter int NUM_CH    = 24,
   parameter int LEAD      = 4096,
   parameter int EVT_DEPTH = 8192,
   parameter int TRG_DEPTH = 4096,
   parameter int SCHED_VS  = 8,    // sensors the scheduler runs (its NUM_VS; the table has 8)
-  parameter int WSLOTS    = 16    // window slots per element
+  parameter int WSLOTS    = 16,   // window slots per element
+  parameter string UCODE_FILE = ""  // SCHED_UC: the engine's program image
 ) (
   input  logic                 clk_i,
   input  logic                 rst_i,
@@ -147,6 +150,7 @@ module ms_scheduler_tb #(
   // sensor s's table word w as the scheduler keeps it in its sensor RAM (SNS: {0, s, 24 + slot},
   // slot w except PHASE (8) in slot 4; T_DEAD (4) and XTALK (6) are not kept), and its blank
   // interval of element e ({1, s, e})
+`ifndef SCHED_UC
   function automatic logic [35:0] cw(input int s, input int w);
     cw = u_sched.sns_q[s * 32 + 24 + (w == 8 ? 4 : w)][35:0];
   endfunction
@@ -195,6 +199,8 @@ module ms_scheduler_tb #(
         end
       end
 
+`endif
+
   logic             trig_valid;
   logic [4:0]       trig_el;
   logic [16:0]      trig_delay;
@@ -202,7 +208,12 @@ module ms_scheduler_tb #(
   logic             evt_valid;
   logic [63:0]      evt_data;
 
+`ifdef SCHED_UC
+  ms_sched_uc #(.NUM_CH(NUM_CH), .NUM_VS(SCHED_VS), .LEAD(LEAD), .WSLOTS(WSLOTS),
+                .UCODE_FILE(UCODE_FILE)) u_sched (
+`else
   ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(SCHED_VS), .LEAD(LEAD), .WSLOTS(WSLOTS)) u_sched (
+`endif
     .clk_i              (clk_i),
     .rst_i              (rst_i),
     .tick_i             (tick_q),

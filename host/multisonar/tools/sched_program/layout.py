@@ -55,6 +55,10 @@ DIV_LATENCY = 26
 # the WIN read port (write the slot address to WIN_RA, its fields from two clocks later)
 TICK, Q_STAT, Q_T, Q_E, Q_C, Q_POP = 0x430, 0x431, 0x432, 0x433, 0x434, 0x435
 WIN_RA, WIN_T0, WIN_WE, WIN_META = 0x438, 0x439, 0x43A, 0x43B
+# the logical tick a dispatch starts (LAG_CUR) and the one whose work is done (T_DONE): the
+# hardware's lateness check (P / 2) and lag measure; a stop request (STOP_REQ bit 0, with the
+# tick STOP_AT): the program finishes every logical tick before it, then writes HALT
+LAG_CUR, T_DONE, STOP_REQ, STOP_AT, HALT = 0x43C, 0x43D, 0x43E, 0x43F, 0x440
 # the blank offsets of (sensor s, element e): a at BLK + 64 s + e, b at BLK + 64 s + 32 + e (the
 # sensor RAM's blank-offset half, mapped on the bus; today's ms_scheduler keeps them there)
 BLK = 0x800

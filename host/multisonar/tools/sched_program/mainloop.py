@@ -31,14 +31,14 @@ from ..sched_ucode import Program
 from .decision import (SCHED_HOLD, SCHED_NOT_YET, SCHED_QUIET, cand_kernel, conf_kernel, iel_kernel,
                        issue_kernel, order_kernel, sched_kernel)
 from .events import close_kernel, edge_kernel, head_kernel, hit_kernel, safe_kernel
-from .layout import (BA, BB, BLK, BU, CAND, F_ANY_TRK, F_EPOCH, F_IN_INIT, HC, HS, MAIN, M_ACT,
-                     M_ARMED, M_CLOSES, M_CUR, M_EDGES, M_ENG, M_FLAGS, M_GATE, M_HOLD, M_INIT, M_L,
-                     M_NWIN, M_P, M_PERIOD, M_QUIET, M_RES, M_RX, M_S, M_SLOT, M_SREM, M_WAKE,
-                     M_START, M_T0, M_TD, M_TN, M_TV, M_WIN, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E,
-                     Q_POP, Q_STAT, Q_T, SENS, S_BLK, S_D, S_DUE, S_FLAGS, S_HI, S_LO, S_NRX, S_NXT,
-                     S_OPEN, S_ORDER, S_PHASE, S_QOFF, S_QUIET, S_RMAX, S_RX, S_SEQ, S_TN, S_TRK,
-                     S_TV, S_TX, S_VMAX, TICK, TRK, TU, WH, WIN_META, WIN_RA, WIN_T0, WIN_WE, WR,
-                     WSLOTS, WV, prologue)
+from .layout import (BA, BB, BLK, BU, CAND, F_ANY_TRK, F_EPOCH, F_IN_INIT, HALT, HC, HS, LAG_CUR,
+                     MAIN, M_ACT, M_ARMED, M_CLOSES, M_CUR, M_EDGES, M_ENG, M_FLAGS, M_GATE, M_HOLD,
+                     M_INIT, M_L, M_NWIN, M_P, M_PERIOD, M_QUIET, M_RES, M_RX, M_S, M_SLOT, M_SREM,
+                     M_START, M_T0, M_TD, M_TN, M_TV, M_WAKE, M_WIN, NUM_RX, NUM_VS, ONEHOT, Q_C,
+                     Q_E, Q_POP, Q_STAT, Q_T, SENS, STOP_AT, STOP_REQ, S_BLK, S_D, S_DUE, S_FLAGS,
+                     S_HI, S_LO, S_NRX, S_NXT, S_OPEN, S_ORDER, S_PHASE, S_QOFF, S_QUIET, S_RMAX,
+                     S_RX, S_SEQ, S_TN, S_TRK, S_TV, S_TX, S_VMAX, TICK, TRK, TU, T_DONE, WH,
+                     WIN_META, WIN_RA, WIN_T0, WIN_WE, WR, WSLOTS, WV, prologue)
 
 POLL = "poll"   # the idle poll loop's label (the harness skips whole turns of it)
 
@@ -143,19 +143,34 @@ def _idle(p: Program) -> None:
     p.xor(6, 6, 4)                                      # armed: r6 != 0
     _put(p, 5, M_TD)
     _put(p, 6, M_ARMED)
-    # the poll loop: the tick first, then the queue (a word of a tick <= td is visible by then)
-    p.label(POLL).ld(10, 0, TICK).ld(11, 0, Q_STAT)
+    # the poll loop: the tick first, then the queue (a word of a tick <= td is visible by then);
+    # while a stop is requested only ticks before STOP_AT, then HALT once they are all done
+    p.label(POLL).ld(10, 0, TICK).ld(11, 0, Q_STAT).ld(19, 0, STOP_REQ)
     p.andi(0, 11, 1).b("eq", "poll_time")
     p.ld(12, 0, Q_T)
-    p.tst(6).b("eq", "poll_take")                       # nothing armed: take it
+    p.tst(19).b("eq", "poll_word")
+    p.ld(20, 0, STOP_AT)
+    p.sub(0, 12, 20).b("ge", "poll_time")               # stopping: not before STOP_AT
+    p.label("poll_word").tst(6).b("eq", "poll_take")    # nothing armed: take it
     p.sub(0, 12, 5).b("le", "poll_take")                # its tick comes no later than td
-    p.label("poll_time").tst(6).b("eq", POLL)
+    p.label("poll_time").tst(19).b("ne", "poll_stop")
+    p.label("poll_td").tst(6).b("eq", POLL)
     p.sub(13, 10, 5)
     p.cmpi(13, 3).b("lt", POLL)
     p.mov(1, 5).li(13, 0).li(14, 0).jmp("dispatch")     # td alone
+    p.label("poll_stop").ld(20, 0, STOP_AT)
+    p.tst(6).b("eq", "poll_end")
+    p.sub(0, 5, 20).b("lt", "poll_td")                  # td before STOP_AT: still to do
+    p.label("poll_end").sub(13, 10, 20)
+    p.cmpi(13, 3).b("lt", POLL)                         # words before STOP_AT may still come
+    p.andi(0, 11, 1).b("eq", "halt")
+    p.sub(0, 12, 20).b("lt", POLL)
+    p.label("halt").st(0, 0, HALT)
+    p.label("halt_spin").jmp("halt_spin")
     p.label("poll_take").ld(13, 0, Q_E).ld(14, 0, Q_C)
     p.st(0, 0, Q_POP).mov(1, 12)
     p.label("dispatch")
+    p.st(1, 0, LAG_CUR)
     _put(p, 1, M_CUR)
     _put(p, 13, M_EDGES)
     _put(p, 14, M_CLOSES)
@@ -317,6 +332,7 @@ def _sched(p: Program) -> None:
     p.jmp("sp_s")
     p.label("sp_end")
     _get(p, 1, M_CUR)
+    p.st(1, 0, T_DONE)
     p.addi(1, 1, 1)
     _put(p, 1, M_ENG)
     p.jmp("idle")

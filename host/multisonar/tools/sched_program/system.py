@@ -17,11 +17,11 @@ from typing import Any
 
 from ...fastfiring import _Line, _rows
 from ..sched_ucode import MASK32
-from .layout import (BLK, EVT_HI, HD_EL, MAIN, M_CUR, M_ENG, M_ACT, M_GATE, M_L, M_P, M_START,
-                     M_ARMED, M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT, Q_T, SENS,
-                     S_BLK, S_D, S_HI, S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE, S_QOFF,
+from .layout import (BLK, EVT_HI, HD_EL, LAG_CUR, MAIN, M_ACT, M_ARMED, M_GATE, M_L, M_P, M_START,
+                     M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT, Q_T, SENS, STOP_AT,
+                     STOP_REQ, S_BLK, S_D, S_HI, S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE, S_QOFF,
                      S_REINIT, S_RMAX, S_RX, S_SHARE, S_TN, S_TV, S_TX, S_VMAX, TICK, TRIG_EL,
-                     WIN_META, WIN_RA, WIN_T0, WIN_WE, W_ADDR)
+                     T_DONE, WIN_META, WIN_RA, WIN_T0, WIN_WE, W_ADDR)
 from .units import EngineWithUnits, Slot
 
 
@@ -116,6 +116,8 @@ class _Bus(EngineWithUnits):
         at = self.cycle + 1
         if addr == TICK:
             return self.sys.tick_at(at) & MASK32
+        if addr in (STOP_REQ, STOP_AT):
+            return 0                         # the harness never stops the program
         if addr in (Q_STAT, Q_T, Q_E, Q_C):
             return self.sys.queue_read(addr, self.sys.tick_at(at))
         if addr in (WIN_T0, WIN_WE, WIN_META):
@@ -151,10 +153,10 @@ class _Bus(EngineWithUnits):
                 s.on_trigger(self.out.triggers[-1], at)
             elif addr == EVT_HI:
                 s.on_event(self.out.events[-1])
-            elif addr == MAIN + M_ENG and s.started:
-                s.on_tick_done(data - 1, at)
-            elif addr == MAIN + M_CUR:
-                s.started = True
+            elif addr == T_DONE:
+                s.on_tick_done(data, at)
+            elif addr == LAG_CUR:
+                s.cur = data
 
 
 class EngineSystem:
@@ -195,7 +197,7 @@ class EngineSystem:
         self.queue: deque[tuple[int, int, int]] = deque()
         self.adv = self.start - 1          # the hardware has handled every tick <= adv
         self.win_ra, self.win_at = 0, -1
-        self.started = False
+        self.cur = 0                                 # the logical tick of the dispatch
         self.words: list[tuple[int, int]] = []      # (logical tick, word)
         self.triggers: list[tuple[int, int, int]] = []
         self.lags: list[tuple[int, int]] = []        # (logical tick, lateness at its end)
@@ -238,16 +240,13 @@ class EngineSystem:
         t0, ws, we, meta = self.m.out.slots[self.win_ra]
         return {WIN_T0: t0, WIN_WE: we, WIN_META: meta}[addr]
 
-    def _cur(self) -> int:
-        return self.m.mem.get(MAIN + M_CUR, 0)
-
     def on_trigger(self, trig: tuple[int, int], cycle: int) -> None:
         if trig[0] <= self.tick_at(cycle):
             self.late.append(f"trigger of element {trig[1]} at {trig[0]} written at {self.tick_at(cycle)}")
-        self.triggers.append((self._cur(), trig[0], trig[1]))
+        self.triggers.append((self.cur, trig[0], trig[1]))
 
     def on_event(self, word: int) -> None:
-        self.words.append((self._cur(), word))
+        self.words.append((self.cur, word))
         if word >> 62 & 1 and not word >> 61 & 1:     # a pulse record: the pulse fires
             c = self.cfg[word >> 37 & 7]
             self.echo.fire(word & MASK32, c.tx.copy(), c.delays.copy())
