@@ -25,6 +25,7 @@ $GEN/rtl/ms_sched_io_pkg.sv
 rtl/core/ms_sched_engine.sv
 rtl/core/ms_sched_div.sv
 rtl/core/ms_sched_slot.sv
+rtl/core/ms_sched_closes.sv
 rtl/core/ms_sched_workq.sv
 rtl/core/ms_sched_cfg.sv
 rtl/core/ms_sched_uc.sv

@@ -403,16 +403,17 @@ module ms_sched_uc
   end
 
   // ---- the work queue: {tick, edges, closes} per tick with work, visible two ticks later
-  logic [NUM_CH-1:0]  hd_vld_q, closes, edges;
-  logic [31:0]        hd_close_q [NUM_CH];
+  logic [NUM_CH-1:0]  closes, edges;
   logic [31:0]        tick_prev_q;
   logic               q_empty, q_ovf, q_pop;
   logic [QW-1:0]      q_head;
   always_ff @(posedge clk_i) tick_prev_q <= tick_i;   // rise_i / closes of this clock: tick_i - 1
-  always_comb begin
-    for (int e = 0; e < NUM_CH; e++) closes[e] = hd_vld_q[e] && hd_close_q[e] == tick_prev_q;
-    edges = rise_i & rx_any_q;
-  end
+  assign edges = rise_i & rx_any_q;
+  // the heads the program sets (HD_T, then HD_EL commits: element, bit 16 no head)
+  ms_sched_closes #(.NUM_CH(NUM_CH)) u_closes (
+    .clk_i, .rst_i(eng_rst), .tick_i, .we_i(io_we && io(bus_a, HD_EL)), .el_i(EW'(bus_wd[7:0])),
+    .vld_i(!bus_wd[16]), .close_i(hd_t_q), .closes_o(closes)
+  );
   assign q_pop = io_we && io(bus_a, Q_POP);
   ms_sched_workq #(.WIDTH(QW), .DEPTH(QDEPTH)) u_workq (
     .clk_i, .rst_i(eng_rst), .push_i(!eng_rst && (|edges || |closes)),
@@ -420,41 +421,42 @@ module ms_sched_uc
     .overflow_o(q_ovf)
   );
   logic late_head_q, late_trig_q, late_disp_q;
-  always_ff @(posedge clk_i) begin
-    late_head_q <= 1'b0;
-    if (eng_rst) begin
-      hd_vld_q <= '0;
-    end else if (io_we && io(bus_a, HD_EL)) begin
-      hd_vld_q[EW'(bus_wd[7:0])]   <= !bus_wd[16];
-      hd_close_q[EW'(bus_wd[7:0])] <= hd_t_q;
-      late_head_q <= !bus_wd[16] && $signed(hd_t_q - tick_i) <= 0;
-    end
-  end
+  always_ff @(posedge clk_i)
+    late_head_q <= io_we && io(bus_a, HD_EL) && !bus_wd[16] && $signed(hd_t_q - tick_i) <= 0;
 
-  // ---- reads: every source answers one clock after the address, as the block RAMs do
+  // ---- reads: every source answers one clock after the address, as the block RAMs do. The
+  // I/O space (0x400 .. 0x43F) is decoded on its low six bits; ONEHOT (32 aligned words of the
+  // data memory's range) reads 1 << k from a decoder.
   logic [31:0] io_rd_q;
-  logic [1:0]  rsel_q;      // 0 data memory, 1 blank offsets a, 2 b, 3 I/O
+  logic [1:0]  rsel_q;      // 0 data memory, 1 blank offsets a, 2 b, 3 I/O or ONEHOT
+  logic        onehot;
+  assign onehot = bus_a[AW-1:5] == 7'(ONEHOT >> 5);
   always_ff @(posedge clk_i) begin
-    rsel_q  <= bus_a < AW'(1024) && !(bus_a >= AW'(ONEHOT) && bus_a < AW'(ONEHOT + 32)) ? 2'd0
-             : bus_a >= AW'(BLK) ? (bus_a[5] ? 2'd2 : 2'd1) : 2'd3;
-    io_rd_q <= '0;
-    if (bus_a >= AW'(ONEHOT) && bus_a < AW'(ONEHOT + 32)) io_rd_q <= 32'd1 << (bus_a - AW'(ONEHOT));
-    if (io(bus_a, SU_X))     io_rd_q <= su_x;
-    if (io(bus_a, SU_FLAGS)) io_rd_q <= 32'(su_flags);
-    if (io(bus_a, SU_MINC))  io_rd_q <= su_minc;
-    if (io(bus_a, DIV_Q))    io_rd_q <= 32'(div_q);
-    if (io(bus_a, DIV_STAT)) io_rd_q <= div_busy ? 32'h80 : 32'h0;
-    if (io(bus_a, TICK))     io_rd_q <= tick_i;
-    if (io(bus_a, Q_STAT))   io_rd_q <= 32'(!q_empty);
-    if (io(bus_a, Q_T))      io_rd_q <= q_head[QW-1 -: 32];
-    if (io(bus_a, Q_E))      io_rd_q <= 32'(q_head[2*NUM_CH-1:NUM_CH]);
-    if (io(bus_a, Q_C))      io_rd_q <= 32'(q_head[NUM_CH-1:0]);
-    if (io(bus_a, WIN_T0))   io_rd_q <= win_rd_q.t0;
-    if (io(bus_a, WIN_WE))   io_rd_q <= 32'(win_rd_q.we);
-    if (io(bus_a, WIN_META)) io_rd_q <= {13'd0, win_rd_q.sensor, 6'd0, win_rd_q.epoch,
-                                         win_rd_q.init, win_rd_q.seq};
-    if (io(bus_a, STOP_REQ)) io_rd_q <= 32'(stop_req_q);
-    if (io(bus_a, STOP_AT))  io_rd_q <= stop_at_q;
+    rsel_q <= bus_a >= AW'(BLK) ? (bus_a[5] ? 2'd2 : 2'd1)
+            : (bus_a < AW'(1024) && !onehot) ? 2'd0 : 2'd3;
+    if (onehot) begin
+      io_rd_q <= 32'd1 << bus_a[4:0];
+    end else begin
+      unique case (6'(int'(bus_a) - 'h400))
+        6'(SU_X - 'h400):     io_rd_q <= su_x;
+        6'(SU_FLAGS - 'h400): io_rd_q <= 32'(su_flags);
+        6'(SU_MINC - 'h400):  io_rd_q <= su_minc;
+        6'(DIV_Q - 'h400):    io_rd_q <= 32'(div_q);
+        6'(DIV_STAT - 'h400): io_rd_q <= div_busy ? 32'h80 : 32'h0;
+        6'(TICK - 'h400):     io_rd_q <= tick_i;
+        6'(Q_STAT - 'h400):   io_rd_q <= 32'(!q_empty);
+        6'(Q_T - 'h400):      io_rd_q <= q_head[QW-1 -: 32];
+        6'(Q_E - 'h400):      io_rd_q <= 32'(q_head[2*NUM_CH-1:NUM_CH]);
+        6'(Q_C - 'h400):      io_rd_q <= 32'(q_head[NUM_CH-1:0]);
+        6'(WIN_T0 - 'h400):   io_rd_q <= win_rd_q.t0;
+        6'(WIN_WE - 'h400):   io_rd_q <= 32'(win_rd_q.we);
+        6'(WIN_META - 'h400): io_rd_q <= {13'd0, win_rd_q.sensor, 6'd0, win_rd_q.epoch,
+                                          win_rd_q.init, win_rd_q.seq};
+        6'(STOP_REQ - 'h400): io_rd_q <= 32'(stop_req_q);
+        6'(STOP_AT - 'h400):  io_rd_q <= stop_at_q;
+        default:              io_rd_q <= '0;
+      endcase
+    end
   end
   always_comb begin
     unique case (rsel_q)

@@ -14,6 +14,7 @@ SOURCES = [GEN / "rtl/ms_ucode_pkg.sv", GEN / "rtl/ms_sched_io_pkg.sv", ROOT / "
            ROOT / "rtl/rx/ms_rx_conditioner.sv", ROOT / "rtl/core/ms_sched_workq.sv",
            ROOT / "rtl/core/ms_sched_cfg.sv", ROOT / "rtl/core/ms_sched_engine.sv",
            ROOT / "rtl/core/ms_sched_div.sv", ROOT / "rtl/core/ms_sched_slot.sv",
+           ROOT / "rtl/core/ms_sched_closes.sv",
            ROOT / "rtl/core/ms_sched_uc.sv", ROOT / "tests/rtl/ms_scheduler_tb.sv"]
 PARAMETERS = {"NUM_CH": 24, "LEAD": LEAD,
               "UCODE_FILE": f'"{GEN / "rtl/ms_sched_ucode.hex"}"'}   # a string parameter: quoted

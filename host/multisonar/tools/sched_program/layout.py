@@ -30,8 +30,8 @@ HC = 0x3D0            # per element: the head's (earliest) close tick
 HS = 0x3E8            # per element: the head's slot | 0x100 while there is a head
 WH = 0x280            # per element: slots whose window saw an echo (bit mask)
 WR = 0x298            # per element: slots whose first echo the miss gate rejected
-ONEHOT = 0x2B0        # ONEHOT + k = 1 << k, k < 32 (written by the loader; no shifter)
-MAIN = 0x2D0          # the main loop's variables (M_* offsets)
+ONEHOT = 0x2C0        # ONEHOT + k = 1 << k, k < 32 (a decoder on the bus; no shifter)
+MAIN = 0x2E0          # the main loop's variables (M_* offsets)
 
 # the slot unit's I/O registers (bus addresses above the data memory)
 SU_TA, SU_TB, SU_TWA, SU_TWB, SU_GO = 0x400, 0x401, 0x402, 0x403, 0x404
