@@ -69,6 +69,20 @@ def _tracking_base(p: Program, rd: int, rs: int, rx: int | None = None, tmp: int
     return p.addi(rd, rd, TRK)
 
 
+def _pop_lowest(p: Program, idx: int, mask: int, tmp: int = 11) -> Program:
+    """idx = the index of mask's lowest set bit, which is cleared (mask != 0)."""
+    return p.lsb(idx, mask).addi(tmp, mask, -1).and_(mask, mask, tmp)
+
+
+def _next_of(p: Program, var: int, idx: int, mask: int, done: str) -> Program:
+    """The lowest set bit of mask variable ``var``: its index into ``idx`` and the variable
+    without it; to ``done`` when none is left."""
+    _get(p, mask, var)
+    p.tst(mask).b("eq", done)
+    _pop_lowest(p, idx, mask)
+    return _put(p, mask, var)
+
+
 def _win_read(p: Program, el: int, slot: int, tmp: int = 11) -> Program:
     """Address slot ``slot`` of element ``el`` on the WIN read port (its fields two clocks
     later)."""
@@ -129,8 +143,7 @@ def _idle(p: Program) -> None:
     p.and_(15, 15, 9).andn(16, 9, 16)                  # woken; not held
     p.or_(9, 15, 16)                                    # the sensors td depends on
     p.label("td_s").tst(9).b("eq", "td_done")
-    p.lsb(7, 9).addi(11, 9, -1)
-    p.and_(9, 9, 11)
+    _pop_lowest(p, 7, 9)
     _sensor_words(p, 8, 7)
     p.ld(11, 8, S_FLAGS).ld(12, 8, S_NXT).ld(13, 7, ONEHOT)
     p.andi(0, 11, F_IN_INIT).b("ne", "td_s")
@@ -179,11 +192,7 @@ def _idle(p: Program) -> None:
 # ------------------------------------------------------------------ DISPATCH: edges, closes
 def _edges(p: Program) -> None:
     p.label("edge_next")
-    _get(p, 13, M_EDGES)
-    p.tst(13).b("eq", "close_next")
-    p.lsb(6, 13).addi(11, 13, -1)
-    p.and_(13, 13, 11)
-    _put(p, 13, M_EDGES)
+    _next_of(p, M_EDGES, 6, 13, "close_next")
     _put(p, 6, M_RX)
     _get(p, 1, M_CUR)
     _get(p, 2, M_L)
@@ -231,11 +240,7 @@ def _edges(p: Program) -> None:
 
 def _closes(p: Program) -> None:
     p.label("close_next")
-    _get(p, 14, M_CLOSES)
-    p.tst(14).b("eq", "sp_phase")
-    p.lsb(6, 14).addi(11, 14, -1)
-    p.and_(14, 14, 11)
-    _put(p, 14, M_CLOSES)
+    _next_of(p, M_CLOSES, 6, 14, "sp_phase")
     _put(p, 6, M_RX)
     _get(p, 1, M_CUR)
     p.ld(12, 6, HS).ld(13, 6, HC)
@@ -286,11 +291,7 @@ def _sched(p: Program) -> None:
     _get(p, 9, M_ACT)
     _put(p, 9, M_SREM)
     p.label("sp_s")
-    _get(p, 9, M_SREM)
-    p.tst(9).b("eq", "sp_end")
-    p.lsb(7, 9).addi(11, 9, -1)
-    p.and_(9, 9, 11)
-    _put(p, 9, M_SREM)
+    _next_of(p, M_SREM, 7, 9, "sp_end")
     _put(p, 7, M_S)
     _sensor_words(p, 8, 7)
     p.ld(11, 8, S_FLAGS).ld(12, 8, S_NXT).ld(13, 7, ONEHOT)
@@ -356,8 +357,7 @@ def _decision(p: Program) -> None:
     _put(p, 15, M_PERIOD)
     _put(p, 16, M_NWIN)
     p.label("dec_zero").tst(13).b("eq", "dec_blank")
-    p.lsb(17, 13).addi(18, 13, -1)
-    p.and_(13, 13, 18)
+    _pop_lowest(p, 17, 13, 18)
     p.st(0, 17, CAND).jmp("dec_zero")
     # a tracking pulse: predictions, effective order and period
     p.label("dec_track").ld(1, 8, S_RX).ld(3, 8, S_SEQ).ld(4, 8, S_LO).ld(5, 8, S_HI)
@@ -378,8 +378,8 @@ def _decision(p: Program) -> None:
     p.ld(9, 8, S_BLK).li(17, 64)
     p.mul(18, 7, 17)
     p.label("dec_blk").tst(9).b("eq", "dec_conf")
-    p.lsb(10, 9).addi(11, 9, -1)
-    p.and_(9, 9, 11).add(19, 18, 10)
+    _pop_lowest(p, 10, 9)
+    p.add(19, 18, 10)
     p.ld(20, 19, BLK).ld(21, 19, BLK + 32)
     p.st(20, 10, BA).st(21, 10, BB).jmp("dec_blk")
     p.label("dec_conf")
