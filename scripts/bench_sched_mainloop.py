@@ -25,25 +25,18 @@ OUT = ROOT / "build" / "bench" / "sched_mainloop.json"
 
 
 def measure(name: str, lead: int, ms: int | None) -> dict:
-    from multisonar.fastfiring import DEFAULT_GLITCH_MIN, DEFAULT_MISS_GATE, FastFiringModel
-    from multisonar.layout import load_layout
-    from multisonar.schedule import Schedule
-    from multisonar.tools.sched_program.scenarios import MS, SCENARIOS
-    from multisonar.tools.sched_program.system import EngineSystem
+    from multisonar.tools.sched_program.scenarios import SCENARIOS, run_scenario
 
-    sc = SCENARIOS[name]
-    ms = ms or sc.ms
-    sched = Schedule(load_layout(), sc.sensors())
-    res = FastFiringModel(sched, sc.source(), decision_lead=lead).run(ms * MS)
+    ms = ms or SCENARIOS[name].ms
     t = time.time()
-    eng = EngineSystem(sched, sc.source(), decision_lead=lead, glitch_min=DEFAULT_GLITCH_MIN,
-                       miss_gate=DEFAULT_MISS_GATE).run(ms * MS)
+    res, eng = run_scenario(name, lead, ms)
     wall = time.time() - t
     same = eng.words == res.words and eng.triggers == sorted((x.tick, x.element) for x in res.triggers)
     return {"scenario": name, "lead": lead, "budget": lead // 2, "sim_ms": ms, "lag_max": eng.lag_max,
             "within_budget": eng.lag_max < lead // 2 and not eng.late, "late": len(eng.late),
             "identical_to_model": same, "pulses": len(res.pulses), "words": len(res.words),
-            "cancels": len(res.cancelled), "logical_ticks": eng.lag_ticks, "wall_s": round(wall, 2)}
+            "cancels": len(res.cancelled), "logical_ticks": eng.lag_ticks,
+            "wall_s": round(wall, 2)}   # the golden model and the program
 
 
 def main() -> int:

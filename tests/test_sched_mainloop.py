@@ -8,23 +8,13 @@ from __future__ import annotations
 
 import pytest
 
-from multisonar.fastfiring import DEFAULT_GLITCH_MIN, DEFAULT_MISS_GATE, FastFiringModel
-from multisonar.layout import load_layout
-from multisonar.schedule import Schedule
-from multisonar.tools.sched_program.scenarios import MS, SCENARIOS
-from multisonar.tools.sched_program.system import EngineSystem
+from multisonar.tools.sched_program.scenarios import run_scenario
 
 LEAD = 32768   # the decision lead the engine needs (docs/sched_engine.md)
 
 
-def run_both(name: str, lead: int = LEAD, ms: int | None = None):
-    sc = SCENARIOS[name]
-    ticks = (sc.ms if ms is None else ms) * MS
-    sched = Schedule(load_layout(), sc.sensors())
-    res = FastFiringModel(sched, sc.source(), decision_lead=lead).run(ticks)
-    eng = EngineSystem(sched, sc.source(), decision_lead=lead, glitch_min=DEFAULT_GLITCH_MIN,
-                       miss_gate=DEFAULT_MISS_GATE).run(ticks)
-    return res, eng
+def run_both(name: str, lead: int = LEAD):
+    return run_scenario(name, lead)
 
 
 # the bench's scenarios but the full-slot rings (400 ms each to reach tracking: the bench runs them)

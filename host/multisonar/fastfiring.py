@@ -414,6 +414,13 @@ class _Line:
         return self.high
 
 
+def share_matrix(cfg: Sequence[ResolvedSensor]) -> list[list[bool]]:
+    """[a][b]: sensors a and b touch a common element (tx, crosstalk neighbour or rx), so the
+    earliest-due-first rule orders them."""
+    touch = [set(map(int, r.tx)) | set(map(int, r.xtalk_elements)) | set(map(int, r.rx)) for r in cfg]
+    return [[bool(a & b) for b in touch] for a in touch]
+
+
 class FastFiringModel:
     """Cycle-level model of scheduler + receive gating. ``run`` may be called repeatedly."""
 
@@ -462,8 +469,7 @@ class FastFiringModel:
         self.tx_until = [self.now] * n_el
         self.lines = [_Line() for _ in range(n_el)]
         self.sensors = [_SensorState(cfg=r, due=self.now + r.phase) for r in self.cfg]
-        touch = [set(map(int, r.tx)) | set(map(int, r.xtalk_elements)) | set(map(int, r.rx)) for r in self.cfg]
-        self._shares = [[bool(a & b) for b in touch] for a in touch]
+        self._shares = share_matrix(self.cfg)
         self._heap: list[tuple[int, int, int, int, Any]] = []
         self._ctr = itertools.count()
         self.triggers: list[TriggerEvent] = []

@@ -29,19 +29,12 @@ import cocotb
 
 from multisonar.fastfiring import SyntheticEchoSource
 from multisonar.schedule import VirtualSensor
+from multisonar.tools.sched_program.scenarios import ring8
 from tb_ms_scheduler import LEAD, MS, WSLOTS, scoreboard
 
 OUT = Path(os.environ.get("LAG_OUT", "build/bench/sched_lag.json"))
 DUR_MS = int(os.environ.get("LAG_MS", "300"))
 ROWS: list[dict] = []
-
-
-def ring8(rx_width: int, order: int = 4, max_range_m: float = 4.5) -> list[VirtualSensor]:
-    """Eight sensors, one tx element each (0, 3, ..., 21), receiving on rx_width elements
-    centred on it (24: every element)."""
-    lo = rx_width // 2
-    return [VirtualSensor(f"s{k}", tx=[3 * k], rx=sorted({(3 * k + i) % 24 for i in range(-lo, rx_width - lo)}),
-                          order=order, max_range_m=max_range_m) for k in range(8)]
 
 
 async def run(dut, name: str, sensors: list[VirtualSensor], make_source) -> None:

@@ -74,6 +74,7 @@ S_NXT, S_TX, S_RX, S_BLK, S_ORDER, S_TV, S_TN, S_D, S_RMAX = 2, 7, 8, 9, 10, 11,
 S_LO, S_HI, S_VMAX, S_QOFF, S_PHASE, S_NRX = 15, 16, 19, 20, 21, 25
 F_TRACKING, F_IN_INIT, F_EPOCH, F_ANY_TRK = 1, 2, 4, 8    # S_FLAGS bits
 NUM_VS = 8
+UCODE_WORDS = 2048    # ms_sched_uc's ROM depth (the main program is 1.26k words)
 # main-loop variables at MAIN + M_*: the start tick, decision lead P, L = edge latency, the
 # miss gate, the next logical tick, the current one, its edges and closes left, td and armed,
 # the sensor of the SCHED phase, saved kernel results; sensor masks: the table's sensors

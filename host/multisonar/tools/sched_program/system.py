@@ -15,13 +15,13 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
-from ...fastfiring import _Line, _rows
+from ...fastfiring import _Line, _rows, share_matrix
 from ..sched_ucode import MASK32
 from .layout import (BLK, EVT_HI, HD_EL, LAG_CUR, MAIN, M_ACT, M_ARMED, M_GATE, M_L, M_P, M_START,
                      M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT, Q_T, SENS, STOP_AT,
                      STOP_REQ, S_BLK, S_D, S_HI, S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE, S_QOFF,
                      S_REINIT, S_RMAX, S_RX, S_SHARE, S_TN, S_TV, S_TX, S_VMAX, TICK, TRIG_EL,
-                     T_DONE, WIN_META, WIN_RA, WIN_T0, WIN_WE, W_ADDR)
+                     T_DONE, UCODE_WORDS, WIN_META, WIN_RA, WIN_T0, WIN_WE, W_ADDR)
 from .units import EngineWithUnits, Slot
 
 
@@ -178,7 +178,7 @@ class EngineSystem:
         if n_el != NUM_RX or len(self.cfg) > NUM_VS:
             raise ValueError(f"the engine's program is built for {NUM_RX} elements and up to "
                              f"{NUM_VS} sensors, not {n_el} / {len(self.cfg)}")
-        self.image = main_program().assemble(depth=2048)
+        self.image = main_program().assemble(depth=UCODE_WORDS)
         self.poll = self.image.labels[POLL]
         self.echo = EchoPath(n_el, source, glitch_min)
         self.latency = self.echo.latency
@@ -187,10 +187,9 @@ class EngineSystem:
         mem.update({MAIN + M_START: self.start, MAIN + M_P: self.lead, MAIN + M_L: self.latency,
                     MAIN + M_GATE: int(miss_gate or 0),
                     MAIN + M_ACT: sum(1 << c.id for c in self.cfg)})
-        touch = [set(map(int, c.tx)) | set(map(int, c.xtalk_elements)) | set(map(int, c.rx))
-                 for c in self.cfg]
+        share = share_matrix(self.cfg)
         for c in self.cfg:
-            shares = sum(1 << o.id for o in self.cfg if o.id != c.id and touch[c.id] & touch[o.id])
+            shares = sum(1 << o.id for o in self.cfg if o.id != c.id and share[c.id][o.id])
             mem.update(sensor_words(c, shares, reinit_every))
         self.m = _Bus(self.image.words, mem, self)
         self.heads: dict[int, int | None] = {}
@@ -207,12 +206,16 @@ class EngineSystem:
     def tick_at(self, cycle: int) -> int:
         return self.start + cycle
 
+    def _next_event(self) -> int | None:
+        """The next tick after ``adv`` with a rise or a head closing, or None."""
+        ticks = [c for c in self.heads.values() if c is not None and c > self.adv]
+        rise = self.echo.next_tick()
+        return min(ticks + ([rise] if rise is not None else []), default=None)
+
     def advance(self, tick: int) -> None:
         """The rises and closes of every tick up to ``tick`` into the work queue."""
         while True:
-            cands = [t for t in (self.echo.next_tick(),) if t is not None]
-            cands += [c for c in self.heads.values() if c is not None and c > self.adv]
-            t = min(cands, default=None)
+            t = self._next_event()
             if t is None or t > tick:
                 break
             edges = sum(1 << rx for rx, _ in self.echo.rises(t)) if self.echo.next_tick() == t else 0
@@ -269,9 +272,8 @@ class EngineSystem:
         if m.pc != self.poll or turn <= 0:
             return
         now = self.tick_at(m.cycle)
-        nxt = [t for t in (self.echo.next_tick(),) if t is not None]
-        nxt += [c for c in self.heads.values() if c is not None and c > self.adv]
-        target = min(nxt, default=until) + 2
+        nxt = self._next_event()
+        target = (until if nxt is None else nxt) + 2
         if self.queue:
             target = min(target, self.queue[0][0] + 2)
         if m.mem.get(MAIN + M_ARMED, 0):
