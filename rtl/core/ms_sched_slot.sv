@@ -5,12 +5,14 @@
 //
 // Timing contract (clocks of clk_i; ticks and offsets modulo 2^32, compares signed):
 //   - go_i (one clock) with mode_i, el_i, bon_i, won_i, valid_i and ta_i, tb_i, twa_i, twb_i:
-//     busy_o is high from the next clock for n + 3 clocks (n = valid slots); x_o, flags_o
-//     and minc_o hold the results from the clock busy_o falls to the next go_i (n + 4 clocks
+//     busy_o is high from the next clock for n + 4 clocks (n = valid slots); x_o, flags_o
+//     and minc_o hold the results from the clock busy_o falls to the next go_i (n + 5 clocks
 //     after go_i, the model's done_at). A go while busy restarts the scan.
 //   - WIN read port: win_ra_o (slot el * WSLOTS + k) in a clock with win_re_o, the slot's
-//     fields on win_*_i in the next clock (a registered block-RAM read).
-//   - A slot's window is [t0 + ws, t0 + we), closing at t0 + we + latm1_i (latm1_i = L - 1).
+//     fields on win_*_i in the next clock (a registered block-RAM read). WIN does not store a
+//     window's start: win_len_i is its length (the sensor's, looked up by the caller).
+//   - A slot's window is [t0 + we - len, t0 + we), closing at t0 + we + latm1_i (latm1_i =
+//     L - 1).
 // Modes (the model's SU_GO bits 11:10):
 //   CONF:   x = the largest retry end - TA (blank interval [TA, TB), bon_i) or end - TWA (window
 //           [TWA, TWB), won_i) over the windows overlapping them; flags[0] any overlap,
@@ -44,7 +46,7 @@ module ms_sched_slot #(
   output logic [AW-1:0]     win_ra_o,
   output logic              win_re_o,
   input  logic [31:0]       win_t0_i,
-  input  logic [23:0]       win_ws_i,
+  input  logic [23:0]       win_len_i,
   input  logic [23:0]       win_we_i,
   input  logic [2:0]        win_sensor_i,
   output logic              busy_o,
@@ -62,7 +64,7 @@ module ms_sched_slot #(
   logic [7:0]        latm1_q;
   logic [WSLOTS-1:0] srem_q, srem_d;
   logic              go_q;               // the clock after go (busy while no slot is issued)
-  logic [1:0]        tail_q;             // go's marker through the pipeline, for n = 0
+  logic [2:0]        tail_q;             // go's marker through the pipeline, for n = 0
   always_ff @(posedge clk_i) begin
     if (go_i) begin
       mode_q  <= mode_i;
@@ -90,11 +92,13 @@ module ms_sched_slot #(
   assign win_re_o = srem_q != '0;
   assign win_ra_o = AW'(int'(el_q) * WSLOTS + int'(k_a));
 
-  // ---- stage B: the slot's fields (RAM output) -> its window; C: the compares; D: the fold
-  logic          v_b, v_c, v_d;
-  logic [KW-1:0] k_b, k_c, k_d;
-  logic [31:0]   start_c, end_c;
-  logic [2:0]    sensor_c, sensor_d;
+  // ---- stage B: the slot's fields (RAM output) -> its end; S: its start; C: the compares;
+  // D: the fold
+  logic          v_b, v_s, v_c, v_d;
+  logic [KW-1:0] k_b, k_s, k_c, k_d;
+  logic [31:0]   end_s, start_c, end_c;
+  logic [23:0]   len_s;
+  logic [2:0]    sensor_s, sensor_c, sensor_d;
   logic [31:0]   rel_b_d, rel_w_d, close_d, crel_d;
   logic          ov_b_d, ov_w_d;
   always_ff @(posedge clk_i) begin
@@ -103,22 +107,29 @@ module ms_sched_slot #(
       go_q   <= go_i;
       tail_q <= '0;
       v_b    <= 1'b0;
+      v_s    <= 1'b0;
       v_c    <= 1'b0;
       v_d    <= 1'b0;
     end else begin
       srem_q <= srem_d;
       go_q   <= 1'b0;
-      tail_q <= {tail_q[0], go_q};
+      tail_q <= {tail_q[1:0], go_q};
       v_b    <= srem_q != '0;
-      v_c    <= v_b;
+      v_s    <= v_b;
+      v_c    <= v_s;
       v_d    <= v_c;
     end
     k_b      <= k_a;
-    // B: the window from the slot's t0 and offsets
-    k_c      <= k_b;
-    start_c  <= win_t0_i + 32'(win_ws_i);
-    end_c    <= win_t0_i + 32'(win_we_i);
-    sensor_c <= win_sensor_i;
+    // B: the window's end from the slot's t0 and end offset
+    k_s      <= k_b;
+    end_s    <= win_t0_i + 32'(win_we_i);
+    len_s    <= win_len_i;
+    sensor_s <= win_sensor_i;
+    // S: its start
+    k_c      <= k_s;
+    start_c  <= end_s - 32'(len_s);
+    end_c    <= end_s;
+    sensor_c <= sensor_s;
     // C: overlaps, retries, the close tick and its distance after TA
     k_d      <= k_c;
     sensor_d <= sensor_c;
@@ -181,7 +192,7 @@ module ms_sched_slot #(
     crel_q <= crel_dd;
   end
 
-  assign busy_o = go_q || srem_q != '0 || v_b || v_c || v_d || tail_q != '0;
+  assign busy_o = go_q || srem_q != '0 || v_b || v_s || v_c || v_d || tail_q != '0;
   always_comb begin
     unique case (mode_q)
       M_CONF:   begin x_o = any_q ? best_q : '0;      flags_o = {6'd0, full_q, any_q};

@@ -17,9 +17,11 @@
 //     there) and its INIT reads S from the data memory.
 //   - Apply while running: the program finishes every logical tick before the apply's tick
 //     (STOP_AT), halts; the load follows and the schedule starts afresh.
-// Storage: microcode ROM (UCODE_WORDS x 36), data memory (1024 x 32), the blank offsets of
-// every (sensor, element) (256 x 36, read on the bus at BLK), WIN (NUM_CH x WSLOTS slots of
-// {t0, ws, we, seq, epoch, init, sensor}), all block RAM with a registered read.
+// Storage, all block RAM with a registered read (eight DP16KD): the microcode ROM (UCODE_WORDS
+// x 36, three), the data memory (1024 x 32, two), the blank offsets of every (sensor, element)
+// (256 x 36, one, read on the bus at BLK) and WIN (two), the window slots {t0, we, seq, epoch,
+// init, sensor} (no start: a window is [t0 + we - len, t0 + we), len from the table of the
+// sensors' window lengths).
 module ms_sched_uc
   import ms_sched_io_pkg::*;
 #(
@@ -216,6 +218,7 @@ module ms_sched_uc
     logic [5:0]        nrx;
   } rec_t;
   rec_t              rec_q;
+  logic [23:0]       wlen_q [2 * NUM_VS];   // window length of {sensor, init}: T_V + T_N, R - D
   logic [4:0]        rec_i_q;        // the record's next word (0 .. 16), 31: none
   logic [3:0]        fin_i_q;        // C_FINISH: the next final word (0 .. 11)
   logic [NUM_VS-1:0][NUM_VS-1:0] share_q;
@@ -246,6 +249,9 @@ module ms_sched_uc
       txm_q[ld_vs]   <= ld_tx;
       rx_any_q       <= (ld_vs == '0 ? '0 : rx_any_q) | (ld_act ? ld_rx : '0);
     end
+    if (rec_i_q == 5'd0 || rec_i_q == 5'd1)   // while the record's first two words go out
+      wlen_q[{rec_q.vs, rec_i_q[0]}] <= rec_i_q[0] ? rec_q.rmax - rec_q.dbl
+                                                   : 24'(rec_q.tv) + 24'(rec_q.tn);
     if (share_we) begin
       share_q[share_a][share_b] <= share && share_a != share_b;
       share_q[share_b][share_a] <= share && share_a != share_b;
@@ -321,6 +327,16 @@ module ms_sched_uc
     io = int'(a) == addr;
   endfunction
 
+  // blank offsets of (sensor, element): {a, b} at {sensor, element}; the bus reads a at BLK +
+  // 64 s + e and b at BLK + 64 s + 32 + e
+  localparam int XW = DELAY_W + BW;
+  logic [XW-1:0] blk_q [256];
+  logic [XW-1:0] blk_rd_q;
+  always_ff @(posedge clk_i) begin
+    if (blk_we) blk_q[blk_addr] <= {blk_a, blk_b};
+    blk_rd_q <= blk_q[{bus_a[8:6], bus_a[4:0]}];
+  end
+
   // data memory: the engine's port, or the loader's while the engine is in reset
   logic [31:0] dm_q [1024];
   logic [31:0] dm_rd_q;
@@ -329,18 +345,10 @@ module ms_sched_uc
       dm_q[eng_rst ? ld_dm_a : bus_a[9:0]] <= eng_rst ? ld_dm_d : bus_wd;
     dm_rd_q <= dm_q[bus_a[9:0]];
   end
-  // blank offsets of (sensor, element): {a, b} at {sensor, element}; the bus reads a at BLK +
-  // 64 s + e and b at BLK + 64 s + 32 + e
-  logic [DELAY_W+BW-1:0] blk_q [256];
-  logic [DELAY_W+BW-1:0] blk_rd_q;
-  always_ff @(posedge clk_i) begin
-    if (blk_we) blk_q[blk_addr] <= {blk_a, blk_b};
-    blk_rd_q <= blk_q[{bus_a[8:6], bus_a[4:0]}];
-  end
 
   // ---- I/O registers the program writes
   logic [31:0]       su_ta_q, su_tb_q, su_twa_q, su_twb_q, w_t0_q, trig_t_q, hd_t_q, evt_lo_q;
-  logic [23:0]       w_ws_q, w_we_q, div_x_q;
+  logic [23:0]       w_we_q, div_x_q;
   logic [18:0]       w_meta_q;      // seq [7:0], init 8, epoch 9, sensor [18:16]
   logic [WSLOTS-1:0] su_valid_q;
   logic [WAW-1:0]    win_ra_q;
@@ -352,7 +360,6 @@ module ms_sched_uc
       if (io(bus_a, SU_TWB))   su_twb_q   <= bus_wd;
       if (io(bus_a, SU_VALID)) su_valid_q <= bus_wd[WSLOTS-1:0];
       if (io(bus_a, W_T0))     w_t0_q     <= bus_wd;
-      if (io(bus_a, W_WS))     w_ws_q     <= bus_wd[23:0];
       if (io(bus_a, W_WE))     w_we_q     <= bus_wd[23:0];
       if (io(bus_a, W_META))   w_meta_q   <= bus_wd[18:0];
       if (io(bus_a, TRIG_T))   trig_t_q   <= bus_wd;
@@ -373,19 +380,19 @@ module ms_sched_uc
   logic [23:0]       div_q;
   typedef struct packed {
     logic [31:0] t0;
-    logic [23:0] ws, we;
+    logic [23:0] we;
     logic [7:0]  seq;
     logic        epoch, init;
     logic [2:0]  sensor;
   } win_t;
-  win_t           win_q [NUM_CH * WSLOTS];
   win_t           win_rd_q;
   ms_sched_slot #(.NUM_CH(NUM_CH), .WSLOTS(WSLOTS)) u_slot (
     .clk_i, .rst_i(eng_rst), .go_i(io_we && io(bus_a, SU_GO)), .mode_i(bus_wd[11:10]),
     .el_i(EW'(bus_wd[7:0])), .bon_i(bus_wd[8]), .won_i(bus_wd[9]), .valid_i(su_valid_q),
     .ta_i(su_ta_q), .tb_i(su_tb_q), .twa_i(su_twa_q), .twb_i(su_twb_q),
     .latm1_i(latm1), .win_ra_o(su_ra), .win_re_o(su_re), .win_t0_i(win_rd_q.t0),
-    .win_ws_i(win_rd_q.ws), .win_we_i(win_rd_q.we), .win_sensor_i(win_rd_q.sensor),
+    .win_len_i(wlen_q[{win_rd_q.sensor, win_rd_q.init}]), .win_we_i(win_rd_q.we),
+    .win_sensor_i(win_rd_q.sensor),
     .busy_o(su_busy), .x_o(su_x), .flags_o(su_flags), .minc_o(su_minc)
   );
   ms_sched_div u_div (
@@ -394,11 +401,12 @@ module ms_sched_uc
   );
 
   // ---- WIN: written by the program (W_ADDR commits W_*), read by the slot unit's scan or
-  // at the program's WIN_RA
+  // at the program's WIN_RA (one write and one read port: two DP16KD of 512 x 36)
+  win_t win_q [NUM_CH * WSLOTS];
   always_ff @(posedge clk_i) begin
     if (io_we && io(bus_a, W_ADDR))
-      win_q[WAW'(bus_wd)] <= '{t0: w_t0_q, ws: w_ws_q, we: w_we_q, seq: w_meta_q[7:0],
-                               init: w_meta_q[8], epoch: w_meta_q[9], sensor: w_meta_q[18:16]};
+      win_q[WAW'(bus_wd)] <= '{t0: w_t0_q, we: w_we_q, seq: w_meta_q[7:0], init: w_meta_q[8],
+                               epoch: w_meta_q[9], sensor: w_meta_q[18:16]};
     win_rd_q <= win_q[su_re ? su_ra : win_ra_q];
   end
 
@@ -461,7 +469,7 @@ module ms_sched_uc
   always_comb begin
     unique case (rsel_q)
       2'd0:    bus_rd = dm_rd_q;
-      2'd1:    bus_rd = 32'(blk_rd_q[DELAY_W+BW-1:BW]);
+      2'd1:    bus_rd = 32'(blk_rd_q[XW-1:BW]);
       2'd2:    bus_rd = 32'(blk_rd_q[BW-1:0]);
       default: bus_rd = io_rd_q;
     endcase

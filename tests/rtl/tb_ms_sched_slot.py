@@ -33,7 +33,7 @@ async def load(dut, unit: SlotUnit, rng: random.Random, base: int, latm1: int) -
             s = rng.randrange(8)
             unit.slots[e * WSLOTS + k] = Slot(t0 + ws, t0 + we, t0 + we + latm1, s)
             dut.wr_addr_i.value = e * WSLOTS + k
-            dut.wr_t0_i.value, dut.wr_ws_i.value, dut.wr_we_i.value = t0, ws, we
+            dut.wr_t0_i.value, dut.wr_we_i.value, dut.wr_len_i.value = t0, we, we - ws
             dut.wr_sensor_i.value = s
             await FallingEdge(dut.clk_i)
     dut.wr_en_i.value = 0
@@ -57,7 +57,7 @@ async def scan(dut, unit: SlotUnit, mode: int, e: int, bon: int, won: int, valid
         assert int(dut.flags_o.value) == 0x80 and unit.read(clocks, SU_FLAGS) == 0x80, f"clock {clocks}"
         await FallingEdge(dut.clk_i)
         clocks += 1
-        assert clocks <= WSLOTS + 4
+        assert clocks <= WSLOTS + 5
     what = f"mode {mode >> 10} element {e} valid {valid:#06x} ta {m(ta)}"
     assert clocks == unit.done_at, f"{what}: busy fell after {clocks} clocks, the model's {unit.done_at}"
     got = (int(dut.x_o.value), int(dut.flags_o.value), int(dut.minc_o.value))

@@ -14,7 +14,7 @@ from .layout import (BA, BB, BU, CAND, DIV_LATENCY, DIV_N, DIV_Q, DIV_STAT, DIV_
                      NUM_RX, R_MASK24, R_SIGN24, SENS, SU_CONF, SU_EDGE, SU_FLAGS, SU_GO, SU_HEAD,
                      SU_LATENCY, SU_MINC, SU_SENSOR, SU_TA, SU_TB, SU_TWA, SU_TWB, SU_VALID, SU_X,
                      S_DUE, S_FLAGS, S_K, S_MODE, S_OPEN, S_QUIET, S_REINIT, S_SEQ, S_SHARE, S_TRK,
-                     TRIG_EL, TRIG_T, TRK, TU, WSLOTS, WV, W_ADDR, W_META, W_T0, W_WE, W_WS,
+                     TRIG_EL, TRIG_T, TRK, TU, WSLOTS, WV, W_ADDR, W_META, W_T0, W_WE,
                      pack_rx, prologue)  # noqa: F401
 from .units import (DivUnit, EngineWithUnits, Outputs, Slot, SlotUnit, run_kernel)  # noqa: F401
 from .decision import (SCHED_GO, SCHED_HOLD, SCHED_NOT_YET, SCHED_QUIET, cand_kernel, conf_kernel,

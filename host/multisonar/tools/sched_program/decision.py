@@ -9,7 +9,7 @@ from .layout import (BA, BB, BU, CAND, DIV_N, DIV_Q, DIV_STAT, DIV_X, EVT_HI, EV
                      F_EPOCH, F_IN_INIT, F_TRACKING, HC, HD_EL, HD_T, HS, R_MASK24, R_SIGN24, SENS,
                      SU_FLAGS, SU_GO, SU_MINC, SU_TA, SU_TB, SU_TWA, SU_TWB, SU_VALID, SU_X, S_DUE,
                      S_FLAGS, S_OPEN, S_QUIET, S_REINIT, S_SEQ, S_SHARE, S_TRK, TRIG_EL, TRIG_T, TU,
-                     WH, WR, WV, W_ADDR, W_META, W_T0, W_WE, W_WS)
+                     WH, WR, WV, W_ADDR, W_META, W_T0, W_WE)
 
 
 def cand_kernel(p: Program) -> Program:
@@ -105,7 +105,7 @@ def iel_kernel(p: Program) -> Program:
     window r4, with a blank interval r9; T_V / T_N in r5 / r6, the window of element e being
     [te - T_V, te + T_N) with te = CAND + e; an init ping uses te = 0, T_V = -D, T_N = R):
     blank_until and (tx) tx_until = max(, t0 + b); a trigger at t0 + a per tx element; the
-    window in the element's lowest free slot (WV), its fields from r1, the offsets and the
+    window in the element's lowest free slot (WV), its fields from r1, the end offset and the
     meta word r24 (its echo flags WH / WR cleared); the head (HC / HS and the close detector)
     when the new window closes first.
     Close tick = t0 + we + r25 (r25 = L - 1). Model: the issue part of _try_issue."""
@@ -131,12 +131,12 @@ def iel_kernel(p: Program) -> Program:
     p.b("eq", "iel_next")
     p.ld(15, 10, CAND).ld(17, 10, WV)
     p.mul(7, 10, 26)                         # the element's first slot address, e * 16
-    p.sub(18, 15, 5).add(19, 15, 6)          # ws, we
+    p.add(19, 15, 6)                         # we (WIN keeps no start: the sensor's length)
     p.xori(21, 17, -1)                       # free slots
     p.lsb(22, 21).addi(23, 21, -1)           # the lowest; its one-hot bit below
     p.andn(23, 21, 23).add(7, 7, 22)
     p.or_(17, 17, 23).add(30, 1, 19)
-    p.st(17, 10, WV).st(1, 0, W_T0).st(18, 0, W_WS).st(19, 0, W_WE).st(24, 0, W_META)
+    p.st(17, 10, WV).st(1, 0, W_T0).st(19, 0, W_WE).st(24, 0, W_META)
     p.st(7, 0, W_ADDR).add(30, 30, 25)       # the window's close tick t0 + we - 1 + L
     p.ld(13, 10, WH).ld(16, 10, WR)    # the slot's echo flags start clear
     p.andn(13, 13, 23).andn(16, 16, 23)

@@ -37,12 +37,14 @@ MAIN = 0x2E0          # the main loop's variables (M_* offsets)
 SU_TA, SU_TB, SU_TWA, SU_TWB, SU_GO = 0x400, 0x401, 0x402, 0x403, 0x404
 SU_X, SU_FLAGS, SU_MINC, SU_VALID = 0x405, 0x406, 0x407, 0x408
 SU_CONF, SU_EDGE, SU_HEAD, SU_SENSOR = 0, 1 << 10, 2 << 10, 3 << 10   # SU_GO modes
-SU_LATENCY = WSLOTS + 4   # clocks from SU_GO to the results, all slots valid (a valid slot per
-                          # clock, four stages)
-# outputs of IEL: a window slot written (fields, then the address commits it), a trigger
+SU_LATENCY = WSLOTS + 5   # clocks from SU_GO to the results, all slots valid (a valid slot per
+                          # clock, five stages)
+# outputs of IEL: a window slot written (fields, then the address commits it; WIN keeps no
+# start: the window is [t0 + we - len, t0 + we), len the sensor's window length, T_V + T_N or,
+# for an init ping, R - D, from the hardware's table of the applied sensors), a trigger
 # (tick, then the element commits it), a head set for the close detector (tick, then element |
 # slot << 8 commits it; element | 1 << 16: the element has no head)
-W_T0, W_WS, W_WE, W_META, W_ADDR = 0x410, 0x411, 0x412, 0x413, 0x414
+W_T0, W_WE, W_META, W_ADDR = 0x410, 0x412, 0x413, 0x414
 TRIG_T, TRIG_EL, HD_T, HD_EL = 0x418, 0x419, 0x41C, 0x41D
 EVT_LO, EVT_HI = 0x420, 0x421   # an event word: low half, then the high half commits it
 # the divider: DIV_X = dividend (< 2^24), DIV_N = divisor (1..15) starts it; DIV_Q = floor(x / n)
@@ -74,7 +76,7 @@ S_NXT, S_TX, S_RX, S_BLK, S_ORDER, S_TV, S_TN, S_D, S_RMAX = 2, 7, 8, 9, 10, 11,
 S_LO, S_HI, S_VMAX, S_QOFF, S_PHASE, S_NRX = 15, 16, 19, 20, 21, 25
 F_TRACKING, F_IN_INIT, F_EPOCH, F_ANY_TRK = 1, 2, 4, 8    # S_FLAGS bits
 NUM_VS = 8
-UCODE_WORDS = 2048    # ms_sched_uc's ROM depth (the main program is 1.26k words)
+UCODE_WORDS = 1536    # ms_sched_uc's ROM depth: three DP16KD of 512 x 36 (the program is 1.26k words)
 # main-loop variables at MAIN + M_*: the start tick, decision lead P, L = edge latency, the
 # miss gate, the next logical tick, the current one, its edges and closes left, td and armed,
 # the sensor of the SCHED phase, saved kernel results; sensor masks: the table's sensors

@@ -104,6 +104,13 @@ def sensor_words(c: Any, shares: int, reinit_every: int | None = None) -> dict[i
     return out
 
 
+def window_length(c: Any, init: bool) -> int:
+    """The length of every window of resolved sensor ``c`` (the hardware's table, by sensor and
+    init bit; WIN keeps no start): an init ping's [D, R), a tracking window's [te - T_V, te +
+    T_N)."""
+    return c.max_tof - c.blank if init else c.t_v + c.t_n
+
+
 class _Bus(EngineWithUnits):
     """The engine's model on the scheduler's bus: data memory, the units, and the hardware
     of :class:`EngineSystem` (tick counter, work queue, WIN read port, heads, outputs)."""
@@ -145,8 +152,10 @@ class _Bus(EngineWithUnits):
         else:
             if addr == W_ADDR:
                 super().write(addr, data)
-                t0, ws, we, meta = self.out.slots[data]
-                self.su.slots[data] = Slot(t0 + ws, t0 + we, t0 + we - 1 + s.latency, meta >> 16 & 0xFF)
+                t0, we, meta = self.out.slots[data]
+                sensor, init = meta >> 16 & 0x7, meta >> 8 & 1
+                self.su.slots[data] = Slot(t0 + we - s.win_len[sensor, init], t0 + we,
+                                           t0 + we - 1 + s.latency, sensor)
                 return
             super().write(addr, data)
             if addr == TRIG_EL:
@@ -187,6 +196,7 @@ class EngineSystem:
         mem.update({MAIN + M_START: self.start, MAIN + M_P: self.lead, MAIN + M_L: self.latency,
                     MAIN + M_GATE: int(miss_gate or 0),
                     MAIN + M_ACT: sum(1 << c.id for c in self.cfg)})
+        self.win_len = {(c.id, init): window_length(c, bool(init)) for c in self.cfg for init in (0, 1)}
         share = share_matrix(self.cfg)
         for c in self.cfg:
             shares = sum(1 << o.id for o in self.cfg if o.id != c.id and share[c.id][o.id])
@@ -240,7 +250,7 @@ class EngineSystem:
     def win_read(self, addr: int, cycle: int) -> int:
         if cycle < self.win_at + 2:
             return 0xDEAD_BEEF          # the block RAM's registered read is not there yet
-        t0, ws, we, meta = self.m.out.slots[self.win_ra]
+        t0, we, meta = self.m.out.slots[self.win_ra]
         return {WIN_T0: t0, WIN_WE: we, WIN_META: meta}[addr]
 
     def on_trigger(self, trig: tuple[int, int], cycle: int) -> None:

@@ -3,7 +3,7 @@ unit, the divider, the output strobes), the engine's model with them, and run_ke
 
 The slot unit (:class:`SlotUnit`, a fixed stream unit the engine drives through I/O
 registers) scans the valid ones of the up to 16 reserved windows of one element, one per
-clock (results four clocks after the last; SU_LATENCY with every slot valid), against the
+clock (results five clocks after the last; SU_LATENCY with every slot valid), against the
 candidate's blank interval [TA, TB) and window [TWA, TWB) (absolute ticks, written before
 SU_GO = element | blank on << 8 | window on << 9) and gives, when busy falls, SU_X =
 the latest retry relative to TA / TWA among the windows it overlaps (end - TA, end - TWA),
@@ -20,7 +20,7 @@ from ..sched_ucode import MASK32, Machine, Program, UcodeError, sext
 from .layout import (DIV_LATENCY, DIV_N, DIV_Q, DIV_STAT, DIV_X, EVT_HI, EVT_LO, HD_EL, HD_T,
                      SU_CONF, SU_EDGE, SU_FLAGS, SU_GO, SU_HEAD, SU_LATENCY, SU_MINC, SU_TA, SU_TB,
                      SU_TWA, SU_TWB, SU_VALID, SU_X, TRIG_EL, TRIG_T, WSLOTS, W_ADDR, W_META, W_T0,
-                     W_WE, W_WS)
+                     W_WE)
 
 
 def run_kernel(p: Program, kernel: Callable[[Program], Program], mem: dict[int, int] | None = None,
@@ -102,10 +102,10 @@ class SlotUnit:
 
 @dataclass
 class Outputs:
-    """What the kernels commit: window slots {address: (t0, ws, we, meta)}, triggers [(tick,
+    """What the kernels commit: window slots {address: (t0, we, meta)}, triggers [(tick,
     element)], head sets [(element, slot, close tick)], event words, in order."""
     regs: dict[int, int] = field(default_factory=dict)
-    slots: dict[int, tuple[int, int, int, int]] = field(default_factory=dict)
+    slots: dict[int, tuple[int, int, int]] = field(default_factory=dict)
     triggers: list[tuple[int, int]] = field(default_factory=list)
     heads: list[tuple[int, int, int]] = field(default_factory=list)
     events: list[int] = field(default_factory=list)
@@ -113,7 +113,7 @@ class Outputs:
     def write(self, addr: int, data: int) -> None:
         self.regs[addr] = data
         if addr == W_ADDR:
-            self.slots[data] = tuple(self.regs.get(a, 0) for a in (W_T0, W_WS, W_WE, W_META))
+            self.slots[data] = tuple(self.regs.get(a, 0) for a in (W_T0, W_WE, W_META))
         elif addr == TRIG_EL:
             self.triggers.append((self.regs.get(TRIG_T, 0), data))
         elif addr == HD_EL and data >> 16 & 1:   # the element has no head any more
