@@ -13,7 +13,7 @@ from multisonar.tools.sched_program import (BA, BB, BU, CAND, R_MASK24, R_SIGN24
                                             F_TRACKING, HC, HS, NUM_RX, S_DUE, S_FLAGS, S_K,
                                             S_MODE, S_OPEN, S_QUIET, S_REINIT, S_SEQ, S_SHARE,
                                             S_TRK, SCHED_GO, SCHED_HOLD, SCHED_NOT_YET,
-                                            SCHED_QUIET, SENS, TRK, TU, WSLOTS, WV, cand_clocks,
+                                            SCHED_QUIET, SENS, SENS_STRIDE, TRK, TU, WSLOTS, WV, cand_clocks,
                                             cand_kernel, close_clocks, close_kernel, conf_clocks,
                                             conf_kernel, EngineWithUnits, hit_clocks, hit_kernel,
                                             iel_clocks, iel_kernel, issue_kernel, order_clocks,
@@ -356,7 +356,7 @@ def test_close_kernel_counts_misses_and_ends_init_as_the_model(seed):
     w.rejected = w.n_edges > 0 and rng.random() < 0.4
     model.windows[rx] = [w]
     words = sensor_words(s, c)
-    base_s = SENS + 32 * sensor
+    base_s = SENS + SENS_STRIDE * sensor
     trk = TRK + 2 * (NUM_RX * sensor + rx)
     mem = {base_s + k: v for k, v in words.items()}
     mem[trk], mem[trk + 1] = pack_state(s.rx[rx])
@@ -455,7 +455,7 @@ def test_sched_kernel_decides_as_the_model(seed):
     sid = rng.randrange(n)
     mem = {}
     for s in model.sensors:
-        base = SENS + 32 * s.cfg.id
+        base = SENS + SENS_STRIDE * s.cfg.id
         mem.update({base + k: v for k, v in sensor_words(s, s.cfg).items()})
         mem[base + S_QUIET] = s.quiet & 0xFFFF_FFFF
         mem[base + S_TRK] = min(s.track_pulses, 255)
@@ -465,7 +465,7 @@ def test_sched_kernel_decides_as_the_model(seed):
     heap_before = len(model._heap)
     model._try_issue(s)
     pushed = model._heap[heap_before:] if len(model._heap) > heap_before else []
-    p = prologue(Program("sched")).li(1, now).li(2, lead).li(7, sid).li(8, SENS + 32 * sid)
+    p = prologue(Program("sched")).li(1, now).li(2, lead).li(7, sid).li(8, SENS + SENS_STRIDE * sid)
     m, _ = run_kernel(p, sched_kernel, mem, max_cycles=10_000)
     outcome = m.regs[10]
     if "go" in model.seen:
@@ -477,7 +477,7 @@ def test_sched_kernel_decides_as_the_model(seed):
     else:
         assert outcome == SCHED_NOT_YET
     assert m.regs[13] == int("cancel" in model.seen)
-    assert bool(m.mem[SENS + 32 * sid + S_FLAGS] & F_TRACKING) == s.tracking
+    assert bool(m.mem[SENS + SENS_STRIDE * sid + S_FLAGS] & F_TRACKING) == s.tracking
 
 
 # ------------------------------------------------------------------ ORDER

@@ -4,8 +4,10 @@ Python. The RTL is compared with this model in tests/rtl/test_ms_sched_engine.py
 
 import pytest
 
-from multisonar.tools.sched_ucode import (CONDS, OPCODES, Machine, Program, UcodeError, decode,
-                                          encode, sv_package)
+import random
+
+from multisonar.tools.sched_ucode import (CB_OPS, CONDS, OPCODES, Machine, Program, UcodeError,
+                                          decode, encode, sv_package)
 
 
 def run(p: Program, mem=None) -> Machine:
@@ -28,7 +30,7 @@ def test_neighbour_reading_a_result_gets_a_nop():
 def test_loads_stores_and_flags_follow_the_same_rule():
     img = Program().ld(1, 0, 5).st(1, 0, 6).assemble()          # store data from the load
     assert img.nops_inserted == 1
-    img = Program().cmpi(1, 3).b("ne", "x").label("x").assemble()  # flags before a branch
+    img = Program(fuse=False).cmpi(1, 3).b("ne", "x").label("x").assemble()  # flags, a branch
     assert img.nops_inserted == 1
     img = Program().cmpi(1, 3).b("al", "x").label("x").assemble()  # always: reads no flags
     assert img.nops_inserted == 0
@@ -148,3 +150,71 @@ def test_clamp(value, want):
     """Modulo compares, as the RTL's ticks: 0x80000000 - 20 is positive, so above the bounds."""
     m = run(Program().li(1, value).li(2, 10).li(3, 20).clamp(1, 2, 3).clamp(1, 2, 3))
     assert m.regs[1] == want
+
+
+# ------------------------------------------------------------------ compare-and-branch
+FUSIBLE = [   # (flag-only compare, the compare-and-branch it fuses into)
+    (lambda p: p.cmp(1, 2), "cb"),
+    (lambda p: p.tst(1), "cb"),
+    (lambda p: p.and_(0, 1, 2), "cbt"),
+    (lambda p: p.andi(0, 1, 1 << 9), "cbb"),
+    (lambda p: p.cmpi(1, -256), "cbi"),
+    (lambda p: p.cmpi(1, 255), "cbi"),
+]
+
+
+@pytest.mark.parametrize("compare, op", FUSIBLE)
+def test_a_fused_compare_and_branch_equals_the_pair(compare, op):
+    """Fused or not, every register, flag and store is the same for values around the compare's
+    edges; the fused one is one word instead of three (compare, hazard NOP, branch)."""
+    rng = random.Random(op)
+    values = [0, 1, 2, 255, 256, 0x200, 0x7FFF_FFFF, 0x8000_0000, 0xFFFF_FFFF, 0xFFFF_FF00]
+    for _ in range(40):
+        x, y = rng.choice(values + [rng.getrandbits(32)]), rng.choice(values + [rng.getrandbits(32)])
+        for cond in CONDS:
+            if cond == "al":
+                continue
+            got = []
+            for fuse in (True, False):
+                p = Program(fuse=fuse).li(1, x).li(2, y).nop()
+                compare(p).b(cond, "t").li(3, 1).st(3, 0, 9).jmp("e")
+                p.label("t").li(3, 2).st(3, 0, 9).label("e")
+                img_ops = [decode(w).op for w in p.assemble().words]
+                assert (op in img_ops) == fuse
+                m = run(p)
+                got.append((m.regs[3], m.z, m.n, m.mem[9]))
+            assert got[0] == got[1], f"{op} {cond} x={x:#x} y={y:#x}"
+
+
+def test_compare_and_branch_timing():
+    """Not taken: the next instruction in the next clock. Taken: the two behind it are squashed
+    and the target is three clocks after the branch."""
+    for x, taken in ((5, True), (6, False)):
+        p = Program().li(1, x).nop().cbi("eq", 1, 5, "t").st(1, 0, 1).st(1, 0, 2).st(1, 0, 3)
+        p.label("t").st(1, 0, 4)
+        m = run(p)
+        stores = [(op.addr, op.cycle) for op in m.trace if op.write]
+        # li, nop, cbi in clocks 0..2: the store after it is on the bus in clock 4
+        assert stores == ([(4, 6)] if taken else [(1, 4), (2, 5), (3, 6), (4, 7)])
+
+
+def test_what_cannot_fuse_stays_a_pair():
+    for compare in (lambda p: p.cmp(1, 2).nop(), lambda p: p.sub(3, 1, 2), lambda p: p.andi(0, 1, 6),
+                    lambda p: p.cmpi(1, 300), lambda p: p.xor(0, 1, 2), lambda p: p.cmp(1, 2).label("x")):
+        p = compare(Program()).b("eq", "y").label("y")
+        assert not any(decode(w).op in CB_OPS for w in p.assemble().words)
+
+
+def test_a_call_right_after_a_compare_and_branch_gets_a_nop():
+    """(squashed, it would still set the link register)"""
+    p = Program().cb("eq", 1, 2, "x").call("f").label("x").jmp("x").label("f").ret()
+    assert [decode(w).op for w in p.assemble().words][:3] == ["cb", "nop", "call"]
+
+
+@pytest.mark.parametrize("build, message", [
+    (lambda p: p.cbi("eq", 1, 256, "x"), "cbi immediate 256"),
+    (lambda p: p.cb("al", 1, 2, "x"), "condition other than al"),
+])
+def test_bad_compare_and_branches_are_refused(build, message):
+    with pytest.raises(UcodeError, match=message):
+        build(Program()).label("x").assemble()

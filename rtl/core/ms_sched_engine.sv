@@ -17,6 +17,11 @@
 //   - So a result and the flags are usable from the second instruction after their producer;
 //     the assembler puts a NOP between neighbours that would read too early (the core has no
 //     interlocks and reads a stale value there).
+//   - A compare-and-branch (OP_CB*) sets the flags in its X stage like its ALU operation and
+//     decides in its W stage (clock k + 2) on them: taken, the pc is its target and the two
+//     instructions behind it (R and X stages) are squashed (no bus access, no register, flag
+//     or link write; the R stage's branch is overridden), so the target is in the R stage in
+//     clock k + 3.
 //   - UCODE_FILE: the ROM's $readmemh image (multisonar.tools.sched_ucode.Image.hex); empty:
 //     the ROM is written by the testbench.
 module ms_sched_engine
@@ -52,19 +57,26 @@ module ms_sched_engine
 
   // ------------------------------------------------------------------ R: decode, branch, read
   logic z_q, n_q;                      // flags, set in the X stage
-  logic r_taken;
-  always_comb begin
-    unique case (r_rd[3:0])
-      CC_AL:   r_taken = 1'b1;
-      CC_EQ:   r_taken = z_q;
-      CC_NE:   r_taken = !z_q;
-      CC_LT:   r_taken = n_q;
-      CC_GE:   r_taken = !n_q;
-      CC_LE:   r_taken = n_q || z_q;
-      CC_GT:   r_taken = !n_q && !z_q;
-      default: r_taken = 1'b0;
+  function automatic logic cond_holds(input logic [3:0] cc, input logic z, input logic n);
+    unique case (cc)
+      CC_AL:   cond_holds = 1'b1;
+      CC_EQ:   cond_holds = z;
+      CC_NE:   cond_holds = !z;
+      CC_LT:   cond_holds = n;
+      CC_GE:   cond_holds = !n;
+      CC_LE:   cond_holds = n || z;
+      CC_GT:   cond_holds = !n && !z;
+      default: cond_holds = 1'b0;
     endcase
-  end
+  endfunction
+  logic          r_taken;
+  assign r_taken = cond_holds(r_rd[3:0], z_q, n_q);
+
+  // W stage of a compare-and-branch: taken squashes the R and X stages (kill)
+  logic          w_cb_q, kill;
+  logic [3:0]    w_cc_q;
+  logic [PW-1:0] w_tgt_q;
+  assign kill = w_cb_q && cond_holds(w_cc_q, z_q, n_q);
 
   always_comb begin
     pc_d = pc_q + PW'(1);
@@ -72,6 +84,8 @@ module ms_sched_engine
     if (rst_i) begin
       pc_d = '0;
       lr_d = '0;
+    end else if (kill) begin
+      pc_d = w_tgt_q;
     end else begin
       unique case (r_op)
         OP_B:    if (r_taken) pc_d = r_imm[PW-1:0];
@@ -112,13 +126,16 @@ module ms_sched_engine
     FN_ADD, FN_SUB, FN_AND, FN_OR, FN_XOR, FN_ANDN, FN_MUL, FN_LSB, FN_ROTB, FN_NONE
   } fn_e;
   fn_e         r_fn;
-  logic        r_imm_b, r_u_b, r_ld, r_st;
+  logic        r_imm_b, r_u_b, r_ld, r_st, r_cb, r_k_b, r_bit_b;
   always_comb begin
     r_fn    = FN_NONE;
     r_imm_b = 1'b0;  // b operand: sign-extended imm15 (else rb)
     r_u_b   = 1'b0;  // b operand: {rb field, imm15} << 12
+    r_k_b   = 1'b0;  // b operand: sign-extended {rb field, imm[14:11]} (OP_CBI)
+    r_bit_b = 1'b0;  // b operand: 1 << rb field (OP_CBB)
     r_ld    = 1'b0;
     r_st    = 1'b0;
+    r_cb    = 1'b0;
     unique case (r_op)
       OP_ADD:  r_fn = FN_ADD;
       OP_SUB:  r_fn = FN_SUB;
@@ -136,18 +153,25 @@ module ms_sched_engine
       OP_ROTB: r_fn = FN_ROTB;
       OP_LD:   {r_ld, r_imm_b} = 2'b11;
       OP_ST:   r_st = 1'b1;
+      OP_CB:   {r_fn, r_cb} = {FN_SUB, 1'b1};
+      OP_CBI:  {r_fn, r_cb, r_k_b} = {FN_SUB, 2'b11};
+      OP_CBB:  {r_fn, r_cb, r_bit_b} = {FN_AND, 2'b11};
+      OP_CBT:  {r_fn, r_cb} = {FN_AND, 1'b1};
       default: ;
     endcase
-    if (rst_i) begin
+    if (rst_i || kill) begin
       r_fn = FN_NONE;
       r_ld = 1'b0;
       r_st = 1'b0;
+      r_cb = 1'b0;
     end
   end
 
   // ------------------------------------------------------------------ X: ALU, bus, flags
   fn_e           x_fn_q;
-  logic          x_ld_q, x_st_q, x_we_q;
+  logic          x_ld_q, x_st_q, x_we_q, x_cb_q;
+  logic [3:0]    x_cc_q;
+  logic [PW-1:0] x_tgt_q;
   logic [4:0]    x_rd_q;
   logic [31:0]   x_a_q, x_b_q;
   logic [AW-1:0] x_off_q;              // bus address offset (imm, sign-extended)
@@ -156,10 +180,14 @@ module ms_sched_engine
     x_fn_q  <= r_fn;
     x_ld_q  <= r_ld;
     x_st_q  <= r_st;
-    x_we_q  <= (r_fn != FN_NONE || r_ld) && r_rd != 5'd0;
+    x_we_q  <= (r_fn != FN_NONE || r_ld) && r_rd != 5'd0 && !r_cb;
+    x_cb_q  <= r_cb;
+    x_cc_q  <= r_rd[3:0];
+    x_tgt_q <= r_imm[PW-1:0];
     x_rd_q  <= r_rd;
     x_a_q   <= r_a;
-    x_b_q   <= r_u_b ? {r_rb, r_imm, 12'd0} : r_imm_b ? 32'($signed(r_imm)) : r_b;
+    x_b_q   <= r_u_b ? {r_rb, r_imm, 12'd0} : r_imm_b ? 32'($signed(r_imm))
+             : r_k_b ? 32'($signed({r_rb, r_imm[14:11]})) : r_bit_b ? 32'd1 << r_rb : r_b;
     x_off_q  <= AW'($signed(r_imm));
     x_rotb_q <= r_imm[1:0];
   end
@@ -214,18 +242,21 @@ module ms_sched_engine
     if (rst_i) begin
       z_q <= 1'b0;
       n_q <= 1'b0;
-    end else if (x_fn_q != FN_NONE && x_fn_q != FN_MUL) begin  // MUL keeps the flags (Fmax)
+    end else if (!kill && x_fn_q != FN_NONE && x_fn_q != FN_MUL) begin  // MUL keeps the flags
       z_q <= (x_fn_q == FN_LSB) ? (x_onehot == '0) : (x_res == '0);
       n_q <= x_res[31];
     end
-    w_we_q  <= x_we_q;
+    w_cb_q  <= !rst_i && x_cb_q && !kill;
+    w_cc_q  <= x_cc_q;
+    w_tgt_q <= x_tgt_q;
+    w_we_q  <= x_we_q && !kill;
     w_ld_q  <= x_ld_q;
     w_rd_q  <= x_rd_q;
     w_res_q <= x_res;
   end
 
-  assign bus_re_o    = x_ld_q;
-  assign bus_we_o    = x_st_q;
+  assign bus_re_o    = x_ld_q && !kill;
+  assign bus_we_o    = x_st_q && !kill;
   assign bus_addr_o  = x_a_q[AW-1:0] + x_off_q;
   assign bus_wdata_o = x_b_q;  // ST's b operand is rb (r_imm_b is low for it)
 

@@ -271,7 +271,7 @@ module ms_sched_uc
     ld_dm_d  = '0;
     if (rec_i_q != '1) begin
       ld_dm_we = 1'b1;
-      ld_dm_a  = 10'(SENS + 32 * int'(rec_q.vs));
+      ld_dm_a  = 10'(SENS + SENS_STRIDE * int'(rec_q.vs));
       unique case (rec_i_q)
         5'd0:  begin ld_dm_a += 10'(S_TX);     ld_dm_d = 32'(rec_q.tx);     end
         5'd1:  begin ld_dm_a += 10'(S_RX);     ld_dm_d = 32'(rec_q.rx);     end
@@ -294,7 +294,7 @@ module ms_sched_uc
     end else if (ctl_q == C_FINISH && !fin_done) begin
       ld_dm_we = 1'b1;
       if (fin_i_q < 4'(NUM_VS)) begin
-        ld_dm_a = 10'(SENS + 32 * int'(fin_i_q) + S_SHARE);
+        ld_dm_a = 10'(SENS + SENS_STRIDE * int'(fin_i_q) + S_SHARE);
         ld_dm_d = 32'(share_q[fin_i_q[2:0]]);
       end else begin
         unique case (fin_i_q)

@@ -4,7 +4,8 @@ written data) of a program must be the model's, clock for clock. Programs end by
 register and the flags (through branches) to the bus, so a wrong result always shows.
 
 Programs: every instruction on edge values, the shortest forwarding distance, all branch
-conditions, call / return; random programs (seeded) with forward branches, counted loops and
+conditions, call / return, compare-and-branch with stores, loads and branches in its shadow;
+random programs (seeded) with forward branches, counted loops and
 calls;
 a lowest-set-bit loop over masks, the engine's typical scan.
 """
@@ -115,6 +116,25 @@ def directed_program() -> Program:
         for cond in CONDS:
             p.li(27, 0).b(cond, f"t{i}{cond}").li(27, 1)
             p.label(f"t{i}{cond}").st(27, 0, 0x500 + 8 * i + CONDS[cond])
+    # compare-and-branch, each kind taken and not taken, with a store, a load, a branch and
+    # another compare-and-branch in its shadow (squashed when it is taken)
+    p.li(1, 0x100).li(2, 0x100).li(4, 0x8000_0005).nop()
+    shadows = (lambda q, i: q.st(4, 0, 0x600 + i).st(4, 0, 0x640 + i),
+               lambda q, i: q.ld(29, 0, 0x405).addi(30, 30, 1),
+               lambda q, i: q.jmp(f"c{i}").st(4, 0, 0x680 + i),
+               lambda q, i: q.cb("ne", 1, 2, f"c{i}").st(4, 0, 0x6C0 + i))
+    kinds = (lambda q, i, c: q.cb(c, 1, 2, f"c{i}"), lambda q, i, c: q.cb(c, 4, 0, f"c{i}"),
+             lambda q, i, c: q.cbi(c, 1, 255, f"c{i}"), lambda q, i, c: q.cbi(c, 4, -256, f"c{i}"),
+             lambda q, i, c: q.cbb(c, 1, 8, f"c{i}"), lambda q, i, c: q.cbb(c, 4, 31, f"c{i}"),
+             lambda q, i, c: q.cbt(c, 1, 4, f"c{i}"))
+    p.li(30, 0)
+    i = 0
+    for kind in kinds:
+        for cond in ("eq", "ne", "lt", "ge", "le", "gt"):
+            kind(p, i, cond)
+            shadows[i % len(shadows)](p, i)
+            p.st(4, 0, 0x700 + i).label(f"c{i}").st(30, 0, 0x780 + i)
+            i += 1
     p.li(2, 3)
     return finish(p)
 

@@ -13,7 +13,14 @@ imm[14:0]. 32 registers of 32 bits, r0 reads 0 and ignores writes. One instructi
 no interlocks: a result (ALU or load) and the flags are usable from the second instruction
 after the one producing them; :meth:`Program.assemble` inserts a NOP where the next
 instruction would read too early (only neighbours in address order can: a taken branch puts
-itself between its predecessor and the target). Branches resolve in one clock, no delay slot.
+itself between its predecessor and the target). ``b`` resolves in one clock on the flags, no
+delay slot. The compare-and-branch instructions (``cb``, ``cbi``, ``cbb``, ``cbt``) set the
+flags as their ALU operation would and resolve two clocks later: when taken, the two
+instructions after them in address order are squashed (no effect at all) and the target
+follows three clocks after the branch; not taken, they cost one clock. :meth:`Program.b`
+fuses a flag-only compare right before it into one of them (a ``sub``, ``tst``, ``cmpi`` with
+a small immediate, single-bit ``andi`` or ``and`` with rd = r0: the same flags, one word
+instead of three with the hazard NOP).
 """
 
 from __future__ import annotations
@@ -31,7 +38,9 @@ MASK32 = 0xFFFF_FFFF
 # opcode -> (code, format). Formats: "r" rd = ra op rb; "i" rd = ra op sext(imm15);
 # "u" rd = imm20 << 12 (imm20 = {rb, imm}); "x" rd = ra rotated right by imm[1:0] bytes;
 # "l" rd = bus[ra + sext(imm)]; "s" bus[ra + sext(imm)] = rb; "b" branch (rd = condition,
-# imm = target); "c" call (imm = target); "n" no operands.
+# imm = target); "c" call (imm = target); "n" no operands; compare-and-branch (rd = condition,
+# imm[10:0] = target): "cb" flags of ra - rb, "ci" flags of ra - k (k: signed 9 bits, {rb,
+# imm[14:11]}), "cq" flags of ra & (1 << rb), "ct" flags of ra & rb.
 OPCODES: dict[str, tuple[int, str]] = {
     "nop":  (0, "n"),
     "add":  (1, "r"), "sub": (2, "r"), "and": (3, "r"), "or": (4, "r"), "xor": (5, "r"),
@@ -43,12 +52,16 @@ OPCODES: dict[str, tuple[int, str]] = {
     "rotb": (14, "x"),  # ra rotated right by 0-3 bytes
     "ld":   (16, "l"), "st": (17, "s"),
     "b":    (20, "b"), "call": (21, "c"), "ret": (22, "n"),
+    "cb":   (23, "cb"), "cbi": (24, "ci"), "cbb": (25, "cq"), "cbt": (26, "ct"),
 }
+CB_OPS = frozenset({"cb", "cbi", "cbb", "cbt"})   # compare-and-branch
+TARGET_BITS = 11       # a compare-and-branch's target: imm[10:0]
+CBI_MIN, CBI_MAX = -256, 255
 # operations that write the flags Z (result == 0) and N (result bit 31); lsb: Z = ra == 0, N = 0.
 # mul keeps them: its product would otherwise run on into the flags' zero test (57 -> 61 MHz)
 FLAG_OPS = frozenset({"add", "sub", "and", "or", "xor", "andn", "addi", "andi", "ori",
-                      "xori", "lui", "lsb", "rotb"})
-WRITE_OPS = FLAG_OPS | {"ld", "mul"}  # operations that write rd
+                      "xori", "lui", "lsb", "rotb"}) | CB_OPS
+WRITE_OPS = (FLAG_OPS - CB_OPS) | {"ld", "mul"}  # operations that write rd
 CONDS = {"al": 0, "eq": 1, "ne": 2, "lt": 3, "ge": 4, "le": 5, "gt": 6}
 
 
@@ -74,9 +87,14 @@ class Insn:
     imm: int = 0
     target: str | None = None   # branch / call label, resolved by assemble()
     where: str = ""             # for messages: the builder's line or a caller's note
+    k: int = 0                  # cbi's compare immediate
 
     def reads(self) -> set[int]:
         fmt = OPCODES[self.op][1]
+        if fmt in ("cb", "ct"):
+            return {self.ra, self.rb} - {0}
+        if fmt in ("ci", "cq"):
+            return {self.ra} - {0}
         if fmt == "r":
             return {self.ra, self.rb} - {0} if self.op != "lsb" else {self.ra} - {0}
         if fmt in ("i", "x", "l"):
@@ -92,7 +110,15 @@ class Insn:
 def encode(insn: Insn, target: int = 0) -> int:
     code, fmt = OPCODES[insn.op]
     rd, ra, rb, imm = insn.rd, insn.ra, insn.rb, insn.imm
-    if fmt in ("b", "c"):
+    if fmt in ("cb", "ci", "cq", "ct"):
+        if not 0 <= target < (1 << TARGET_BITS):
+            raise UcodeError(f"{insn.where}: {insn.op} target {target} beyond {TARGET_BITS} bits")
+        imm = target
+        if fmt == "ci":
+            if not CBI_MIN <= insn.k <= CBI_MAX:
+                raise UcodeError(f"{insn.where}: cbi immediate {insn.k} outside {CBI_MIN}..{CBI_MAX}")
+            rb, imm = (insn.k >> 4) & 0x1F, imm | (insn.k & 0xF) << TARGET_BITS
+    elif fmt in ("b", "c"):
         imm, rb, ra = target, 0, 0
         if fmt == "c":
             rd = 0
@@ -118,6 +144,11 @@ def decode(word: int) -> Insn:
         imm = sext(imm, IMM_BITS)
     elif fmt == "u":
         imm = (rb << IMM_BITS) | imm
+    elif fmt == "ci":
+        return Insn(op, rd, ra, 0, imm & ((1 << TARGET_BITS) - 1),
+                    k=sext(rb << 4 | imm >> TARGET_BITS, 9))
+    elif fmt in ("cb", "cq", "ct"):
+        imm &= (1 << TARGET_BITS) - 1
     return Insn(op, rd, ra, rb, imm)
 
 
@@ -140,8 +171,9 @@ class Program:
     ``p.b("ne", "loop")``. Pseudo-instructions: ``li``, ``mov``, ``cmp``, ``cmpi``, ``tst``,
     ``clamp``, ``jmp``."""
 
-    def __init__(self, name: str = "program") -> None:
+    def __init__(self, name: str = "program", fuse: bool = True) -> None:
         self.name = name
+        self.fuse = fuse                     # b() fuses a flag-only compare before it
         self.items: list[Insn | str] = []   # instructions and labels (str) in order
         self._count = 0                      # instructions among the items
 
@@ -210,9 +242,40 @@ class Program:
         return self._emit(Insn(op, rd, ra, rb, off))
 
     def b(self, cond: str, target: str) -> "Program":
+        """Branch on the flags; fused with a flag-only compare right before it (no label
+        between) into a compare-and-branch when one has the same flags."""
         if cond not in CONDS:
             raise UcodeError(f"{self.name}: unknown branch condition {cond!r} (one of {sorted(CONDS)})")
+        last = self.items[-1] if self.items else None
+        if self.fuse and cond != "al" and isinstance(last, Insn):
+            fused = _fused(last, CONDS[cond], target)
+            if fused is not None:
+                self.items[-1] = fused
+                return self
         return self._emit(Insn("b", CONDS[cond], target=target))
+
+    def _cbranch(self, op: str, cond: str, ra: int, rb: int, target: str, k: int = 0) -> "Program":
+        if cond not in CONDS or cond == "al":
+            raise UcodeError(f"{self.name}: {op} takes a condition other than al, not {cond!r}")
+        return self._emit(Insn(op, CONDS[cond], ra, rb, target=target, k=k))
+
+    def cb(self, cond: str, ra: int, rb: int, target: str) -> "Program":
+        """branch to ``target`` if ``cond`` holds for ra - rb (the flags of cmp)"""
+        return self._cbranch("cb", cond, ra, rb, target)
+
+    def cbi(self, cond: str, ra: int, k: int, target: str) -> "Program":
+        """branch if ``cond`` holds for ra - k, k in -256..255 (the flags of cmpi)"""
+        if not CBI_MIN <= k <= CBI_MAX:
+            raise UcodeError(f"{self.name}: cbi immediate {k} outside {CBI_MIN}..{CBI_MAX}")
+        return self._cbranch("cbi", cond, ra, 0, target, k)
+
+    def cbb(self, cond: str, ra: int, bit: int, target: str) -> "Program":
+        """branch if ``cond`` holds for ra & (1 << bit) (eq: the bit is clear)"""
+        return self._cbranch("cbb", cond, ra, bit, target)
+
+    def cbt(self, cond: str, ra: int, rb: int, target: str) -> "Program":
+        """branch if ``cond`` holds for ra & rb"""
+        return self._cbranch("cbt", cond, ra, rb, target)
 
     def jmp(self, target: str) -> "Program":
         return self.b("al", target)
@@ -265,7 +328,9 @@ class Program:
             if isinstance(item, str):
                 out.append(item)
                 continue
-            if prev is not None and hazard(prev, item):
+            if prev is not None and (hazard(prev, item) or (prev.op in CB_OPS and item.op == "call")):
+                # (a call right after a compare-and-branch would set the link register while
+                # squashed)
                 if strict:
                     raise UcodeError(f"{item.where}: reads what {prev.where} produces in the clock "
                                      "before (one instruction must come between)")
@@ -293,7 +358,8 @@ class Program:
                     raise UcodeError(f"{item.where}: unknown label {item.target!r}")
                 tgt = labels[item.target]
             listing.append(f"  {len(words):4d}  {item.op} rd={item.rd} ra={item.ra} rb={item.rb} "
-                           f"imm={item.imm}{' -> ' + item.target if item.target else ''}")
+                           f"imm={item.k if item.op == 'cbi' else item.imm}"
+                           f"{' -> ' + item.target if item.target else ''}")
             words.append(encode(item, tgt))
         return Image(words, labels, listing, nops)
 
@@ -316,7 +382,7 @@ class Program:
         return out + schedule_block(block)
 
 
-CONTROL_OPS = frozenset({"b", "call", "ret"})
+CONTROL_OPS = frozenset({"b", "call", "ret"}) | CB_OPS
 _FLAGS = NREGS   # the flags, as one more register for the dependences
 
 
@@ -366,6 +432,26 @@ def schedule_block(block: list[Insn]) -> list[Insn]:
     return [block[j] for j in placed]
 
 
+def _fused(flag_op: Insn, cond: int, target: str) -> Insn | None:
+    """The compare-and-branch with the flags of ``flag_op`` (which writes only the flags)
+    followed by ``b cond``, or None."""
+    op, ra, rb, imm = flag_op.op, flag_op.ra, flag_op.rb, flag_op.imm
+    if flag_op.rd != 0:
+        return None
+    where = f"{flag_op.where} + b"
+    if op == "sub":
+        return Insn("cb", cond, ra, rb, target=target, where=where)
+    if op == "or" and 0 in (ra, rb):                    # tst: the flags of the register
+        return Insn("cb", cond, ra or rb, 0, target=target, where=where)
+    if op == "and":
+        return Insn("cbt", cond, ra, rb, target=target, where=where)
+    if op == "andi" and imm > 0 and imm & (imm - 1) == 0:   # a single bit: N = 0 either way
+        return Insn("cbb", cond, ra, imm.bit_length() - 1, target=target, where=where)
+    if op == "addi" and CBI_MIN <= -imm <= CBI_MAX:     # ra + imm = ra - (-imm)
+        return Insn("cbi", cond, ra, 0, target=target, where=where, k=-imm)
+    return None
+
+
 def hazard(first: Insn, second: Insn) -> bool:
     """``second`` executes right after ``first`` and reads its result or flags too early
     (branches, call and ret write neither)."""
@@ -406,9 +492,14 @@ def random_program(seed: int, base: int = 0x100, words: int = 64, length: int | 
             p.ld(r(), 31, rng.randrange(words))
         elif kind < 0.85:
             p.st(r(), 31, rng.randrange(words))
-        elif kind < 0.95:   # a forward branch over a few instructions
-            nlabel += 1
-            p.b(rng.choice(list(CONDS)), f"f{nlabel}")
+        elif kind < 0.95:   # a forward branch over a few instructions, half of them fused
+            nlabel += 1        # with a compare into a compare-and-branch
+            cond = rng.choice(list(CONDS))
+            if cond != "al" and rng.random() < 0.5:
+                rng.choice((lambda: p.cmp(r(), r()), lambda: p.tst(r()), lambda: p.and_(0, r(), r()),
+                            lambda: p.cmpi(r(), rng.randrange(CBI_MIN, CBI_MAX + 1)),
+                            lambda: p.andi(0, r(), 1 << rng.randrange(14))))()
+            p.b(cond, f"f{nlabel}")
             for _ in range(rng.randrange(1, 4)):
                 p.xor(r(), r(), r())
             p.label(f"f{nlabel}")
@@ -466,8 +557,11 @@ class Machine:
             insn = code[self.pc] if self.pc < len(code) else nop
             if prev is not None and hazard(prev, insn):
                 raise UcodeError(f"pc {self.pc}: hazard with the instruction before ({prev.op})")
+            if prev is not None and prev.op in CB_OPS and insn.op == "call":
+                raise UcodeError(f"pc {self.pc}: a call right after a compare-and-branch")
+            before = self.cycle
             self.step(insn)
-            prev = insn
+            prev = insn if self.cycle == before + 1 else None   # a taken cb: two squashed clocks
         return self.cycle
 
     def step(self, insn: Insn) -> None:
@@ -516,6 +610,15 @@ class Machine:
             else:
                 self.trace.append(BusOp(self.cycle + 1, True, addr, bv))
                 self.write(addr, bv)
+        elif op in CB_OPS:
+            bv = {"cbi": insn.k, "cbb": 1 << insn.rb}.get(op, bv)
+            res = (a - bv) if op in ("cb", "cbi") else (a & bv)
+            res &= MASK32
+            self.z, self.n = res == 0, bool(res >> 31)
+            res = None
+            if cond_holds(insn.rd, self.z, self.n):
+                nxt = insn.imm
+                self.cycle += 2          # the two instructions after it are squashed
         elif op == "b":
             if cond_holds(insn.rd, self.z, self.n):
                 nxt = insn.imm

@@ -115,19 +115,19 @@ def iel_kernel(p: Program) -> Program:
     p.lsb(10, 2).addi(11, 2, -1)
     p.andn(12, 2, 11).and_(2, 2, 11)
     p.ld(13, 10, BB).ld(16, 10, BU)
-    p.and_(20, 12, 9)
+    p.and_(0, 12, 9)
     p.b("eq", "iel_notx")                    # no blank interval: no tx either
     p.add(14, 13, 1)                         # t0 + b
     p.sub(0, 14, 16).b("le", "iel_bu")       # later than blank_until?
     p.st(14, 10, BU)
-    p.label("iel_bu").and_(20, 12, 3)
+    p.label("iel_bu").and_(0, 12, 3)
     p.b("eq", "iel_notx")
     p.ld(16, 10, TU).ld(13, 10, BA)
     p.add(15, 13, 1)                         # the trigger tick t0 + a
     p.sub(0, 14, 16).b("le", "iel_tu")       # later than tx_until?
     p.st(14, 10, TU)
     p.label("iel_tu").st(15, 0, TRIG_T).st(10, 0, TRIG_EL)
-    p.label("iel_notx").and_(20, 12, 4)
+    p.label("iel_notx").and_(0, 12, 4)
     p.b("eq", "iel_next")
     p.ld(15, 10, CAND).ld(17, 10, WV)
     p.mul(7, 10, 26)                         # the element's first slot address, e * 16

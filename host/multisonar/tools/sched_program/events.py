@@ -104,7 +104,7 @@ def close_kernel(p: Program) -> Program:
     p.label("close_miss").andi(0, 5, 1).b("ne", "close_init")  # init pings count no misses
     p.andi(12, 11, F_EPOCH).andi(13, 5, 8)
     p.add(12, 12, 12)                                   # the sensor's epoch at bit 3
-    p.xor(0, 12, 13).b("ne", "close_done")              # an earlier epoch's window
+    p.cb("ne", 12, 13, "close_done")                    # an earlier epoch's window
     p.ld(12, 9, 1).ld(14, 8, S_K)
     p.rotb(13, 12, 3)
     p.andi(15, 13, 0xF0)                                # miss count << 4 (flags byte)
@@ -125,7 +125,7 @@ def close_kernel(p: Program) -> Program:
     p.label("close_init").andi(0, 5, 1).b("eq", "close_done")
     p.andi(12, 11, F_EPOCH).andi(13, 5, 8)
     p.add(12, 12, 12)
-    p.xor(0, 12, 13).b("ne", "close_done")              # an earlier epoch's init ping
+    p.cb("ne", 12, 13, "close_done")                    # an earlier epoch's init ping
     p.ld(12, 8, S_OPEN)
     p.addi(12, 12, -1)
     p.st(12, 8, S_OPEN).b("ne", "close_done")           # windows of the init ping still open

@@ -76,7 +76,7 @@ S_NXT, S_TX, S_RX, S_BLK, S_ORDER, S_TV, S_TN, S_D, S_RMAX = 2, 7, 8, 9, 10, 11,
 S_LO, S_HI, S_VMAX, S_QOFF, S_PHASE, S_NRX = 15, 16, 19, 20, 21, 25
 F_TRACKING, F_IN_INIT, F_EPOCH, F_ANY_TRK = 1, 2, 4, 8    # S_FLAGS bits
 NUM_VS = 8
-UCODE_WORDS = 1536    # ms_sched_uc's ROM depth: three DP16KD of 512 x 36 (the program is 1.26k words)
+UCODE_WORDS = 1024    # ms_sched_uc's ROM depth: two DP16KD of 512 x 36 (the program is 1,016 words)
 # main-loop variables at MAIN + M_*: the start tick, decision lead P, L = edge latency, the
 # miss gate, the next logical tick, the current one, its edges and closes left, td and armed,
 # the sensor of the SCHED phase, saved kernel results; sensor masks: the table's sensors
@@ -90,6 +90,8 @@ MISS_MAX = 15
 
 # register conventions of the kernels
 R_MASK24, R_SIGN24 = 28, 29   # constants 0xFFFFFF and 0x800000 (loaded by prologue())
+R_STRIDE = 31                 # constant: the sensor words' stride (SENS + R_STRIDE * s)
+SENS_STRIDE = 32
 
 
 def pack_rx(tracked: bool, tof: int, seq: int, v: int, miss: int = 0, init: bool = False,
@@ -101,4 +103,4 @@ def pack_rx(tracked: bool, tof: int, seq: int, v: int, miss: int = 0, init: bool
 
 def prologue(p: Program) -> Program:
     """Constants every kernel relies on."""
-    return p.li(R_MASK24, 0xFF_FFFF).li(R_SIGN24, 0x80_0000)
+    return p.li(R_MASK24, 0xFF_FFFF).li(R_SIGN24, 0x80_0000).li(R_STRIDE, SENS_STRIDE)

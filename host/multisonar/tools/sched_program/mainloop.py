@@ -38,7 +38,7 @@ from .layout import (BA, BB, BLK, BU, CAND, F_ANY_TRK, F_EPOCH, F_IN_INIT, HALT,
                      Q_E, Q_POP, Q_STAT, Q_T, SENS, STOP_AT, STOP_REQ, S_BLK, S_D, S_DUE, S_FLAGS,
                      S_HI, S_LO, S_NRX, S_NXT, S_OPEN, S_ORDER, S_PHASE, S_QOFF, S_QUIET, S_RMAX,
                      S_RX, S_SEQ, S_TN, S_TRK, S_TV, S_TX, S_VMAX, TICK, TRK, TU, T_DONE, WH,
-                     WIN_META, WIN_RA, WIN_T0, WIN_WE, WR, WSLOTS, WV, prologue)
+                     WIN_META, WIN_RA, WIN_T0, WIN_WE, WR, WSLOTS, WV, R_STRIDE, prologue)
 
 POLL = "poll"   # the idle poll loop's label (the harness skips whole turns of it)
 
@@ -51,9 +51,9 @@ def _put(p: Program, rs: int, var: int) -> Program:
     return p.st(rs, 0, MAIN + var)
 
 
-def _sensor_words(p: Program, rd: int, rs: int, tmp: int = 17) -> Program:
-    """rd = the words of sensor rs (SENS + 32 s)."""
-    return p.li(tmp, 32).mul(rd, rs, tmp).addi(rd, rd, SENS) if SENS else p.li(tmp, 32).mul(rd, rs, tmp)
+def _sensor_words(p: Program, rd: int, rs: int) -> Program:
+    """rd = the words of sensor rs (SENS + SENS_STRIDE s)."""
+    return p.mul(rd, rs, R_STRIDE).addi(rd, rd, SENS) if SENS else p.mul(rd, rs, R_STRIDE)
 
 
 def _current_sensor(p: Program) -> Program:

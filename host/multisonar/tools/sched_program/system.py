@@ -18,7 +18,7 @@ from typing import Any
 from ...fastfiring import _Line, _rows, share_matrix
 from ..sched_ucode import MASK32
 from .layout import (BLK, EVT_HI, HD_EL, LAG_CUR, MAIN, M_ACT, M_ARMED, M_GATE, M_L, M_P, M_START,
-                     M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT, Q_T, SENS, STOP_AT,
+                     M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT, Q_T, SENS, SENS_STRIDE, STOP_AT,
                      STOP_REQ, S_BLK, S_D, S_HI, S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE, S_QOFF,
                      S_REINIT, S_RMAX, S_RX, S_SHARE, S_TN, S_TV, S_TX, S_VMAX, TICK, TRIG_EL,
                      T_DONE, UCODE_WORDS, WIN_META, WIN_RA, WIN_T0, WIN_WE, W_ADDR)
@@ -89,7 +89,7 @@ class EngineRun:
 def sensor_words(c: Any, shares: int, reinit_every: int | None = None) -> dict[int, int]:
     """The loader's words of resolved sensor ``c`` (its table entry, sched_program's layout)."""
     mask = lambda es: sum(1 << int(e) for e in es)  # noqa: E731
-    base = SENS + 32 * c.id
+    base = SENS + SENS_STRIDE * c.id
     lo, hi = c.te_limits()
     blanks = c.blank_intervals()
     m = reinit_every if reinit_every is not None else c.reinit_every
