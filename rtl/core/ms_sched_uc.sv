@@ -17,11 +17,11 @@
 //     there) and its INIT reads S from the data memory.
 //   - Apply while running: the program finishes every logical tick before the apply's tick
 //     (STOP_AT), halts; the load follows and the schedule starts afresh.
-// Storage, all block RAM with a registered read (eight DP16KD): the microcode ROM (UCODE_WORDS
-// x 36, three), the data memory (1024 x 32, two), the blank offsets of every (sensor, element)
-// (256 x 36, one, read on the bus at BLK) and WIN (two), the window slots {t0, we, seq, epoch,
-// init, sensor} (no start: a window is [t0 + we - len, t0 + we), len from the table of the
-// sensors' window lengths).
+// Storage, all block RAM with a registered read (six DP16KD): the microcode ROM (UCODE_WORDS
+// x 36, two), the data memory (1024 x 32, two) and WINB (two): the window slots {t0, we, seq,
+// epoch, init, sensor} (no start: a window is [t0 + we - len, t0 + we), len from the table of
+// the sensors' window lengths) and, in its spare rows, the blank offsets of every (sensor,
+// element), read on the bus at BLK.
 module ms_sched_uc
   import ms_sched_io_pkg::*;
 #(
@@ -327,16 +327,6 @@ module ms_sched_uc
     io = int'(a) == addr;
   endfunction
 
-  // blank offsets of (sensor, element): {a, b} at {sensor, element}; the bus reads a at BLK +
-  // 64 s + e and b at BLK + 64 s + 32 + e
-  localparam int XW = DELAY_W + BW;
-  logic [XW-1:0] blk_q [256];
-  logic [XW-1:0] blk_rd_q;
-  always_ff @(posedge clk_i) begin
-    if (blk_we) blk_q[blk_addr] <= {blk_a, blk_b};
-    blk_rd_q <= blk_q[{bus_a[8:6], bus_a[4:0]}];
-  end
-
   // data memory: the engine's port, or the loader's while the engine is in reset
   logic [31:0] dm_q [1024];
   logic [31:0] dm_rd_q;
@@ -400,15 +390,51 @@ module ms_sched_uc
     .n_i(bus_wd[3:0]), .busy_o(div_busy), .q_o(div_q)
   );
 
-  // ---- WIN: written by the program (W_ADDR commits W_*), read by the slot unit's scan or
-  // at the program's WIN_RA (one write and one read port: two DP16KD of 512 x 36)
-  win_t win_q [NUM_CH * WSLOTS];
-  always_ff @(posedge clk_i) begin
-    if (io_we && io(bus_a, W_ADDR))
-      win_q[WAW'(bus_wd)] <= '{t0: w_t0_q, we: w_we_q, seq: w_meta_q[7:0], init: w_meta_q[8],
-                               epoch: w_meta_q[9], sensor: w_meta_q[18:16]};
-    win_rd_q <= win_q[su_re ? su_ra : win_ra_q];
+  // ---- WINB (512 x 72: one write and one read port, two DP16KD of 512 x 36). Rows below
+  // BLK_ROW are WIN, the window slots the program writes (W_ADDR commits W_*), read by the
+  // slot unit's scan or at the program's WIN_RA; the rows above hold the blank offsets {a, b}
+  // of every (sensor s, element e), two per row (row BLK_ROW + {s, e / 2}, half e % 2),
+  // written by the loader while the engine is in reset, read on the bus (a at BLK + 64 s + e,
+  // b at BLK + 64 s + 32 + e). The read port serves the scan first, then a bus read of BLK,
+  // then WIN_RA: the program reads BLK only while the slot unit is idle, and a WIN_* read in
+  // the clock after a BLK read sees the blank row (EngineSystem models both).
+  localparam int XW      = DELAY_W + BW;               // a blank interval {a, b}: half a row
+  localparam int BLK_ROW = 2 ** WAW - NUM_VS * 16;
+  if ($bits(win_t) > 2 * XW || NUM_CH * WSLOTS > BLK_ROW) begin : g_bad_winb
+    $error("ms_sched_uc: WINB holds %0d-bit slots and %0d slots below the blank rows",
+           2 * XW, BLK_ROW);
   end
+  logic [2*XW-1:0] winb_q [2 ** WAW];
+  logic [2*XW-1:0] winb_rd_q, winb_wd;
+  logic [WAW-1:0]  winb_wa, winb_ra;
+  logic [1:0]      winb_we;                            // per half row
+  logic            blk_re, blk_odd_q;
+  win_t            win_wd;
+  assign win_wd = '{t0: w_t0_q, we: w_we_q, seq: w_meta_q[7:0], init: w_meta_q[8],
+                    epoch: w_meta_q[9], sensor: w_meta_q[18:16]};
+  assign blk_re = bus_re && !eng_rst && bus_a >= AW'(BLK);
+  always_comb begin
+    winb_we = '0;
+    winb_wa = WAW'(bus_wd);
+    winb_wd = (2 * XW)'(win_wd);
+    if (eng_rst) begin
+      winb_wa = WAW'(BLK_ROW) + WAW'({blk_addr[7:5], blk_addr[4:1]});
+      winb_wd = {2{blk_a, blk_b}};
+      winb_we = {blk_we && blk_addr[0], blk_we && !blk_addr[0]};
+    end else if (io_we && io(bus_a, W_ADDR)) begin
+      winb_we = 2'b11;
+    end
+    winb_ra = su_re ? su_ra : blk_re ? WAW'(BLK_ROW) + WAW'({bus_a[8:6], bus_a[4:1]}) : win_ra_q;
+  end
+  always_ff @(posedge clk_i) begin
+    if (winb_we[0]) winb_q[winb_wa][XW-1:0]    <= winb_wd[XW-1:0];
+    if (winb_we[1]) winb_q[winb_wa][2*XW-1:XW] <= winb_wd[2*XW-1:XW];
+    winb_rd_q <= winb_q[winb_ra];
+    blk_odd_q <= bus_a[0];
+  end
+  assign win_rd_q = win_t'(winb_rd_q[$bits(win_t)-1:0]);
+  logic [XW-1:0] blk_rd;
+  assign blk_rd = blk_odd_q ? winb_rd_q[2*XW-1:XW] : winb_rd_q[XW-1:0];
 
   // ---- the work queue: {tick, edges, closes} per tick with work, visible two ticks later
   logic [NUM_CH-1:0]  closes, edges;
@@ -469,8 +495,8 @@ module ms_sched_uc
   always_comb begin
     unique case (rsel_q)
       2'd0:    bus_rd = dm_rd_q;
-      2'd1:    bus_rd = 32'(blk_rd_q[XW-1:BW]);
-      2'd2:    bus_rd = 32'(blk_rd_q[BW-1:0]);
+      2'd1:    bus_rd = 32'(blk_rd[XW-1:BW]);
+      2'd2:    bus_rd = 32'(blk_rd[BW-1:0]);
       default: bus_rd = io_rd_q;
     endcase
   end
@@ -523,5 +549,6 @@ module ms_sched_uc
   assign overrun_o = ovr_q;
 
   logic unused_ok;
-  assign unused_ok = ^{ld_use, word_we, word, bus_re, eng_pc, su_busy, w_meta_q[15:10]};
+  assign unused_ok = ^{ld_use, word_we, word, eng_pc, su_busy, w_meta_q[15:10],
+                       winb_rd_q[2*XW-1:$bits(win_t)]};
 endmodule

@@ -20,7 +20,7 @@ from ..sched_ucode import MASK32
 from .layout import (BLK, EVT_HI, HD_EL, LAG_CUR, MAIN, M_ACT, M_ARMED, M_GATE, M_L, M_P, M_START,
                      M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT, Q_T, SENS, SENS_STRIDE, STOP_AT,
                      STOP_REQ, S_BLK, S_D, S_HI, S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE, S_QOFF,
-                     S_REINIT, S_RMAX, S_RX, S_SHARE, S_TN, S_TV, S_TX, S_VMAX, TICK, TRIG_EL,
+                     S_REINIT, S_RMAX, S_RX, S_SHARE, S_TN, S_TV, S_TX, S_VMAX, SU_FLAGS, TICK, TRIG_EL,
                      T_DONE, UCODE_WORDS, WIN_META, WIN_RA, WIN_T0, WIN_WE, W_ADDR)
 from .units import EngineWithUnits, Slot
 
@@ -130,6 +130,11 @@ class _Bus(EngineWithUnits):
         if addr in (WIN_T0, WIN_WE, WIN_META):
             return self.sys.win_read(addr, at)
         if addr >= BLK:
+            # the blank offsets share WIN's block RAM and read port, which the slot unit's
+            # scan takes first: read while it is busy, the data is not the offset
+            self.sys.blk_at = at
+            if self.su.read(at, SU_FLAGS) & 0x80:
+                return 0xDEAD_BEEF
             return self.mem.get(addr, 0)
         return super().read(addr)
 
@@ -206,6 +211,7 @@ class EngineSystem:
         self.queue: deque[tuple[int, int, int]] = deque()
         self.adv = self.start - 1          # the hardware has handled every tick <= adv
         self.win_ra, self.win_at = 0, -1
+        self.blk_at = -2                             # the clock of the last blank-offset read
         self.cur = 0                                 # the logical tick of the dispatch
         self.words: list[tuple[int, int]] = []      # (logical tick, word)
         self.triggers: list[tuple[int, int, int]] = []
@@ -248,8 +254,9 @@ class EngineSystem:
         return {Q_T: head[0] & MASK32, Q_E: head[1], Q_C: head[2]}[addr]
 
     def win_read(self, addr: int, cycle: int) -> int:
-        if cycle < self.win_at + 2:
-            return 0xDEAD_BEEF          # the block RAM's registered read is not there yet
+        if cycle < self.win_at + 2 or cycle == self.blk_at + 1:
+            return 0xDEAD_BEEF          # the block RAM's registered read is not there yet, or
+                                        # it holds the blank-offset row read in the clock before
         t0, we, meta = self.m.out.slots[self.win_ra]
         return {WIN_T0: t0, WIN_WE: we, WIN_META: meta}[addr]
 
