@@ -10,7 +10,7 @@
 module ms_sonar_core #(
   parameter int          NUM_CH     = 24,
   parameter int unsigned TICK_START = 0,
-  parameter int          LEAD       = 4096, // scheduler decision lead (docs/fast_firing.md 3.1)
+  parameter int          LEAD       = 32768, // scheduler decision lead (docs/fast_firing.md 3.1)
   parameter int          EVT_DEPTH_W = 9,   // event FIFO depth 2^EVT_DEPTH_W words (block RAM)
   // scheduler size (reported in CAPS): virtual sensors run (1..8, the register map's table
   // has 8 entries) and window slots per element; smaller values for small FPGAs (the 25F)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from multisonar.constants import TICK_HZ, seconds_to_ticks, speed_of_sound
+from multisonar.constants import DEVICE_DECISION_LEAD, TICK_HZ, seconds_to_ticks, speed_of_sound
 from multisonar.layout import load_layout
 from multisonar.schedule import (DELAY_W, NUM_VS, REGISTER_FIELDS, Schedule, ScheduleError, VirtualSensor,
                                  analytic_period_s, effective_order, interlace_limit_s, min_tof_for_order,
@@ -28,8 +28,8 @@ def test_defaults_resolve_to_ticks():
     assert r.blank == 72000 and r.vmax == 24000
     assert list(r.xtalk_elements) == [1, 23]
     # int = ticks, float = seconds
-    r2 = sched(VirtualSensor("a", tx=[0], rx=[0], t_v=1000, t_n=0.25e-3)).validate()[0]
-    assert (r2.t_v, r2.t_n) == (1000, 12000)
+    r2 = sched(VirtualSensor("a", tx=[0], rx=[0], t_v=16000, t_n=0.25e-3)).validate()[0]
+    assert (r2.t_v, r2.t_n) == (16000, 12000)
 
 
 @pytest.mark.parametrize("source", [(0.0, 0.0), (0.2, 0.1), (-0.3, 0.05), (1.0, -0.4)])
@@ -185,3 +185,16 @@ def test_generalised_equations():
         assert abs(analytic_period_s(d, 1) - (2 * d / C20 - 2e-3)) < 1e-12
         for n in range(1, 5):
             assert analytic_period_s(d, n) >= interlace_limit_s() - 1e-12
+
+
+def test_blanking_and_window_against_the_decision_lead():
+    """D must exceed P (cfg_error LEAD), T_V + T_N must exceed P / 2 (WINDOW_SHORT): the
+    boundaries, in ticks."""
+    half = DEVICE_DECISION_LEAD // 2
+    ok = sched(VirtualSensor("a", tx=[0], rx=[0], t_v=half // 2 + 1, t_n=half // 2)).validate()[0]
+    assert ok.t_v + ok.t_n == half + 1
+    with pytest.raises(ScheduleError, match="WINDOW_SHORT"):
+        sched(VirtualSensor("a", tx=[0], rx=[0], t_v=half // 2, t_n=half // 2)).validate()
+    with pytest.raises(ScheduleError, match="cfg_error LEAD"):
+        sched(VirtualSensor("a", tx=[0], rx=[0], t_dead=DEVICE_DECISION_LEAD,
+                            t_xtalk=DEVICE_DECISION_LEAD)).validate()

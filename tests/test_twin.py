@@ -4,7 +4,7 @@ reached by the unchanged pyusb driver.
 
 * scoreboard (multisonar.twin.check): with a noise-free scene, every pulse the RTL fires and every
   ToF record of every frame the driver receives equal the golden model's (FastFiringModel from
-  the scheduler's start tick, decision lead 4096), and the firmware's geometry lies on the
+  the scheduler's start tick, decision lead 32768), and the firmware's geometry lies on the
   corridor's walls;
 * property (issue #9): random tables the host validator accepts are accepted by the device and
   run without conflict, equal to the model;

@@ -13,10 +13,13 @@ import math
 TICK_HZ: int = 48_000_000
 TICK_S: float = 1.0 / TICK_HZ
 
-#: Decision lead P of the RTL scheduler (ms_scheduler LEAD, docs/fast_firing.md section 3.1): a
-#: pulse is decided P ticks before its t0. The device refuses a table whose blanking D or window
-#: T_V + T_N is not longer than P (cfg_error LEAD / WINDOW_SHORT).
-DEVICE_DECISION_LEAD: int = 4096
+#: Decision lead P of the RTL scheduler (ms_sonar_core LEAD, docs/fast_firing.md section 3.1): a
+#: pulse is decided P ticks before its t0. 32768 ticks (683 us) leave the scheduler's microcode
+#: program its worst lag, a same-tick burst of eight sensors, within P / 2
+#: (scripts/bench_sched_mainloop.py). The device refuses a table whose blanking D is not longer
+#: than P (cfg_error LEAD: 117 mm of range) or whose window T_V + T_N is not longer than P / 2
+#: (WINDOW_SHORT: 341 us, +-29 mm around the prediction).
+DEVICE_DECISION_LEAD: int = 32768
 
 #: Default air temperature for the speed of sound.
 DEFAULT_TEMPERATURE_C: float = 20.0

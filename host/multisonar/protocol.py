@@ -105,7 +105,7 @@ class CfgError(IntEnum):
     MAX_TOF = 9
     BURST = 10
     LEAD = 11  #: blanking D not longer than the device's decision lead (CAPS / DEVICE_DECISION_LEAD)
-    WINDOW_SHORT = 12  #: T_V + T_N not longer than the decision lead
+    WINDOW_SHORT = 12  #: T_V + T_N not longer than half the decision lead
 
 
 #: ToF record flags (bit positions; the event word's flag bits 40..43 shifted down by 40)

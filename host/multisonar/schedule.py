@@ -324,9 +324,9 @@ class Schedule:
         if blank <= DEVICE_DECISION_LEAD:
             raise err(f"blanking D = {blank} ticks is not longer than the device's decision lead "
                       f"({DEVICE_DECISION_LEAD} ticks): lengthen T_dead (device cfg_error LEAD)")
-        if t_v + t_n <= DEVICE_DECISION_LEAD:
-            raise err(f"window T_V + T_N = {t_v + t_n} ticks is not longer than the device's decision lead "
-                      f"({DEVICE_DECISION_LEAD} ticks): widen the window (device cfg_error WINDOW_SHORT)")
+        if t_v + t_n <= DEVICE_DECISION_LEAD // 2:
+            raise err(f"window T_V + T_N = {t_v + t_n} ticks is not longer than half the device's decision "
+                      f"lead ({DEVICE_DECISION_LEAD // 2} ticks): widen the window (device cfg_error WINDOW_SHORT)")
         vmax = min(t_v, t_n) if s.vmax is None else _ticks(s.vmax)
         if not 0 <= vmax < 2**VMAX_W:
             raise err(f"vmax {vmax} ticks outside 0..{2**VMAX_W - 1}")

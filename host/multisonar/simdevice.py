@@ -183,9 +183,9 @@ def decode_vs_table(regs: RegisterFile, layout: Any) -> list[Any]:
         if blank <= DEVICE_DECISION_LEAD:
             raise _CfgErr(P.CfgError.LEAD, vs, f"blanking D={blank} ticks not longer than the decision lead "
                                                f"{DEVICE_DECISION_LEAD}")
-        if t_v + t_n <= DEVICE_DECISION_LEAD:
-            raise _CfgErr(P.CfgError.WINDOW_SHORT, vs, f"window T_V + T_N = {t_v + t_n} ticks not longer than the "
-                                                       f"decision lead {DEVICE_DECISION_LEAD}")
+        if t_v + t_n <= DEVICE_DECISION_LEAD // 2:
+            raise _CfgErr(P.CfgError.WINDOW_SHORT, vs, f"window T_V + T_N = {t_v + t_n} ticks not longer than half "
+                                                       f"the decision lead, {DEVICE_DECISION_LEAD // 2}")
         out.append(ResolvedSensor(
             id=vs, name=f"vs{vs}", tx=tx, rx=np.array(rx_el, dtype=np.int64), delays=delays, order=order,
             t_v=t_v, t_n=t_n, t_dead=t_dead, t_xtalk=t_xt, xtalk_neighbours=nb, xtalk_elements=xt_el,

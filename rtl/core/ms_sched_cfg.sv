@@ -354,7 +354,7 @@ module ms_sched_cfg #(
     p1_hi          <= tmax_q - 24'(tn_q);
     p2_dbl         <= 24'(p1_dx) + 24'(dmax_q);
     p2_dshort      <= 26'(dead_q) < p1_burst_ticks;
-    p2_wshort      <= p1_tvn <= 17'(LEAD);
+    p2_wshort      <= p1_tvn <= 17'(LEAD / 2);
     p2_use         <= tx_q | rx_q | p1_xt;
     p3_tof         <= 26'(tmax_q) < 26'(p2_dbl) + 26'(p1_tvn);
     p3_lead        <= p2_dbl <= 24'(LEAD);

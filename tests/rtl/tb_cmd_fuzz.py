@@ -77,7 +77,7 @@ def fast_table() -> list[tuple[int, int]]:
     """WRITE_REGS of a short-range sensor (as tests/rtl/tb_usb_link.py): with no echoes it
     fires an initialisation ping every ~4 ms instead of the compiled-in table's ~25 ms."""
     s = Schedule(LAYOUT, [VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=1, max_range_m=0.6,
-                                        t_dead=0.4e-3, t_v=0.2e-3, t_n=0.2e-3)], temperature_c=20.0)
+                                        t_dead=0.8e-3, t_v=0.2e-3, t_n=0.2e-3)], temperature_c=20.0)
     return schedule_writes(s)
 
 

@@ -52,22 +52,22 @@ LEAD = DEVICE_DECISION_LEAD
 LAYOUT = load_layout()
 TEMP_C = 20.0
 C_SOUND = speed_of_sound(TEMP_C)
-WALL_D = 0.45  # m ahead of the ring centre, perpendicular to +x
+WALL_D = 0.6  # m ahead of the ring centre, perpendicular to +x (its echo after D > P)
 AXES = np.arctan2(LAYOUT.positions[:, 1], LAYOUT.positions[:, 0])
 N_FRAMES = 4
 
 
 def schedule() -> Schedule:
-    return Schedule(LAYOUT, [VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=1, max_range_m=0.6,
-                                           t_dead=0.4e-3, t_v=0.2e-3, t_n=0.2e-3)],
+    return Schedule(LAYOUT, [VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=1, max_range_m=0.8,
+                                           t_dead=0.8e-3, t_v=0.2e-3, t_n=0.2e-3)],
                     temperature_c=TEMP_C)
 
 
 def schedule_long_frames() -> Schedule:
     """Init pings on five receivers: every ToF frame holds five records (76 bytes: two packets),
     so a bus reset can land inside a frame's transfer."""
-    return Schedule(LAYOUT, [VirtualSensor("front", tx=[0], rx=[22, 23, 0, 1, 2], mode="init", max_range_m=0.6,
-                                           t_dead=0.4e-3, t_v=0.2e-3, t_n=0.2e-3)],
+    return Schedule(LAYOUT, [VirtualSensor("front", tx=[0], rx=[22, 23, 0, 1, 2], mode="init", max_range_m=0.8,
+                                           t_dead=0.8e-3, t_v=0.2e-3, t_n=0.2e-3)],
                     temperature_c=TEMP_C)
 
 
