@@ -31,7 +31,7 @@ module ms_sched_uc
   parameter int    LEAD       = 32768,
   parameter int    WSLOTS     = 16,
   parameter int    QDEPTH     = 32,
-  parameter string UCODE_FILE = "ms_sched_ucode.hex"
+  parameter string UCODE_FILE = ""          // empty: the gen step's image (UCODE_HEX)
 ) (
   input  logic                  clk_i,
   input  logic                  rst_i,
@@ -317,7 +317,8 @@ module ms_sched_uc
   logic [31:0]   bus_wd, bus_rd;
   logic [$clog2(UCODE_WORDS)-1:0] eng_pc;
   assign eng_rst = rst_i || !eng_run_q;
-  ms_sched_engine #(.UCODE_WORDS(UCODE_WORDS), .UCODE_FILE(UCODE_FILE), .AW(AW)) u_eng (
+  localparam string UCODE_IMAGE = UCODE_FILE == "" ? UCODE_HEX : UCODE_FILE;
+  ms_sched_engine #(.UCODE_WORDS(UCODE_WORDS), .UCODE_FILE(UCODE_IMAGE), .AW(AW)) u_eng (
     .clk_i, .rst_i(eng_rst), .bus_re_o(bus_re), .bus_we_o(bus_we), .bus_addr_o(bus_a),
     .bus_wdata_o(bus_wd), .bus_rdata_i(bus_rd), .pc_o(eng_pc)
   );

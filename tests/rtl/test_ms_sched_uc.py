@@ -16,8 +16,7 @@ SOURCES = [GEN / "rtl/ms_ucode_pkg.sv", GEN / "rtl/ms_sched_io_pkg.sv", ROOT / "
            ROOT / "rtl/core/ms_sched_div.sv", ROOT / "rtl/core/ms_sched_slot.sv",
            ROOT / "rtl/core/ms_sched_closes.sv",
            ROOT / "rtl/core/ms_sched_uc.sv", ROOT / "tests/rtl/ms_scheduler_tb.sv"]
-PARAMETERS = {"NUM_CH": 24, "LEAD": LEAD,
-              "UCODE_FILE": f'"{GEN / "rtl/ms_sched_ucode.hex"}"'}   # a string parameter: quoted
+PARAMETERS = {"NUM_CH": 24, "LEAD": LEAD}   # UCODE_FILE: the package's UCODE_HEX, the gen step's image
 # a subset for CI's time (every test of tb_ms_scheduler passes; SCHED_UC_ALL=1 runs them, ~11 min):
 # boundaries and ranges, full window slots, the tick counter's wrap, an apply while running
 TESTS = ["static_ranges_phased_order2", "window_slots_full", "init_only_and_wrap",
