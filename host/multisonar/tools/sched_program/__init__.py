@@ -12,7 +12,8 @@ from __future__ import annotations
 from .layout import (BA, BB, BU, CAND, DIV_LATENCY, DIV_N, DIV_Q, DIV_STAT, DIV_X, EVT_HI, EVT_LO,
                      F_ANY_TRK, F_EPOCH, F_IN_INIT, F_TRACKING, HC, HD_EL, HD_T, HS, MISS_MAX,
                      NUM_RX, R_MASK24, R_SIGN24, R_STRIDE, SENS, SENS_STRIDE, SU_CONF, SU_EDGE,
-                     SU_FLAGS, SU_GO, SU_HEAD, SU_LATENCY, SU_MINC, SU_SENSOR, SU_TA, SU_TB, SU_TWA, SU_TWB, SU_VALID, SU_X,
+                     SU_FLAGS, SU_GO, SU_HEAD, SU_LATENCY, SU_MINC, SU_SENSOR, SU_TA, SU_TB, SU_TWA,
+                     SU_TWB, SU_VALID, SU_X,
                      S_DUE, S_FLAGS, S_K, S_MODE, S_OPEN, S_QUIET, S_REINIT, S_SEQ, S_SHARE, S_TRK,
                      TRIG_EL, TRIG_T, TRK, TU, WSLOTS, WV, W_ADDR, W_META, W_T0, W_WE,
                      pack_rx, prologue)  # noqa: F401

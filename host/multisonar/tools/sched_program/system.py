@@ -18,9 +18,10 @@ from typing import Any
 from ...fastfiring import _Line, _rows, share_matrix
 from ..sched_ucode import MASK32
 from .layout import (BLK, EVT_HI, HD_EL, LAG_CUR, MAIN, M_ACT, M_ARMED, M_GATE, M_L, M_P, M_START,
-                     M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT, Q_T, SENS, SENS_STRIDE, STOP_AT,
-                     STOP_REQ, S_BLK, S_D, S_HI, S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE, S_QOFF,
-                     S_REINIT, S_RMAX, S_RX, S_SHARE, S_TN, S_TV, S_TX, S_VMAX, SU_FLAGS, TICK, TRIG_EL,
+                     M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT, Q_T, SENS, SENS_STRIDE,
+                     STOP_AT, STOP_REQ, S_BLK, S_D, S_HI, S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE,
+                     S_QOFF, S_REINIT, S_RMAX, S_RX, S_SHARE, S_TN, S_TV, S_TX, S_VMAX, SU_FLAGS, TICK,
+                     TRIG_EL,
                      T_DONE, UCODE_WORDS, WIN_META, WIN_RA, WIN_T0, WIN_WE, W_ADDR)
 from .units import EngineWithUnits, Slot
 
