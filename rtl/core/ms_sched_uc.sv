@@ -219,6 +219,8 @@ module ms_sched_uc
   } rec_t;
   rec_t              rec_q;
   logic [23:0]       wlen_q [2 * NUM_VS];   // window length of {sensor, init}: T_V + T_N, R - D
+  logic [23:0]       rec_qoff;              // R - D: an init ping's window length (S_QOFF)
+  assign rec_qoff = rec_q.rmax - rec_q.dbl;
   logic [4:0]        rec_i_q;        // the record's next word (0 .. 16), 31: none
   logic [3:0]        fin_i_q;        // C_FINISH: the next final word (0 .. 11)
   logic [NUM_VS-1:0][NUM_VS-1:0] share_q;
@@ -250,8 +252,7 @@ module ms_sched_uc
       rx_any_q       <= (ld_vs == '0 ? '0 : rx_any_q) | (ld_act ? ld_rx : '0);
     end
     if (rec_i_q == 5'd0 || rec_i_q == 5'd1)   // while the record's first two words go out
-      wlen_q[{rec_q.vs, rec_i_q[0]}] <= rec_i_q[0] ? rec_q.rmax - rec_q.dbl
-                                                   : 24'(rec_q.tv) + 24'(rec_q.tn);
+      wlen_q[{rec_q.vs, rec_i_q[0]}] <= rec_i_q[0] ? rec_qoff : 24'(rec_q.tv) + 24'(rec_q.tn);
     if (share_we) begin
       share_q[share_a][share_b] <= share && share_a != share_b;
       share_q[share_b][share_a] <= share && share_a != share_b;
@@ -284,7 +285,7 @@ module ms_sched_uc
         5'd8:  begin ld_dm_a += 10'(S_LO);     ld_dm_d = 32'(rec_q.lo);     end
         5'd9:  begin ld_dm_a += 10'(S_HI);     ld_dm_d = 32'(rec_q.hi);     end
         5'd10: begin ld_dm_a += 10'(S_VMAX);   ld_dm_d = 32'(rec_q.vmax);   end
-        5'd11: begin ld_dm_a += 10'(S_QOFF);   ld_dm_d = 32'(rec_q.rmax) - 32'(rec_q.dbl); end
+        5'd11: begin ld_dm_a += 10'(S_QOFF);   ld_dm_d = 32'(rec_qoff);    end
         5'd12: begin ld_dm_a += 10'(S_PHASE);  ld_dm_d = 32'(rec_q.phase);  end
         5'd13: begin ld_dm_a += 10'(S_NRX);    ld_dm_d = 32'(rec_q.nrx);    end
         5'd14: begin ld_dm_a += 10'(S_K);      ld_dm_d = 32'(rec_q.k);      end
@@ -411,6 +412,9 @@ module ms_sched_uc
   logic [1:0]      winb_we;                            // per half row
   logic            blk_re, blk_odd_q;
   win_t            win_wd;
+  function automatic logic [WAW-1:0] blk_row(input logic [2:0] s, input logic [3:0] e_half);
+    blk_row = WAW'(BLK_ROW) + WAW'({s, e_half});              // element e: e_half = e / 2
+  endfunction
   assign win_wd = '{t0: w_t0_q, we: w_we_q, seq: w_meta_q[7:0], init: w_meta_q[8],
                     epoch: w_meta_q[9], sensor: w_meta_q[18:16]};
   assign blk_re = bus_re && !eng_rst && bus_a >= AW'(BLK);
@@ -419,13 +423,13 @@ module ms_sched_uc
     winb_wa = WAW'(bus_wd);
     winb_wd = (2 * XW)'(win_wd);
     if (eng_rst) begin
-      winb_wa = WAW'(BLK_ROW) + WAW'({blk_addr[7:5], blk_addr[4:1]});
+      winb_wa = blk_row(blk_addr[7:5], blk_addr[4:1]);
       winb_wd = {2{blk_a, blk_b}};
       winb_we = {blk_we && blk_addr[0], blk_we && !blk_addr[0]};
     end else if (io_we && io(bus_a, W_ADDR)) begin
       winb_we = 2'b11;
     end
-    winb_ra = su_re ? su_ra : blk_re ? WAW'(BLK_ROW) + WAW'({bus_a[8:6], bus_a[4:1]}) : win_ra_q;
+    winb_ra = su_re ? su_ra : blk_re ? blk_row(bus_a[8:6], bus_a[4:1]) : win_ra_q;
   end
   always_ff @(posedge clk_i) begin
     if (winb_we[0]) winb_q[winb_wa][XW-1:0]    <= winb_wd[XW-1:0];

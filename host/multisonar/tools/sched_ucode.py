@@ -328,9 +328,7 @@ class Program:
             if isinstance(item, str):
                 out.append(item)
                 continue
-            if prev is not None and (hazard(prev, item) or (prev.op in CB_OPS and item.op == "call")):
-                # (a call right after a compare-and-branch would set the link register while
-                # squashed)
+            if prev is not None and hazard(prev, item):
                 if strict:
                     raise UcodeError(f"{item.where}: reads what {prev.where} produces in the clock "
                                      "before (one instruction must come between)")
@@ -454,9 +452,12 @@ def _fused(flag_op: Insn, cond: int, target: str) -> Insn | None:
 
 def hazard(first: Insn, second: Insn) -> bool:
     """``second`` executes right after ``first`` and reads its result or flags too early
-    (branches, call and ret write neither)."""
+    (branches, call and ret write neither), or is a call right after a compare-and-branch
+    (squashed, it would still set the link register)."""
     w = first.writes()
     if w and w in second.reads():
+        return True
+    if first.op in CB_OPS and second.op == "call":
         return True
     return first.op in FLAG_OPS and second.op == "b" and second.rd != CONDS["al"]
 
@@ -557,8 +558,6 @@ class Machine:
             insn = code[self.pc] if self.pc < len(code) else nop
             if prev is not None and hazard(prev, insn):
                 raise UcodeError(f"pc {self.pc}: hazard with the instruction before ({prev.op})")
-            if prev is not None and prev.op in CB_OPS and insn.op == "call":
-                raise UcodeError(f"pc {self.pc}: a call right after a compare-and-branch")
             before = self.cycle
             self.step(insn)
             prev = insn if self.cycle == before + 1 else None   # a taken cb: two squashed clocks
@@ -610,15 +609,9 @@ class Machine:
             else:
                 self.trace.append(BusOp(self.cycle + 1, True, addr, bv))
                 self.write(addr, bv)
-        elif op in CB_OPS:
+        elif op in CB_OPS:              # the flags below, then the decision
             bv = {"cbi": insn.k, "cbb": 1 << insn.rb}.get(op, bv)
             res = (a - bv) if op in ("cb", "cbi") else (a & bv)
-            res &= MASK32
-            self.z, self.n = res == 0, bool(res >> 31)
-            res = None
-            if cond_holds(insn.rd, self.z, self.n):
-                nxt = insn.imm
-                self.cycle += 2          # the two instructions after it are squashed
         elif op == "b":
             if cond_holds(insn.rd, self.z, self.n):
                 nxt = insn.imm
@@ -628,11 +621,14 @@ class Machine:
             nxt = self.lr
         if res is not None:
             res &= MASK32
-            if insn.rd:
+            if insn.rd and op in WRITE_OPS:
                 r[insn.rd] = res
             if op in FLAG_OPS:
                 self.z = (res == 0) if z_override is None else z_override
                 self.n = bool(res >> 31)
+        if op in CB_OPS and cond_holds(insn.rd, self.z, self.n):
+            nxt = insn.imm
+            self.cycle += 2              # the two instructions after it are squashed
         self.pc = nxt
         self.cycle += 1
 

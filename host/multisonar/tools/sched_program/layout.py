@@ -61,8 +61,8 @@ WIN_RA, WIN_T0, WIN_WE, WIN_META = 0x438, 0x439, 0x43A, 0x43B
 # hardware's lateness check (P / 2) and lag measure; a stop request (STOP_REQ bit 0, with the
 # tick STOP_AT): the program finishes every logical tick before it, then writes HALT
 LAG_CUR, T_DONE, STOP_REQ, STOP_AT, HALT = 0x43C, 0x43D, 0x43E, 0x43F, 0x440
-# the blank offsets of (sensor s, element e): a at BLK + 64 s + e, b at BLK + 64 s + 32 + e (the
-# sensor RAM's blank-offset half, mapped on the bus; today's ms_scheduler keeps them there)
+# the blank offsets of (sensor s, element e): a at BLK + 64 s + e, b at BLK + 64 s + 32 + e
+# (ms_sched_uc keeps them in WIN's spare rows; the program reads them while the slot unit is idle)
 BLK = 0x800
 
 # per-sensor words at SENS + 32 s

@@ -96,7 +96,7 @@ def sensor_words(c: Any, shares: int, reinit_every: int | None = None) -> dict[i
     m = reinit_every if reinit_every is not None else c.reinit_every
     words = {S_TX: mask(c.tx), S_RX: mask(c.rx), S_BLK: mask(e for e, _, _ in blanks),
              S_ORDER: c.order, S_TV: c.t_v, S_TN: c.t_n, S_D: c.blank, S_RMAX: c.max_tof,
-             S_LO: lo, S_HI: hi, S_VMAX: c.vmax, S_QOFF: c.max_tof - c.blank, S_PHASE: c.phase,
+             S_LO: lo, S_HI: hi, S_VMAX: c.vmax, S_QOFF: window_length(c, True), S_PHASE: c.phase,
              S_NRX: len(c.rx), S_K: c.miss_limit, S_MODE: 1 if c.mode.value == "track" else 2,
              S_REINIT: int(m or 0), S_SHARE: shares}
     out = {base + k: v & MASK32 for k, v in words.items()}
