@@ -156,15 +156,11 @@ lint: $(STAMPS)/gen
 	    verilator --lint-only -Wall --quiet --timescale 1ns/1ps rtl/lint/waivers.vlt $(RTL_SOURCES) --top-module $$top \
 	        || { echo "lint: $$top has warnings" >&2; exit 1; }; \
 	done
-	@# the 25F's reduced scheduler (mk/synth.mk SYNTH_CORE_25K: 4 sensors, 8 window slots)
-	@verilator --lint-only -Wall --quiet --timescale 1ns/1ps rtl/lint/waivers.vlt $(RTL_SOURCES) \
-	    --top-module ms_sonar_core -GNUM_VS=4 -GWSLOTS=8 \
-	    || { echo "lint: ms_sonar_core (NUM_VS=4, WSLOTS=8) has warnings" >&2; exit 1; }
 	@# the banked RAM (WORDS not a power of two) is only built by the board top
 	@verilator --lint-only -Wall --quiet --timescale 1ns/1ps rtl/lint/waivers.vlt rtl/common/ms_ram_sp_bytes.sv \
 	    --top-module ms_ram_sp_bytes -GWORDS=15360 -GINIT_FILE='"ram.hex"' \
 	    || { echo "lint: ms_ram_sp_bytes (WORDS=15360) has warnings" >&2; exit 1; }
-	@echo "lint: clean ($(words $(LINT_TOPS)) modules: $(LINT_TOPS); ms_sonar_core reduced; ms_ram_sp_bytes banked)"
+	@echo "lint: clean ($(words $(LINT_TOPS)) modules: $(LINT_TOPS); ms_ram_sp_bytes banked)"
 	@# strict IEEE 1800 front end (slang): the whole design with the ULX3S board top, no errors
 	@# anywhere, no warnings in rtl/ beyond the kinds rtl/lint/slang_waivers.txt justifies
 	@$(VPY) scripts/lint_slang.py --waivers rtl/lint/slang_waivers.txt -v $(SYNTH_SHARE)/ecp5/cells_bb.v \

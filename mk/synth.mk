@@ -11,10 +11,8 @@
 #                             SYNTH_BLOCKS_PNR=1 each block is also placed and routed alone
 #                             (out of context) for its routed Fmax
 # Options: SYNTH_APP (firmware in the RAM image; default sonar_app, the application the host
-# driver talks to), ECP5_DEVICE (25k,
-# 45k, 85k; default 45k: the full design needs about 21k TRELLIS_COMB and 56 DP16KD, on the
-# 25k (24,288 and 56) 84 %, above issue #27's 80 %, so 25k builds the reduced 25F profile
-# below into build/synth/ecp5-25k/; docs/synthesis.md),
+# driver talks to), ECP5_DEVICE (25k, the
+# product's LFE5U-25F, default; 45k, 85k: the same design on a larger ECP5),
 # SYNTH_SEED (nextpnr seed), SYNTH_SEEDS
 # (several seeds placed and routed in parallel, the one with the highest Fmax kept; default
 # SYNTH_SEED; each run in build/synth/TARGET/seed-N/), SYNTH_PLACER
@@ -29,25 +27,21 @@ SYNTH_MHZ    := 48
 # the system clock from the PLL and the board clock's FREQUENCY in the LPF (--freq does not
 # reach it), so place and route reads a copy of the LPF with the board clock scaled by
 # SYNTH_PNR_MHZ / SYNTH_MHZ: the timing-driven placer and router then work on every path
-# slower than SYNTH_PNR_MHZ instead of stopping at 48 MHz. For the full design 60 MHz
-# (docs/synthesis.md, "What keeps timing"); the 25F profile, at 79 % of its device, stays at 48
-SYNTH_PNR_MHZ ?= $(if $(SYNTH_25K),$(SYNTH_MHZ),60)
-ECP5_DEVICE  ?= 45k
-SYNTH_25K    := $(if $(filter ecp5,$(TARGET)),$(filter 25k,$(ECP5_DEVICE)))
-# the scheduler's size on this board (the 25F profile below): what the board top, CAPS and
-# synth-sweep's scheduler-alone figure use
-SYNTH_NUM_VS := $(if $(SYNTH_25K),4,8)
-SYNTH_WSLOTS := $(if $(SYNTH_25K),8,16)
-# the 25F profile (below) routes with the HeAP placer (the electrostatic one leaves router2
-# diverging there), at seed 1; seed 2 routed earlier netlists but diverges on today's (router2
-# overuse growing after iteration ~70), so it would only run into SYNTH_PNR_TIMEOUT
-# (docs/synthesis.md, "The 25F profile")
+# slower than SYNTH_PNR_MHZ instead of stopping at 48 MHz (docs/synthesis.md, "What keeps timing")
+SYNTH_PNR_MHZ ?= 60
+ECP5_DEVICE  ?= 25k
+# the scheduler's size (its program is built for it; CAPS reports it): synth-sweep's figures
+SYNTH_NUM_VS := 8
+SYNTH_WSLOTS := 16
 SYNTH_SEED   ?= 1
 SYNTH_SEEDS  ?= $(SYNTH_SEED)
 SYNTH_DETAIL ?= 0
-SYNTH_PLACER ?= $(if $(SYNTH_25K),heap,static)
-# the 25F builds the reduced profile below, a netlist of its own: its own directory
-SYNTH_DIR    := $(BUILD)/synth/$(TARGET)$(if $(SYNTH_25K),-25k)
+SYNTH_PLACER ?= static
+# SYNTH_VEX_ICACHE (KiB): VexRiscv with another I-cache size (default 16); SYNTH_ABC_AREA=1: LUT
+# mapping for area (ABC9 with a delay target) instead of best delay
+SYNTH_VEX_ICACHE ?=
+SYNTH_ABC_AREA ?=
+SYNTH_DIR    := $(BUILD)/synth/$(TARGET)
 # vendor primitives (PLL) as black boxes: Yosys' own cell library, read by slang as a library file
 # Paths handed to the tools are relative to the repository: YoWASP's WebAssembly sandbox maps
 # its own private directory over /tmp, so an absolute path under /tmp (a clone in /tmp, or a
@@ -66,29 +60,15 @@ ifeq ($(TARGET),ecp5)
   # the same on every ULX3S
   SYNTH_HEX    := $(BUILD)/synth/ecp5/fw/$(SYNTH_APP).hex
   SYNTH_PARAMS := -G INIT_FILE=\"$(SYNTH_HEX)\"
-  # The LFE5U-25F profile: the full design takes all 56 of its DP16KD and 84 % of its
-  # TRELLIS_COMB (51.9-55.6 MHz at seeds 1-8; docs/synthesis.md, "The 25F profile"). On the 25F
-  # the scheduler runs 4 virtual sensors (NUM_VS) with 8 window slots per element (WSLOTS),
-  # which CAPS reports to the host, and VexRiscv has an 8 KiB instruction cache instead of
-  # 16 KiB (4 DP16KD; the geometry budget per fix doubles with half the sensors). The USB IN
-  # buffer goes back to block RAM, which the smaller cache leaves room for.
-  ifneq ($(SYNTH_25K),)
-    SYNTH_PARAMS += -G NUM_VS=$(SYNTH_NUM_VS) -G WSLOTS=$(SYNTH_WSLOTS)
-    SYNTH_VEX_ICACHE := 8
-    # LUT mapping for area: ABC9 with a delay target (-D 10000 ps) instead of best delay
-    # recovers area: 22.1k -> 21.3k TRELLIS_COMB (88 %), which routes at every seed tried
-    # (1 and 2) where the delay-mapped 91 % routed at one of four
-    SYNTH_ABC_AREA := 1
-    SYNTH_PROFILE := , 25F profile: NUM_VS $(SYNTH_NUM_VS), WSLOTS $(SYNTH_WSLOTS), I-cache $(or $(SYNTH_VEX_ICACHE),16) KiB, ABC9 area mapping
-  endif
+  comma        := ,
+  SYNTH_PROFILE := $(if $(SYNTH_VEX_ICACHE),$(comma) I-cache $(SYNTH_VEX_ICACHE) KiB)$(if $(SYNTH_ABC_AREA),$(comma) ABC9 area mapping)
   SYNTH_CELLS  := ecp5/cells_bb.v
   SYNTH_YOSYS  := synth_ecp5 -top $(SYNTH_TOP)
   # ms_csr's VS table (72 words, two read ports) in distributed RAM, and with the 16 KiB
   # I-cache also the USB IN endpoint's 128-byte buffer: as block RAM they take three DP16KD
-  # and one. VexRiscv's register file (32 x 32, two read ports, two DP16KD) stays in block
-  # RAM: in LUT-RAM (~320 LUT4 and 32 DPR16X4 more) its read sat on the 45F's slowest paths
-  # (seed 3 at 52.27 MHz) and router2 diverged on the 25F profile. Set here, not as attributes
-  # in the RTL: simulation and lint do not need them
+  # and one, which the 25F does not have. VexRiscv's register file (32 x 32, two read ports,
+  # two DP16KD) stays in block RAM: in LUT-RAM (~320 LUT4 and 32 DPR16X4 more) its read sat on
+  # the slowest paths. Set here, not as attributes in the RTL: simulation and lint do not need them
   # every block's reset copy (ms_reset_copy) stays a flop of its own, placed near its block:
   # without keep, Yosys merges the copies back into one flop that drives the whole chip
   SYNTH_PREP   := setattr -set ram_style "distributed" m:*vs_m \
@@ -118,7 +98,7 @@ $(BUILD)/synth/ecp5/fw/%.hex: $(BUILD)/fw/%.elf
 	riscv64-unknown-elf-objcopy -O binary $< $(@:.hex=.bin)
 	$(VPY) -m multisonar.tools.bin2memh $(@:.hex=.bin) $@ --words 15360
 
-# VexRiscv with another I-cache size for a board profile (SYNTH_VEX_ICACHE KiB)
+# VexRiscv with another I-cache size (SYNTH_VEX_ICACHE KiB)
 SYNTH_VEX_FILE := $(GEN)/cpu/VexRiscv_icache$(SYNTH_VEX_ICACHE)k.v
 $(GEN)/cpu/VexRiscv_icache%k.v: scripts/gen_vex_icache.py $(STAMPS)/venv
 	@mkdir -p $(@D)
@@ -205,40 +185,32 @@ $(SYNTH_DIR)/report.txt: $(SYNTH_DIR)/pnr.json $(SYNTH_BIT) scripts/synth_report
 	    --note "top $(SYNTH_TOP)$(SYNTH_PROFILE), firmware $(SYNTH_HEX), seed $$(cat $(SYNTH_DIR)/seed.txt)" \
 	    && mv $@.tmp $@
 
-# ---- CI gate (.ci/run calls it before make test): the ECP5 flow from scratch, then the fresh
-# report against the committed synth/ecp5_report.txt (scripts/synth_report.py compare, the
-# table of differences always printed). Fails when timing at 48 MHz is not met (make synth),
-# when any of the seeds SYNTH_CHECK_SEEDS routes below SYNTH_MIN_WORST_MHZ (1.1x, 52.8 MHz: the
-# margin at every placement, issue #27) or when LUT use grew more than 10 %. Place and route
-# runs the seeds at once (four nextpnr processes on the CI machine's two cores, ~10 minutes on
-# the 45F) and keeps the fastest for the bitstream; one netlist's Fmax spreads over ~10 MHz
-# from seed to seed (docs/synthesis.md), so the best seed alone says little: the gate is the
-# worst one. The flow is deterministic (pinned yowasp tools, fixed seeds), so CI reproduces
-# the committed figures.
-# Then the LFE5U-25F profile (the issue's board: 4 sensors, 8 window slots, 8 KiB I-cache, ABC9
-# area mapping; HeAP placer, seed 1, ~15 minutes) against synth/ecp5_25k_report.txt: it must build and meet
-# 48 MHz (SYNTH_25K_MIN_MHZ); it routes at 91 % of the device, so no 1.3x margin there.
+# ---- CI gate (.ci/run calls it before make test): the ECP5 flow from scratch on the LFE5U-25F,
+# then the fresh report against the committed synth/ecp5_25k_report.txt (scripts/synth_report.py
+# compare, the table of differences always printed). Fails when timing at 48 MHz is not met
+# (make synth), when any of the seeds SYNTH_CHECK_SEEDS routes below SYNTH_MIN_WORST_MHZ (1.1x,
+# 52.8 MHz: the margin at every placement, issue #27) or when LUT use grew more than 10 %. Place
+# and route runs the seeds at once (one nextpnr process per seed on the CI machine's two cores)
+# and keeps the fastest for the bitstream; one netlist's Fmax spreads over ~10 MHz from seed to
+# seed (docs/synthesis.md), so the best seed alone says little: the gate is the worst one. The
+# flow is deterministic (pinned yowasp tools, fixed seeds), so CI reproduces the committed
+# figures. make synth-sweep checks all eight seeds.
 SYNTH_MIN_MHZ     ?= 48
 SYNTH_MIN_WORST_MHZ ?= 52.8
-SYNTH_25K_MIN_MHZ ?= 48
-SYNTH_CHECK_SEEDS ?= 1 2 3 4
+SYNTH_CHECK_SEEDS ?= 1 2
+SYNTH_CHECK_REF   := synth/ecp5_25k_report.txt
 .PHONY: synth-check
 synth-check:
-	@rm -rf $(BUILD)/synth/ecp5 $(BUILD)/synth/ecp5-25k
-	@$(MAKE) --no-print-directory synth TARGET=ecp5 SYNTH_SEEDS="$(SYNTH_CHECK_SEEDS)" SYNTH_DETAIL=0
-	@echo "synth-check: build/synth/ecp5/report.txt against synth/ecp5_report.txt (every seed >= $(SYNTH_MIN_WORST_MHZ) MHz, LUTs +10 % at most)"
-	@$(VPY) scripts/synth_report.py compare $(BUILD)/synth/ecp5/report.txt synth/ecp5_report.txt \
+	@rm -rf $(BUILD)/synth/ecp5
+	@$(MAKE) --no-print-directory synth TARGET=ecp5 ECP5_DEVICE=25k SYNTH_SEEDS="$(SYNTH_CHECK_SEEDS)" SYNTH_DETAIL=0
+	@echo "synth-check: build/synth/ecp5/report.txt against $(SYNTH_CHECK_REF) (every seed >= $(SYNTH_MIN_WORST_MHZ) MHz, LUTs +10 % at most)"
+	@$(VPY) scripts/synth_report.py compare $(BUILD)/synth/ecp5/report.txt $(SYNTH_CHECK_REF) \
 	    --min-mhz $(SYNTH_MIN_MHZ) --min-worst-mhz $(SYNTH_MIN_WORST_MHZ) --max-lut-growth 0.10
-	@$(MAKE) --no-print-directory synth TARGET=ecp5 ECP5_DEVICE=25k SYNTH_DETAIL=0
-	@echo "synth-check: build/synth/ecp5-25k/report.txt against synth/ecp5_25k_report.txt (Fmax >= $(SYNTH_25K_MIN_MHZ) MHz, LUTs +10 % at most)"
-	@$(VPY) scripts/synth_report.py compare $(BUILD)/synth/ecp5-25k/report.txt synth/ecp5_25k_report.txt \
-	    --min-mhz $(SYNTH_25K_MIN_MHZ) --max-lut-growth 0.10
-	@grep -E '^(device|fmax_mhz|luts|bram):' $(BUILD)/synth/ecp5/report.txt $(BUILD)/synth/ecp5-25k/report.txt \
-	    | sed 's/^/synth-check: /'
+	@grep -E '^(device|fmax_mhz|luts|bram):' $(BUILD)/synth/ecp5/report.txt | sed 's/^/synth-check: /'
 
-# ---- placer-seed sweep (issue #27): make synth-sweep [ECP5_DEVICE=25k] [SYNTH_SWEEP_SEEDS="1 2"]
+# ---- placer-seed sweep (issue #27): make synth-sweep [ECP5_DEVICE=45k] [SYNTH_SWEEP_SEEDS="1 2"]
 # places and routes the board top at every seed of SYNTH_SWEEP_SEEDS (default 1-8, all at once:
-# about 8 x 10 minutes of CPU), synthesises ms_scheduler alone with the same NUM_VS / WSLOTS,
+# about 8 x 10 minutes of CPU), synthesises the scheduler (ms_sched_uc) alone,
 # and writes SYNTH_SWEEP_OUT (default synth/ecp5_<device>_report.json, committed): device,
 # scheduler size, TRELLIS_COMB and DP16KD use, the scheduler alone, per seed routed and Fmax,
 # worst and median, and the goals (<= 80 % TRELLIS_COMB, <= 56 DP16KD, every seed >= 48 MHz,
@@ -249,14 +221,13 @@ SYNTH_SWEEP_OUT   ?= synth/ecp5_$(ECP5_DEVICE)_report.json
 .PHONY: synth-sweep
 synth-sweep:
 	@$(MAKE) --no-print-directory synth TARGET=ecp5 SYNTH_SEEDS="$(SYNTH_SWEEP_SEEDS)" SYNTH_DETAIL=0 || true
-	@$(MAKE) --no-print-directory synth-blocks SYNTH_BLOCKS=ms_scheduler SYNTH_BLOCKS_PNR=0 \
-	    SYNTH_BLOCKS_PARAMS="-G NUM_VS=$(SYNTH_NUM_VS) -G WSLOTS=$(SYNTH_WSLOTS)"
+	@$(MAKE) --no-print-directory synth-blocks SYNTH_BLOCKS=ms_sched_uc SYNTH_BLOCKS_PNR=0
 	@$(VPY) scripts/synth_report.py sweep $(SYNTH_DIR) $(SYNTH_SWEEP_SEEDS) --device $(SYNTH_DEVICE) \
-	    --num-vs $(SYNTH_NUM_VS) --wslots $(SYNTH_WSLOTS) --sched-stat $(BLOCKS_DIR)/ms_scheduler.json \
+	    --num-vs $(SYNTH_NUM_VS) --wslots $(SYNTH_WSLOTS) --sched-stat $(BLOCKS_DIR)/ms_sched_uc.json \
 	    --require-mhz $(SYNTH_MHZ) --out $(SYNTH_SWEEP_OUT)
 
 # ---- area per block: each block synthesised alone (ECP5 cells), printed as a markdown table
-SYNTH_BLOCKS ?= ms_scheduler ms_csr ms_tx_phaser ms_event_fifo ms_rx_conditioner ms_sonar_core
+SYNTH_BLOCKS ?= ms_sched_uc ms_csr ms_tx_phaser ms_event_fifo ms_rx_conditioner ms_sonar_core
 # SYNTH_BLOCKS_PNR=1: also place and route each block alone (nextpnr --out-of-context: no I/O
 # cells, ports left unplaced) for its LUT count and Fmax, at SYNTH_BLOCKS_MHZ (the 1.3x goal)
 SYNTH_BLOCKS_PNR ?= 0

@@ -12,8 +12,8 @@ module ms_sonar_core #(
   parameter int unsigned TICK_START = 0,
   parameter int          LEAD       = 32768, // scheduler decision lead (docs/fast_firing.md 3.1)
   parameter int          EVT_DEPTH_W = 9,   // event FIFO depth 2^EVT_DEPTH_W words (block RAM)
-  // scheduler size (reported in CAPS): virtual sensors run (1..8, the register map's table
-  // has 8 entries) and window slots per element; smaller values for small FPGAs (the 25F)
+  // scheduler size (reported in CAPS): virtual sensors run and window slots per element; the
+  // scheduler's program is built for 8 and 16 (sched_program.layout), other values do not elaborate
   parameter int          NUM_VS      = 8,
   parameter int          WSLOTS      = 16
 ) (
@@ -99,7 +99,7 @@ module ms_sonar_core #(
   logic [NUM_CH-1:0]         unused_pulse_tx;  // for testbenches (through the hierarchy)
   logic [31:0]               pulse_t0;
 
-  ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W), .LEAD(LEAD), .WSLOTS(WSLOTS)) u_sched (
+  ms_sched_uc #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W), .LEAD(LEAD), .WSLOTS(WSLOTS)) u_sched (
     .clk_i, .rst_i, .tick_i (tick_q), .enable_i (enable), .apply_i (apply),
     .vs_ren_o (vs_ren), .vs_raddr_o (vs_raddr), .vs_rdata_i (vs_rdata),
     .burst_half_period_i (burst_half_period), .glitch_min_i (glitch_min), .miss_gate_i (miss_gate),

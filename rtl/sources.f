@@ -29,7 +29,6 @@ rtl/core/ms_sched_closes.sv
 rtl/core/ms_sched_workq.sv
 rtl/core/ms_sched_cfg.sv
 rtl/core/ms_sched_uc.sv
-rtl/core/ms_scheduler.sv
 rtl/ms_sonar_core.sv
 rtl/ms_system.sv
 rtl/usb/ms_usb_pkg.sv

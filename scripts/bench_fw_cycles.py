@@ -26,7 +26,7 @@ does per event (reading the FIFO, converting ticks to paths, re-aiming) is not c
 
     .venv/bin/python scripts/bench_fw_cycles.py [--cpu picorv32|vexriscv] [--variants f64,f32,q]
                                                 [--max-cases N] [--reuse] [--icache-cold] [--plot FILE]
-                                                [--icache-kib 8 --sensors 4]   (the LFE5U-25F profile)
+                                                [--icache-kib 8 --sensors 4]   (a smaller build)
 
 Simulation is slow (~0.33 M cycles/s of the SoC). q: ~5 min for all cases (the extremes and
 the pillars take the general path, millions of cycles each). f64 / f32 take the general path
@@ -150,10 +150,9 @@ def main() -> None:
                     help="VexRiscv: empty the instruction cache (FENCE.I) before every timed ms_fix "
                          "(bench_geom.c -DBENCH_FIX_COLD): the worst case, every line of the fix refetched")
     ap.add_argument("--icache-kib", type=int, default=16, choices=(4, 8, 16, 32),
-                    help="VexRiscv: instruction cache size (scripts/gen_vex_icache.py; 16 in every build "
-                         "but the LFE5U-25F profile's 8)")
+                    help="VexRiscv: instruction cache size (scripts/gen_vex_icache.py; the product has 16)")
     ap.add_argument("--sensors", type=int, default=8,
-                    help="virtual sensors the budget assumes (8; the LFE5U-25F profile runs 4)")
+                    help="virtual sensors the budget assumes (the product runs 8)")
     ap.add_argument("--plot", metavar="FILE", help="write a PNG of the cycles per call against the budget")
     a = ap.parse_args()
     variants = [v for v in a.variants.split(",") if v]

@@ -1,4 +1,4 @@
-"""Per-sensor sample rate measured in RTL simulation (ms_scheduler, Verilator) next to the
+"""Per-sensor sample rate measured in RTL simulation (ms_sched_uc, Verilator) next to the
 golden model, on a static reflector in front of one collocated sender/receiver.
 
     .venv/bin/python scripts/bench_rtl_sample_rate.py [--cases 2:1,2:3,4:1,4:4] [--plot out.png]

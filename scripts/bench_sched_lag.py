@@ -1,11 +1,8 @@
-"""Worst-case lag of the scheduler engine (ms_scheduler in Verilator, scoreboarded against the
+"""Worst-case lag of the scheduler engine (ms_sched_uc in Verilator, scoreboarded against the
 golden model) on the heaviest loads: 8 sensors, same-tick bursts, full window slots, echo
 storms, simultaneous safety cancels (tests/rtl/tb_bench_lag.py says what each one is).
 
-    .venv/bin/python scripts/bench_sched_lag.py [--ms 300] [--uc] [--plot out.png]
-
---uc: the scheduler on the microcoded engine (ms_sched_uc, tests/rtl/test_ms_sched_uc.py's
-build) at its lead (32768 unless --lead), written to build/bench/sched_lag_uc.json.
+    .venv/bin/python scripts/bench_sched_lag.py [--ms 300] [--lead P] [--plot out.png]
 
 The contract (docs/fast_firing.md, docs/sonar_core.md): the engine decides a pulse LEAD ticks
 before its t0 and must never fall more than LEAD/2 behind real time (overrun_o). Prints a
@@ -31,32 +28,26 @@ def main() -> int:
     ap.add_argument("--ms", type=int, default=300, help="simulated milliseconds per scenario")
     ap.add_argument("--lead", type=int, default=None,
                     help="decision lead P in ticks (RTL parameter and model option; default the product's)")
-    ap.add_argument("--uc", action="store_true", help="ms_sched_uc (the microcoded scheduler) instead")
     ap.add_argument("--plot", help="write a bar chart PNG")
     args = ap.parse_args()
     from cocotb_run import run_cocotb
-    if args.uc:
-        from test_ms_sched_uc import PARAMETERS, SOURCES
-    else:
-        from test_ms_scheduler import PARAMETERS, SOURCES
+    from test_ms_scheduler import PARAMETERS, SOURCES
 
     if args.lead is None:
         args.lead = PARAMETERS["LEAD"]
     product_lead = args.lead == PARAMETERS["LEAD"]
-    name = "sched_lag_uc" if args.uc else "sched_lag"
-    out = OUT.with_name(f"{name}.json" if product_lead else f"{name}_lead{args.lead}.json")
-    variant = ("uc" if args.uc else "") + ("" if product_lead else f"-lead{args.lead}")
+    out = OUT if product_lead else OUT.with_name(f"sched_lag_lead{args.lead}.json")
+    variant = "" if product_lead else f"lead{args.lead}"
     out.unlink(missing_ok=True)
     failed = None
     try:  # at the default lead the scheduler test's build is shared, another lead builds its own
-        run_cocotb("ms_scheduler_tb", "tb_bench_lag", variant=variant.strip("-"), sources=SOURCES,
+        run_cocotb("ms_scheduler_tb", "tb_bench_lag", variant=variant, sources=SOURCES,
                    parameters={**PARAMETERS, "LEAD": args.lead}, icarus_ok=False,
-                   defines={"SCHED_UC": 1} if args.uc else None,
                    extra_env={"LAG_OUT": str(out), "LAG_MS": str(args.ms), "SCHED_LEAD": str(args.lead)})
     except BaseException as e:  # the testbench itself failed (build, crash): report what was written
         failed = e
     rows = json.loads(out.read_text()) if out.exists() else []
-    print(f"{'ms_sched_uc' if args.uc else 'ms_scheduler'}, LEAD = {args.lead} ticks, {args.ms} ms per scenario\n")
+    print(f"ms_sched_uc, LEAD = {args.lead} ticks, {args.ms} ms per scenario\n")
     print("| scenario | lag max (ticks) | budget LEAD/2 | within | overrun | pulses | events | conflicts "
           "| slot-full candidates | most pulses at one tick | RTL = model |")
     print("|---|---:|---:|---|---|---:|---:|---:|---:|---:|---|")

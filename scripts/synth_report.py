@@ -3,16 +3,16 @@
     .venv/bin/python scripts/synth_report.py make --target ecp5 --device LFE5U-45F-CABGA381 \
         --stat build/synth/ecp5/stat.json --pnr build/synth/ecp5/report.json \
         --require-mhz 48 --out build/synth/ecp5/report.txt
-    .venv/bin/python scripts/synth_report.py compare build/synth/ecp5/report.txt synth/ecp5_report.txt \
+    .venv/bin/python scripts/synth_report.py compare build/synth/ecp5/report.txt synth/ecp5_25k_report.txt \
         --min-mhz 62.4 --max-lut-growth 0.10
 
-    .venv/bin/python scripts/synth_report.py blocks build/synth/blocks/ms_scheduler.json ...
+    .venv/bin/python scripts/synth_report.py blocks build/synth/blocks/ms_sched_uc.json ...
     .venv/bin/python scripts/synth_report.py late build/synth/ecp5/pnr.json --mhz 62.4
-    .venv/bin/python scripts/synth_report.py area build/synth/blocks/ms_scheduler.net.json
+    .venv/bin/python scripts/synth_report.py area build/synth/blocks/ms_sched_uc.net.json
 
 `make` writes the report (yosys `stat -json` cell counts + nextpnr `--report` JSON) and exits
 non-zero when a clock misses --require-mhz. `compare` checks a fresh report against the
-committed one (synth/ecp5_report.txt): it fails when Fmax is below --min-mhz or LUT use grew
+committed one (synth/ecp5_25k_report.txt): it fails when Fmax is below --min-mhz or LUT use grew
 by more than --max-lut-growth, and always prints the differences. `blocks` prints a markdown
 table of the yosys cells of blocks synthesised alone (`make synth-blocks`): where the area is.
 `late` reads a nextpnr report written with --detailed-timing-report (`make synth
@@ -497,7 +497,8 @@ def sweep_report(runs: list[tuple[int, Path]], device: str, num_vs: int, wslots:
     scheduler's size, TRELLIS_COMB and DP16KD use (nextpnr's utilisation, the same for every
     seed of one netlist), the scheduler alone, and per seed whether it routed and its Fmax
     (slowest clock); then worst / median over the seeds and the goals met (issue #27)."""
-    goals = goals or {"max_comb_pct": 80.0, "max_dp16kd": 56, "min_worst_mhz": 52.8, "min_median_mhz": 60.0}
+    goals = goals or {"max_comb_pct": 80.0, "max_dp16kd": 56, "min_worst_mhz": 52.8, "min_median_mhz": 60.0,
+                      "max_sched_comb": 3500, "max_sched_dp16kd": 6}
     seeds: list[dict] = []
     util: dict = {}
     for seed, d in runs:
@@ -513,19 +514,23 @@ def sweep_report(runs: list[tuple[int, Path]], device: str, num_vs: int, wslots:
     worst = routed[0] if len(routed) == len(seeds) else None  # an unrouted seed has no Fmax
     median = (routed[len(routed) // 2] + routed[(len(routed) - 1) // 2]) / 2 if routed else None
     comb_pct = 100.0 * comb.get("used", 0) / comb["available"] if comb.get("available") else None
+    sched_comb = None if sched_stat is None else block_trellis_comb(sched_stat)
+    sched_bram = None if sched_stat is None else yosys_cells(sched_stat).get("DP16KD", 0)
     met = {
         "trellis_comb": comb_pct is not None and comb_pct <= goals["max_comb_pct"],
         "dp16kd": bram.get("used", 10**9) <= goals["max_dp16kd"],
         "every_seed_meets_clock": worst is not None and worst >= require_mhz,
         "worst_seed": worst is not None and worst >= goals["min_worst_mhz"],
         "median": median is not None and median >= goals["min_median_mhz"],
+        "scheduler_trellis_comb": sched_comb is not None and sched_comb <= goals["max_sched_comb"],
+        "scheduler_dp16kd": sched_bram is not None and sched_bram <= goals["max_sched_dp16kd"],
     }
     return {
         "device": device, "num_vs": num_vs, "wslots": wslots, "require_mhz": require_mhz,
         "trellis_comb": {"used": comb.get("used"), "avail": comb.get("available"),
                          "pct": None if comb_pct is None else round(comb_pct, 1)},
         "dp16kd": {"used": bram.get("used"), "avail": bram.get("available")},
-        "scheduler_trellis_comb": None if sched_stat is None else block_trellis_comb(sched_stat),
+        "scheduler_trellis_comb": sched_comb, "scheduler_dp16kd": sched_bram,
         "seeds": seeds,
         "worst_mhz": worst, "median_mhz": None if median is None else round(median, 2),
         "goals": goals, "goals_met": met, "all_goals_met": all(met.values()),
@@ -569,7 +574,7 @@ def main() -> int:
     sw.add_argument("--device", required=True)
     sw.add_argument("--num-vs", type=int, required=True)
     sw.add_argument("--wslots", type=int, required=True)
-    sw.add_argument("--sched-stat", type=Path, help="yosys `stat -json` of ms_scheduler synthesised alone")
+    sw.add_argument("--sched-stat", type=Path, help="yosys `stat -json` of the scheduler (ms_sched_uc) synthesised alone")
     sw.add_argument("--require-mhz", type=float, default=48.0)
     sw.add_argument("--out", type=Path, required=True)
     ar = sub.add_parser("area", help="logic area charged to the registers it feeds, from a mapped ECP5 netlist")

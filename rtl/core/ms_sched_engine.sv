@@ -118,7 +118,10 @@ module ms_sched_engine
   always_ff @(posedge clk_i) if (w_we_q) rf_q[w_rd_q] <= w_data;
 
   logic [31:0] r_a, r_b;               // operands, the W stage's result forwarded
-  assign r_a = (w_we_q && w_rd_q == r_ra) ? w_data : rf_q[r_ra];
+  // r0 is never written, so `r_ra != 0` changes nothing here; it keeps Yosys from seeing a
+  // transparent read port and merging x_a_q into it, which would put the register-file read
+  // (behind an address register) into the X stage's path to the flags
+  assign r_a = (w_we_q && w_rd_q == r_ra && r_ra != 5'd0) ? w_data : rf_q[r_ra];
   assign r_b = (w_we_q && w_rd_q == r_rb) ? w_data : rf_q[r_rb];
 
   // decode into the X stage's controls
@@ -224,27 +227,29 @@ module ms_sched_engine
   logic [31:0] x_prod;
   assign x_prod = 32'($signed(x_a_q[17:0]) * $signed(x_b_q[17:0]));
 
-  logic [31:0] x_res;
+  // every result but the product: the flags' source (MUL keeps the flags), so the multiplier
+  // is not on the path to them
+  logic [31:0] x_alu, x_res;
   always_comb begin
     unique case (x_fn_q)
-      FN_AND:  x_res = x_a_q & x_b_q;
-      FN_OR:   x_res = x_a_q | x_b_q;
-      FN_XOR:  x_res = x_a_q ^ x_b_q;
-      FN_ANDN: x_res = x_a_q & ~x_b_q;
-      FN_MUL:  x_res = x_prod;
-      FN_LSB:  x_res = {27'd0, x_lsb};
-      FN_ROTB: x_res = x_rot;
-      default: x_res = x_sum;  // FN_ADD, FN_SUB (and FN_NONE: not written)
+      FN_AND:  x_alu = x_a_q & x_b_q;
+      FN_OR:   x_alu = x_a_q | x_b_q;
+      FN_XOR:  x_alu = x_a_q ^ x_b_q;
+      FN_ANDN: x_alu = x_a_q & ~x_b_q;
+      FN_LSB:  x_alu = {27'd0, x_lsb};
+      FN_ROTB: x_alu = x_rot;
+      default: x_alu = x_sum;  // FN_ADD, FN_SUB (FN_MUL: x_res; FN_NONE: not written)
     endcase
   end
+  assign x_res = (x_fn_q == FN_MUL) ? x_prod : x_alu;
 
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
       z_q <= 1'b0;
       n_q <= 1'b0;
     end else if (!kill && x_fn_q != FN_NONE && x_fn_q != FN_MUL) begin  // MUL keeps the flags
-      z_q <= (x_fn_q == FN_LSB) ? (x_onehot == '0) : (x_res == '0);
-      n_q <= x_res[31];
+      z_q <= (x_fn_q == FN_LSB) ? (x_onehot == '0) : (x_alu == '0);
+      n_q <= x_alu[31];
     end
     w_cb_q  <= !rst_i && x_cb_q && !kill;
     w_cc_q  <= x_cc_q;

@@ -325,8 +325,8 @@ module ms_sched_uc
   );
   logic io_we;
   assign io_we = bus_we && !eng_rst;
-  function automatic logic io(input logic [AW-1:0] a, input int addr);
-    io = int'(a) == addr;
+  function automatic logic io(input logic [AW-1:0] a, input int reg_addr);
+    io = int'(a) == reg_addr;
   endfunction
 
   // data memory: the engine's port, or the loader's while the engine is in reset

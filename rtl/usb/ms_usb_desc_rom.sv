@@ -26,7 +26,10 @@ module ms_usb_desc_rom #(
   endfunction
 
   logic [7:0] b;
+  // In logic, not block RAM (yosys' proc_rom copies the case's attributes onto the ROM it
+  // infers): about 270 LUT4 instead of one of the LFE5U-25F's 56 DP16KD, which the design needs.
   always_comb begin
+    (* rom_style = "logic" *)
     case (addr_i)
       9'd0: b = 8'h12;                          9'd1: b = 8'h01;                          9'd2: b = 8'h01;
       9'd3: b = 8'h02;                          9'd4: b = 8'h00;                          9'd5: b = 8'h00;

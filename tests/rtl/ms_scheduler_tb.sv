@@ -1,4 +1,5 @@
-// ms_scheduler_tb: cocotb wrapper of ms_scheduler (tests/rtl/tb_ms_scheduler.py).
+// ms_scheduler_tb: cocotb wrapper of the fast-firing scheduler, ms_sched_uc (the scheduler on
+// the microcoded engine; tests/rtl/tb_ms_scheduler.py).
 //
 // Holds what the testbench would otherwise have to drive or sample per clock: a free-running
 // tick counter loaded with tick_start_i during reset (wrap tests), the real ms_rx_conditioner
@@ -6,16 +7,12 @@
 // testbench reads at the end: every event word, and every trigger as {element, tick it fires}
 // (the tick of the arming cycle plus trig_delay_o, i.e. when ms_tx_phaser would trigger it).
 // The whole virtual-sensor table is driven as flat vectors (sensor s at bits [s*W +: W]).
-// With SCHED_UC defined it wraps ms_sched_uc (the scheduler on the microcoded engine,
-// UCODE_FILE its program) instead, without the load check of ms_scheduler's internals.
 module ms_scheduler_tb #(
   parameter int NUM_CH    = 24,
   parameter int LEAD      = 4096,
   parameter int EVT_DEPTH = 8192,
   parameter int TRG_DEPTH = 4096,
-  parameter int SCHED_VS  = 8,    // sensors the scheduler runs (its NUM_VS; the table has 8)
-  parameter int WSLOTS    = 16,   // window slots per element
-  parameter string UCODE_FILE = ""  // SCHED_UC: the engine's program image
+  parameter string UCODE_FILE = ""  // the engine's program image (empty: the gen step's)
 ) (
   input  logic                 clk_i,
   input  logic                 rst_i,
@@ -133,74 +130,6 @@ module ms_scheduler_tb #(
   endfunction
   always_ff @(posedge clk_i) vs_rdata <= vs_word(int'(vs_raddr));
 
-  // After the scheduler loaded a table (ms_sched_cfg's load done), its per-sensor state equals
-  // the table: the fields, the crosstalk neighbours (within nb of a tx element, not tx), the
-  // blanking max(T_dead, T_xtalk) + the largest tx delay (from the delay RAM), the prediction
-  // clamp bounds, every blank interval (BLK) of a tx or crosstalk element, and the share matrix.
-  function automatic logic [NUM_CH-1:0] xt_expect(input logic [NUM_CH-1:0] tx, input logic [1:0] nb);
-    logic [NUM_CH-1:0] m;
-    m = '0;
-    for (int k = 1; k <= int'(nb); k++)
-      m = m | ((tx << k) | (tx >> (NUM_CH - k))) | ((tx >> k) | (tx << (NUM_CH - k)));
-    xt_expect = m & ~tx;
-  endfunction
-  function automatic logic [NUM_CH-1:0] use_expect(input int s);
-    use_expect = vs_tx[s] | vs_rx[s] | xt_expect(vs_tx[s], vs_nb[s]);
-  endfunction
-  // sensor s's table word w as the scheduler keeps it in its sensor RAM (SNS: {0, s, 24 + slot},
-  // slot w except PHASE (8) in slot 4; T_DEAD (4) and XTALK (6) are not kept), and its blank
-  // interval of element e ({1, s, e})
-`ifndef SCHED_UC
-  function automatic logic [35:0] cw(input int s, input int w);
-    cw = u_sched.sns_q[s * 32 + 24 + (w == 8 ? 4 : w)][35:0];
-  endfunction
-  function automatic logic [35:0] blk(input int s, input int e);
-    blk = u_sched.sns_q[(1 << ($clog2(SCHED_VS) + 5)) + s * 32 + e][35:0];
-  endfunction
-  always_ff @(posedge clk_i)
-    if (u_sched.dbg_loaded)
-      for (int s = 0; s < SCHED_VS; s++) begin
-        automatic logic [15:0] dmax = '0;
-        automatic logic [23:0] dbl;
-        automatic logic [NUM_CH-1:0] xt = xt_expect(vs_tx[s], vs_nb[s]);
-        automatic logic words_ok = 1'b1;
-        for (int e = 0; e < NUM_CH; e++)
-          if (vs_tx[s][e] && u_dly.mem_q[s * 32 + e] > dmax) dmax = u_dly.mem_q[s * 32 + e];
-        dbl = 24'((vs_dead[s] > vs_xt[s]) ? vs_dead[s] : vs_xt[s]) + 24'(dmax);
-        for (int w = 0; w < 9; w++)
-          if (w != 4 && w != 6 && cw(s, w) != {4'd0, vs_word(s * 9 + w)}) words_ok = 1'b0;
-        if (!words_ok || u_sched.sh_xt_m[s] != xt || u_sched.sh_dbl_m[s] != dbl
-            || u_sched.sh_track_m[s] != (vs_mode[s] == 2'd1) || u_sched.sh_act_q[s] != (vs_mode[s] != 2'd0)
-            || u_sched.sh_k_m[s] != vs_k[s] || u_sched.sh_vmax_m[s] != vs_vmax[s]
-            || u_sched.sh_lo_m[s] != dbl + 24'(vs_tv[s])
-            || u_sched.sh_hi_m[s] != vs_rmax[s] - 24'(vs_tn[s]))
-          $error("ms_scheduler_tb: sensor %0d's per-sensor state differs from its table entry after the load", s);
-        for (int o = 0; o < SCHED_VS; o++)
-          if (u_sched.sh_share_q[s][o] != |(use_expect(s) & use_expect(o)))
-            $error("ms_scheduler_tb: share matrix (%0d, %0d) wrong after the load", s, o);
-        for (int e = 0; e < NUM_CH; e++) begin
-          // [a, b): a tx element its own delay + T_dead, a crosstalk neighbour the first and last
-          // delay of the tx elements within nb of it, the last + T_xtalk
-          automatic logic [15:0] lo = '1, hi = '0;
-          automatic logic [19:0] b;
-          automatic logic [35:0] bw;
-          for (int k = -3; k <= 3; k++) begin
-            automatic int j = (e + k + NUM_CH) % NUM_CH;
-            if (vs_tx[s][j] && ((k == 0 && vs_tx[s][e]) || (k != 0 && xt[e] && (k < 0 ? -k : k) <= int'(vs_nb[s])))) begin
-              if (u_dly.mem_q[s * 32 + j] < lo) lo = u_dly.mem_q[s * 32 + j];
-              if (u_dly.mem_q[s * 32 + j] > hi) hi = u_dly.mem_q[s * 32 + j];
-            end
-          end
-          b = vs_tx[s][e] ? 20'(lo) + 20'(vs_dead[s]) : 20'(hi) + 20'(vs_xt[s]);
-          bw = blk(s, e);
-          if ((vs_tx[s][e] || xt[e]) && bw != {lo, b})
-            $error("ms_scheduler_tb: blank interval of sensor %0d element %0d: [%0d, %0d), expected [%0d, %0d)",
-                   s, e, bw[35:20], bw[19:0], lo, b);
-        end
-      end
-
-`endif
-
   logic             trig_valid;
   logic [4:0]       trig_el;
   logic [16:0]      trig_delay;
@@ -208,12 +137,7 @@ module ms_scheduler_tb #(
   logic             evt_valid;
   logic [63:0]      evt_data;
 
-`ifdef SCHED_UC
-  ms_sched_uc #(.NUM_CH(NUM_CH), .NUM_VS(SCHED_VS), .LEAD(LEAD), .WSLOTS(WSLOTS),
-                .UCODE_FILE(UCODE_FILE)) u_sched (
-`else
-  ms_scheduler #(.NUM_CH(NUM_CH), .NUM_VS(SCHED_VS), .LEAD(LEAD), .WSLOTS(WSLOTS)) u_sched (
-`endif
+  ms_sched_uc #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .LEAD(LEAD), .UCODE_FILE(UCODE_FILE)) u_sched (
     .clk_i              (clk_i),
     .rst_i              (rst_i),
     .tick_i             (tick_q),

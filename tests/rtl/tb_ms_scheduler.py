@@ -1,4 +1,4 @@
-"""cocotb closed-loop scoreboard of ms_scheduler (up to 8 virtual sensors) against the golden
+"""cocotb closed-loop scoreboard of the scheduler, ms_sched_uc (up to 8 virtual sensors), against the golden
 model FastFiringModel with the same decision lead P.
 
 Wrapper tests/rtl/ms_scheduler_tb.sv: tick counter, the real ms_rx_conditioner per channel,
@@ -12,9 +12,7 @@ edge ending cycle n). At the end it reads the event log and compares, in order:
 The RTL runs a little longer than the model so that every model event has been emitted.
 RTL and model use the same gated miss rule (miss_gate_i / FastFiringModel miss_gate, default
 the RX_FILTER.miss_gate reset value; 0 = off in both) and the same number of window slots per
-element (SCHED_WSLOTS: the wrapper's WSLOTS, FastFiringModel win_slots). The reduced build of
-the 25F (SCHED_VS 4, SCHED_WSLOTS 8; tests/rtl/test_ms_scheduler.py) runs the tests of up to
-four sensors.
+element (WSLOTS, FastFiringModel win_slots).
 """
 
 from __future__ import annotations
@@ -36,10 +34,9 @@ from echo_driver import EchoDriver
 from tbutil import CLK_PERIOD_PS, start_clock
 
 LEAD = int(os.environ.get("SCHED_LEAD", str(DEVICE_DECISION_LEAD)))
-WSLOTS = int(os.environ.get("SCHED_WSLOTS", "16"))  # the wrapper's WSLOTS parameter
+WSLOTS = 16  # window slots per element: ms_sched_uc's program (sched_program.layout)
 # overrun_reported runs on builds whose lead is at most this (too short for the engine)
-OVERRUN_LEAD = int(os.environ.get("SCHED_OVERRUN_LEAD", "1024"))
-SCHED_VS = int(os.environ.get("SCHED_VS", "8"))     # the wrapper's SCHED_VS parameter
+OVERRUN_LEAD = 4096
 MS = 48_000
 M32 = (1 << 32) - 1
 LAYOUT = load_layout()
@@ -625,9 +622,9 @@ async def four_sensors_shared_elements(dut):
 @cocotb.test()
 async def window_slots_full(dut):
     """Four order-4 sensors whose receivers overlap on elements 0..2 and 23: at 3 m the pulses
-    in flight reserve more windows on an element than 8 slots hold, so with WSLOTS 8 (the
-    25F's reduced scheduler) a candidate waits for a slot; the RTL must match the model with
-    its own slot count, and the scenario must depend on it (the other count issues otherwise)."""
+    in flight reserve more windows on an element than 8 slots would hold but never more than
+    16: the RTL must match the model with its own slot count, and the scenario must depend on
+    it (with 8 slots a candidate would wait for a slot and the pulses would differ)."""
     sensors = [VirtualSensor("a", tx=[0], rx=[23, 0, 1], order=4), VirtualSensor("b", tx=[1], rx=[0, 1, 2], order=4),
                VirtualSensor("c", tx=[2], rx=[1, 2, 3], order=4), VirtualSensor("d", tx=[23], rx=[22, 23, 0], order=4)]
     dur = 90 * MS
@@ -635,12 +632,9 @@ async def window_slots_full(dut):
                           min_pulses=10)
     model = st["model"]
     other = CountingModel(Schedule(LAYOUT, sensors), SyntheticEchoSource(3.0), start_tick=st["e0"],
-                          decision_lead=LEAD, win_slots=16 if WSLOTS < 16 else 8)
+                          decision_lead=LEAD, win_slots=8)
     other_pulses = [(p.t0, p.sensor) for p in other.run(dur).pulses]
-    if WSLOTS < 16:
-        assert model.slot_full > 0, "the scenario must fill an element's window slots"
-    else:
-        assert model.slot_full == 0 and other.slot_full > 0, (model.slot_full, other.slot_full)
+    assert model.slot_full == 0 and other.slot_full > 0, (model.slot_full, other.slot_full)
     assert other_pulses != [(p.t0, p.sensor) for p in st["res"].pulses], \
         "the pulse sequence must depend on the slot count"
 
@@ -876,10 +870,10 @@ async def reconfigure_while_pulses_in_flight(dut):
 
 @cocotb.test(skip=LEAD > OVERRUN_LEAD)
 async def overrun_reported(dut):
-    """A decision lead too short for the engine's work (ms_scheduler's lead512 build: LEAD / 2 =
-    256 ticks of budget, three sensors deciding at the start tick keep it busy for ~360 clocks;
-    ms_sched_uc at LEAD 4096: ~3,000 clocks), so an edge five ticks later is dispatched more
-    than LEAD / 2 late. overrun_o rises (though
+    """A decision lead too short for the engine's work (the lead4096 build: LEAD / 2 = 2048
+    ticks of budget, three sensors deciding at the start tick keep the engine busy for ~3,000
+    clocks), so an edge five ticks later is dispatched more than LEAD / 2 late. overrun_o rises
+    (though
     the three pulses' triggers are still in time and the work queue does not fill) and stays
     high; every other test asserts it stays low at the device's lead."""
     sensors = [VirtualSensor(f"s{k}", tx=[3 * k], rx=[(3 * k + i) % 24 for i in (-1, 0, 1)], order=4)

@@ -294,7 +294,7 @@ async def sonar_app_on_wall_and_point(dut):
         noise = [r for r in b.source.rows if r[1] + r[2] > s0] if k else []
         fires_k = [f for f in b.fires if f[0] > s0 and (k + 1 >= len(b.starts) or f[0] <= b.starts[k + 1])]
         # the gated miss rule the scheduler latched from RX_FILTER.miss_gate (the firmware keeps the reset value)
-        gate = int(b.sched.sh_gate_q.value)
+        gate = int(b.sched.gate_q.value)
         assert gate == DEFAULT_MISS_GATE, f"scheduler miss gate {gate}, RX_FILTER.miss_gate reset {DEFAULT_MISS_GATE}"
         model = FastFiringModel(sched, WithNoise(src, noise) if noise else src, start_tick=s0, decision_lead=LEAD,
                                 miss_gate=gate)

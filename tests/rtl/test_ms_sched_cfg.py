@@ -1,6 +1,6 @@
 """The scheduler's configuration check and load (ms_sched_cfg) against the simulated device's
 decoder of the same registers: 200 random tables, every refusal code, every record, blank
-interval and share bit; the reduced 25F size (4 entries) on fewer tables."""
+interval and share bit."""
 
 import pytest
 
@@ -15,9 +15,3 @@ def test_ms_sched_cfg():
     run_cocotb("ms_sched_cfg_tb", "tb_ms_sched_cfg", sources=SOURCES,
                parameters={"NUM_VS": 8, "LEAD": DEVICE_DECISION_LEAD}, icarus_ok=False)
 
-
-@pytest.mark.sim
-def test_ms_sched_cfg_reduced():
-    run_cocotb("ms_sched_cfg_tb", "tb_ms_sched_cfg", sources=SOURCES, variant="vs4",
-               parameters={"NUM_VS": 4, "LEAD": DEVICE_DECISION_LEAD}, icarus_ok=False,
-               extra_env={"CFG_NUM_VS": "4", "CFG_TABLES": "60"})

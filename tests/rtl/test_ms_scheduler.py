@@ -1,16 +1,20 @@
-"""Fast-firing scheduler, several virtual sensors, scoreboarded against the golden model: the
-full scheduler (8 sensors, 16 window slots per element) and the LFE5U-25F's reduced one (4
-sensors, 8 slots; mk/synth.mk) on the tests of up to four sensors."""
+"""The fast-firing scheduler, ms_sched_uc (the main program of multisonar.tools.sched_program on
+ms_sched_engine with its units; 8 virtual sensors, 16 window slots per element), closed-loop
+against the golden model at the device's decision lead (tests/rtl/tb_ms_scheduler.py)."""
 
 import pytest
 
-from cocotb_run import ROOT, run_cocotb
+from cocotb_run import GEN, ROOT, run_cocotb
 from multisonar.constants import DEVICE_DECISION_LEAD
 
-SOURCES = [ROOT / "rtl/common/ms_ram_dp.sv", ROOT / "rtl/rx/ms_rx_conditioner.sv", ROOT / "rtl/core/ms_sched_workq.sv",
-           ROOT / "rtl/core/ms_sched_cfg.sv", ROOT / "rtl/core/ms_scheduler.sv", ROOT / "tests/rtl/ms_scheduler_tb.sv"]
-# the full scheduler; the benches (scripts/bench_*, experiments --rtl) build the same, so one
-# Verilator build serves them all
+SOURCES = [GEN / "rtl/ms_ucode_pkg.sv", GEN / "rtl/ms_sched_io_pkg.sv", ROOT / "rtl/common/ms_ram_dp.sv",
+           ROOT / "rtl/rx/ms_rx_conditioner.sv", ROOT / "rtl/core/ms_sched_workq.sv",
+           ROOT / "rtl/core/ms_sched_cfg.sv", ROOT / "rtl/core/ms_sched_engine.sv",
+           ROOT / "rtl/core/ms_sched_div.sv", ROOT / "rtl/core/ms_sched_slot.sv",
+           ROOT / "rtl/core/ms_sched_closes.sv",
+           ROOT / "rtl/core/ms_sched_uc.sv", ROOT / "tests/rtl/ms_scheduler_tb.sv"]
+# the product's scheduler (UCODE_FILE: the package's UCODE_HEX, the gen step's image); the
+# benches (scripts/bench_*, experiments --rtl) build the same, so one Verilator build serves them all
 PARAMETERS = {"NUM_CH": 24, "LEAD": DEVICE_DECISION_LEAD}
 
 
@@ -20,17 +24,8 @@ def test_ms_scheduler():
 
 
 @pytest.mark.sim
-def test_ms_scheduler_reduced():
-    run_cocotb("ms_scheduler_tb", "tb_ms_scheduler", sources=SOURCES, variant="vs4-ws8",
-               parameters={**PARAMETERS, "SCHED_VS": 4, "WSLOTS": 8}, icarus_ok=False,
-               extra_env={"SCHED_VS": "4", "SCHED_WSLOTS": "8"},
-               testcase=["step_occlusion_kmiss", "four_sensors_shared_elements", "window_slots_full",
-                         "corridor_scene_three_sensors", "apply_refusals_leave_the_schedule_running"])
-
-
-@pytest.mark.sim
 def test_ms_scheduler_overrun():
-    """A build whose lead (512 ticks) the engine cannot keep: the overrun must be reported."""
-    run_cocotb("ms_scheduler_tb", "tb_ms_scheduler", sources=SOURCES, variant="lead512",
-               parameters={**PARAMETERS, "LEAD": 512}, icarus_ok=False, extra_env={"SCHED_LEAD": "512"},
+    """At LEAD 4096 three decisions in the start tick take the engine past P / 2: overrun_o."""
+    run_cocotb("ms_scheduler_tb", "tb_ms_scheduler", sources=SOURCES, variant="lead4096",
+               parameters={**PARAMETERS, "LEAD": 4096}, icarus_ok=False, extra_env={"SCHED_LEAD": "4096"},
                testcase=["overrun_reported"])

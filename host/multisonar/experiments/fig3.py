@@ -5,7 +5,7 @@ sender/receiver on a static reflector at each distance; the measured rate is the
 rate of the tracking phase (one sample per receiver per pulse). Next to it: the analytic
 formula T_s = (T_E - T_dead - T_V)/n (Eq. (2) generalised, at the highest feasible n <= order)
 and the interlace limit 1/(T_dead + T_V + T_N). With ``rtl=True`` a few (distance, order)
-cases also run on the RTL scheduler (ms_scheduler in Verilator through cocotb, the machinery of
+cases also run on the RTL scheduler (ms_sched_uc in Verilator through cocotb, the machinery of
 scripts/bench_rtl_sample_rate.py) and fill the RTL column. With ``twin=True`` the same cases run
 on the full-system twin (multisonar.twin: the whole device in Verilator, configured and streamed
 through the driver; the rate from the pulses the device fired) and fill the twin column.
@@ -115,7 +115,7 @@ def run(executor: Executor, *, quick: bool = False, rtl: bool = False, twin: boo
                              "order": rr["order"], "order_used": _max_order(rr["order_used"]), "measured_hz": rr["model_hz"],
                              "analytic_hz": float("nan"), "rel_diff": float("nan"), "interlace_limit_hz": limit,
                              "rtl_hz": rr["rtl_hz"], "twin_hz": float("nan")})
-        rtl_note = ("RTL column: ms_scheduler in Verilator (cocotb, tests/rtl/ms_scheduler_tb.sv) on the same "
+        rtl_note = ("RTL column: ms_sched_uc in Verilator (cocotb, tests/rtl/ms_scheduler_tb.sv) on the same "
                     "static reflector; pulse ticks compared with the golden model: "
                     + ", ".join(f"{r['distance_m']:g} m / order {r['order']}: {r['identical_pulses']}" for r in rtl_rows))
 

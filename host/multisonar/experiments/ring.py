@@ -39,7 +39,7 @@ receiver r, at tick t0 + ToF.
 Goal (issue #27): full-ring refresh >= 100 Hz at 2 m and >= 60 Hz at 5.7 m; anchor: Browne &
 Kleeman's FPGA sonar ring, 60 Hz for the full 360 degrees at 5.7 m with two pulses in flight.
 With ``rtl=True`` the two goal distances at the highest order also run on the RTL scheduler
-(ms_scheduler in Verilator through cocotb, tests/rtl/tb_bench_ring.py, the machinery of
+(ms_sched_uc in Verilator through cocotb, tests/rtl/tb_bench_ring.py, the machinery of
 scripts/bench_rtl_sample_rate.py): its event words are compared with the golden model's word
 for word, its figures computed from its own words by the same function, and its engine's
 headroom reported (largest lag behind real time; overrun_o when it exceeds LEAD / 2).
@@ -318,7 +318,7 @@ def run(executor: Executor, *, quick: bool = False, rtl: bool = False, temperatu
                     r["rtl_identical"] = bool(rr["identical"] and same)
                     r["rtl_overrun"] = bool(rr["overrun"])
                     rr["figures_equal"] = same
-        rtl_note = ("RTL: ms_scheduler in Verilator (cocotb, tests/rtl/tb_bench_ring.py; the same 8 sensors, "
+        rtl_note = ("RTL: ms_sched_uc in Verilator (cocotb, tests/rtl/tb_bench_ring.py; the same 8 sensors, "
                     "the same echoes driven on its 24 inputs), compared with the golden model started at the same "
                     "tick: " + "; ".join(
                         f"{r['distance_m']:g} m / order {r['order']}: {r['n_words']} FIFO words "

@@ -19,7 +19,7 @@ from typing import Any
 
 from ..constants import DEVICE_DECISION_LEAD, TICK_HZ
 
-LEAD = DEVICE_DECISION_LEAD  # ms_scheduler's decision lead (ticks), FastFiringModel(decision_lead=)
+LEAD = DEVICE_DECISION_LEAD  # the scheduler's decision lead (ticks), FastFiringModel(decision_lead=)
 
 
 class TwinMismatch(AssertionError):

@@ -187,7 +187,7 @@ def head_kernel(p: Program) -> Program:
 def safe_kernel(p: Program) -> Program:
     """SAFE, the cancel of sensor r7 at tick r1: the cancel record (docs/fast_firing.md section
     6), then on every element the sensor's windows leave WV. Heads stay as they are (as in
-    ms_scheduler): a cancelled head still reaches its close tick, where the caller finds its
+    the golden model): a cancelled head still reaches its close tick, where the caller finds its
     slot no longer valid, writes nothing for it and runs HEAD. Model: FastFiringModel._cancel."""
     p.li(17, 32).lui(18, 0x60000)                           # bits 62, 61: bits 30, 29 of the high half
     p.mul(19, 7, 17)

@@ -1,5 +1,5 @@
 """The scheduler's main loop in microcode: the kernels of ``decision`` and ``events`` in the
-order ms_scheduler runs them, one logical tick at a time (docs/sched_engine.md).
+order the golden model runs them, one logical tick at a time (docs/sched_engine.md).
 
 - INIT (start tick S from M_START): per sensor due = next evaluation = S + phase, quiet = S,
   pulse id, open windows and tracking count 0, flags only F_ACT; per element blank_until =
