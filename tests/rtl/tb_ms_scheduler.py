@@ -30,11 +30,11 @@ from multisonar.constants import DEVICE_DECISION_LEAD, speed_of_sound
 from multisonar.layout import load_layout
 from multisonar.protocol import CfgError
 from multisonar.schedule import Schedule, VirtualSensor
+from multisonar.tools.sched_program.layout import WSLOTS  # window slots per element of the program
 from echo_driver import EchoDriver
 from tbutil import CLK_PERIOD_PS, start_clock
 
 LEAD = int(os.environ.get("SCHED_LEAD", str(DEVICE_DECISION_LEAD)))
-WSLOTS = 16  # window slots per element: ms_sched_uc's program (sched_program.layout)
 # overrun_reported runs on builds whose lead is at most this (too short for the engine)
 OVERRUN_LEAD = 4096
 MS = 48_000

@@ -466,8 +466,7 @@ async def bus_reset_mid_stream(dut):
     # frame, the only bytes the new parser skips; a reply that shared the packet (to a command
     # sent before the reset, so the thread's timing decides) parses, as a stale reply
     unacked = rs[0]["unacked"]
-    tail = min([i for i in (unacked.find(P.MAGIC_REPLY), unacked.find(P.MAGIC_FRAME)) if i >= 0],
-               default=len(unacked))
+    tail = min([i for i in map(unacked.find, P.StreamParser.magics) if i >= 0], default=len(unacked))
     assert st["bad_crc"] == 0 and st["bad_frames"] == 0 and st["skipped_bytes"] == tail, (st, tail)
     assert out["counters_reset"]["frames_dropped"] == 0, out["counters_reset"]
     # restarted: consecutive from START's seq, CRCs good, equal to the golden model
