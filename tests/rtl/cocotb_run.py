@@ -71,7 +71,9 @@ def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = Non
     build_args: list[str] = []
     plusargs: list[str] = []
     if sim == "verilator":
-        build_args = ["-Wno-fatal", "-O3", "--x-assign", "fast", "--x-initial", "fast"]
+        # -CFLAGS -O2 overrides verilated.mk's -Os: the scheduler's scoreboard simulates about
+        # 1.4x faster for under a second more of C++ compilation per model
+        build_args = ["-Wno-fatal", "-O3", "--x-assign", "fast", "--x-initial", "fast", "-CFLAGS", "-O2"]
         if waves:
             build_args += ["--trace-fst", "--trace-structs"]
         if coverage:  # line coverage for `make coverage`; one data file per testbench module
