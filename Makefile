@@ -53,7 +53,8 @@ LAYOUT_FILE  := sim/layouts/$(LAYOUT).yaml
 PY_REGS      := host/multisonar/generated/sonar_regs.py
 GEN_OUTPUTS  := $(GEN)/rtl/ms_layout_pkg.sv $(GEN)/rtl/ms_ucode_pkg.sv $(GEN)/rtl/ms_sched_io_pkg.sv \
                 $(GEN)/rtl/ms_sched_ucode.hex $(GEN)/sv/sonar_regs.sv $(GEN)/sv/sonar_regs_pkg.sv \
-                $(GEN)/firmware/sonar_regs.h $(GEN)/firmware/ms_layout.h $(PY_REGS)
+                $(GEN)/firmware/sonar_regs.h $(GEN)/firmware/ms_layout.h $(GEN)/firmware/ms_sched_layout.h \
+                $(PY_REGS)
 
 $(STAMPS)/gen: $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl $(LAYOUT_FILE) host/multisonar/tools/gen_layout.py \
                host/multisonar/tools/peakrdl_pyconst.py host/multisonar/layout.py scripts/gen_vex_icache.py \
@@ -65,7 +66,7 @@ $(STAMPS)/gen: $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl $(LAYOUT_FILE) 
 	@$(VPY) -m multisonar.tools.sched_ucode --pkg $(GEN)/rtl/ms_ucode_pkg.sv
 	@# the scheduler's main program (ROM image) and its data-memory / I/O map (ms_sched_uc)
 	@$(VPY) -m multisonar.tools.sched_program --hex $(GEN)/rtl/ms_sched_ucode.hex \
-	    --pkg $(GEN)/rtl/ms_sched_io_pkg.sv
+	    --pkg $(GEN)/rtl/ms_sched_io_pkg.sv --header $(GEN)/firmware/ms_sched_layout.h
 	@$(VENV)/bin/peakrdl regblock $(RDL) -I $(GEN)/rdl -o $(GEN)/sv --cpuif passthrough \
 	    --module-name sonar_regs --package-name sonar_regs_pkg --default-reset rst \
 	    --err-if-bad-addr --err-if-bad-rw --rt-read-fanin

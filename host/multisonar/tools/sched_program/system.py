@@ -105,6 +105,22 @@ def sensor_words(c: Any, shares: int, reinit_every: int | None = None) -> dict[i
     return out
 
 
+def load_image(cfg: Any, *, lead: int, latency: int, miss_gate: int | None,
+               reinit_every: int | None = None) -> dict[int, int]:
+    """What a configuration load writes on the engine's bus, {address: word}, for the resolved
+    table ``cfg``: every enabled sensor's words and blank offsets (sensor_words), its share
+    word, and the main loop's constants (decision lead P, edge latency L, miss gate, enabled
+    sensors); not the start tick, which the start writes. The firmware's load
+    (firmware/app/sonar/sched_table.c) writes the same words."""
+    mem = {MAIN + M_P: int(lead), MAIN + M_L: int(latency), MAIN + M_GATE: int(miss_gate or 0),
+           MAIN + M_ACT: sum(1 << c.id for c in cfg)}
+    share = share_matrix(cfg)
+    for i, c in enumerate(cfg):
+        shares = sum(1 << o.id for j, o in enumerate(cfg) if j != i and share[i][j])
+        mem.update(sensor_words(c, shares, reinit_every))
+    return mem
+
+
 def window_length(c: Any, init: bool) -> int:
     """The length of every window of resolved sensor ``c`` (the hardware's table, by sensor and
     init bit; WIN keeps no start): an init ping's [D, R), a tracking window's [te - T_V, te +
@@ -199,14 +215,10 @@ class EngineSystem:
         self.latency = self.echo.latency
         self.lead, self.start, self.qdepth = int(decision_lead), int(start_tick), qdepth
         mem: dict[int, int] = {ONEHOT + k: 1 << k for k in range(32)}
-        mem.update({MAIN + M_START: self.start, MAIN + M_P: self.lead, MAIN + M_L: self.latency,
-                    MAIN + M_GATE: int(miss_gate or 0),
-                    MAIN + M_ACT: sum(1 << c.id for c in self.cfg)})
+        mem.update(load_image(self.cfg, lead=self.lead, latency=self.latency, miss_gate=miss_gate,
+                              reinit_every=reinit_every))
+        mem[MAIN + M_START] = self.start
         self.win_len = {(c.id, init): window_length(c, bool(init)) for c in self.cfg for init in (0, 1)}
-        share = share_matrix(self.cfg)
-        for c in self.cfg:
-            shares = sum(1 << o.id for o in self.cfg if o.id != c.id and share[c.id][o.id])
-            mem.update(sensor_words(c, shares, reinit_every))
         self.m = _Bus(self.image.words, mem, self)
         self.heads: dict[int, int | None] = {}
         self.queue: deque[tuple[int, int, int]] = deque()
