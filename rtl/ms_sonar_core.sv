@@ -101,6 +101,8 @@ module ms_sonar_core #(
 
   ms_sched_uc #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W), .LEAD(LEAD), .WSLOTS(WSLOTS)) u_sched (
     .clk_i, .rst_i, .tick_i (tick_q), .enable_i (enable), .apply_i (apply),
+    // the load port is unused here: CTRL.apply has ms_sched_cfg check and load the CSRs' table
+    .hold_i (1'b0), .ld_we_i (1'b0), .ld_addr_i ('0), .ld_data_i ('0), .start_i (1'b0),
     .vs_ren_o (vs_ren), .vs_raddr_o (vs_raddr), .vs_rdata_i (vs_rdata),
     .burst_half_period_i (burst_half_period), .glitch_min_i (glitch_min), .miss_gate_i (miss_gate),
     .delay_raddr_o (delay_raddr), .delay_rdata_i (delay_rdata), .rise_i (rise),

@@ -17,6 +17,12 @@
 //     there) and its INIT reads S from the data memory.
 //   - Apply while running: the program finishes every logical tick before the apply's tick
 //     (STOP_AT), halts; the load follows and the schedule starts afresh.
+//   - The load port, the firmware's check and load (sched_program.system.load_image): hold_i
+//     while running stops as an apply does (running_o falls once the program halted), without a
+//     load. While running_o is low and no apply is pending or under way, ld_we_i writes one
+//     word per clock: the data memory (< 1024), a blank offset (BLK + 64 s + e: a, held;
+//     BLK + 64 s + 32 + e: b, written with the a before it) or the LD_* tables. start_i (enable_i
+//     high) starts the loaded table: its tick is the start tick S, running_o rises a clock later.
 // Storage, all block RAM with a registered read (six DP16KD): the microcode ROM (UCODE_WORDS
 // x 36, two), the data memory (1024 x 32, two) and WINB (two): the window slots {t0, we, seq,
 // epoch, init, sensor} (no start: a window is [t0 + we - len, t0 + we), len from the table of
@@ -38,6 +44,15 @@ module ms_sched_uc
   input  logic [31:0]           tick_i,
   input  logic                  enable_i,
   input  logic                  apply_i,
+  // the load port (the firmware's load, firmware/app/sonar/sched_table.c): hold_i stops the
+  // engine as an apply does, without a load; ld_we_i writes ld_data_i at ld_addr_i (the engine's
+  // data memory, the blank offsets, the LD_* tables) while running_o and the hardware's own
+  // check and load are idle; start_i then starts the loaded table at the next clock's tick
+  input  logic                  hold_i,
+  input  logic                  ld_we_i,
+  input  logic [11:0]           ld_addr_i,
+  input  logic [31:0]           ld_data_i,
+  input  logic                  start_i,
   output logic                  vs_ren_o,
   output logic [6:0]            vs_raddr_o,
   input  logic [31:0]           vs_rdata_i,
@@ -86,12 +101,15 @@ module ms_sched_uc
   logic        halted;      // the program wrote HALT (every tick before stop_at_q done)
   logic        fin_done;    // the loader's final words are written
   logic        start_now;   // C_FINISH -> C_RUN: the start tick is tick_i
+  logic        hold_q, hold_d;  // C_STOPPING for hold_i: no load follows
+  logic        port_open;   // the load port writes (C_OFF, no apply pending)
   always_comb begin
     ctl_d        = ctl_q;
     started_d    = started_q;
     apply_pend_d = apply_pend_q || apply_i || (en_q && !en_prev_q);
     stop_req_d   = stop_req_q;
     stop_at_d    = stop_at_q;
+    hold_d       = hold_q;
     eng_run_d    = eng_run_q;
     cfg_err_d    = cfg_err_q;
     cfg_err_vs_d = cfg_err_vs_q;
@@ -103,9 +121,21 @@ module ms_sched_uc
       started_d  = 1'b0;
       eng_run_d  = 1'b0;
       stop_req_d = 1'b0;
+      hold_d     = 1'b0;
     end else begin
       unique case (ctl_q)
-        C_OFF, C_RUN: if (apply_pend_q && !cfg_busy) begin
+        C_OFF, C_RUN: if (ctl_q == C_OFF && start_i && en_q) begin
+          start_now    = 1'b1;          // a table loaded through the port
+          apply_pend_d = 1'b0;
+          started_d    = 1'b1;
+          eng_run_d    = 1'b1;
+          ctl_d        = C_RUN;
+        end else if (ctl_q == C_RUN && hold_i) begin
+          stop_req_d = 1'b1;
+          stop_at_d  = tick_i;
+          hold_d     = 1'b1;
+          ctl_d      = C_STOPPING;
+        end else if (apply_pend_q && !cfg_busy) begin
           apply_pend_d = 1'b0;
           cfg_chk      = 1'b1;
           ctl_d        = C_CHECK;
@@ -128,8 +158,9 @@ module ms_sched_uc
           stop_req_d = 1'b0;
           eng_run_d  = 1'b0;
           started_d  = 1'b0;
-          cfg_ld     = 1'b1;
-          ctl_d      = C_LOAD;
+          hold_d     = 1'b0;
+          cfg_ld     = !hold_q;
+          ctl_d      = hold_q ? C_OFF : C_LOAD;
         end
         C_LOAD: if (cfg_done) ctl_d = en_q ? C_FINISH : C_OFF;
         C_FINISH: if (fin_done) begin     // the start tick S = tick_i (model start_tick)
@@ -150,6 +181,7 @@ module ms_sched_uc
       en_prev_q    <= 1'b0;
       apply_pend_q <= 1'b0;
       stop_req_q   <= 1'b0;
+      hold_q       <= 1'b0;
       eng_run_q    <= 1'b0;
       cfg_err_q    <= '0;
       cfg_err_vs_q <= '0;
@@ -160,6 +192,7 @@ module ms_sched_uc
       en_prev_q    <= en_q;
       apply_pend_q <= apply_pend_d;
       stop_req_q   <= stop_req_d;
+      hold_q       <= hold_d;
       eng_run_q    <= eng_run_d;
       cfg_err_q    <= cfg_err_d;
       cfg_err_vs_q <= cfg_err_vs_d;
@@ -168,6 +201,7 @@ module ms_sched_uc
     cfg_ld_q  <= !rst_i && cfg_ld;   // after the check's done clock (ms_sched_cfg still busy there)
   end
   assign running_o      = started_q;
+  assign port_open      = ctl_q == C_OFF;
   assign cfg_error_o    = cfg_err_q;
   assign cfg_error_vs_o = cfg_err_vs_q;
 
@@ -233,6 +267,14 @@ module ms_sched_uc
     popcount = '0;
     for (int i = 0; i < NUM_CH; i++) popcount = popcount + 6'(m[i]);
   endfunction
+  // the load port's writes (port_open: C_OFF; the firmware writes nothing else meanwhile)
+  logic port_we, port_dm, port_blk_a, port_blk_b;
+  logic [DELAY_W-1:0] port_a_q;     // a blank offset a, committed with its b
+  assign port_we    = port_open && ld_we_i;
+  assign port_dm    = port_we && ld_addr_i < 12'd1024;
+  assign port_blk_a = port_we && ld_addr_i >= 12'(BLK) && !ld_addr_i[5];
+  assign port_blk_b = port_we && ld_addr_i >= 12'(BLK) && ld_addr_i[5];
+  always_ff @(posedge clk_i) if (port_blk_a) port_a_q <= ld_data_i[DELAY_W-1:0];
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
       rec_i_q <= '1;
@@ -253,6 +295,13 @@ module ms_sched_uc
     end
     if (rec_i_q == 5'd0 || rec_i_q == 5'd1)   // while the record's first two words go out
       wlen_q[{rec_q.vs, rec_i_q[0]}] <= rec_i_q[0] ? rec_qoff : 24'(rec_q.tv) + 24'(rec_q.tn);
+    if (port_we && ld_addr_i[11:4] == 8'(LD_WLEN >> 4))
+      wlen_q[ld_addr_i[3:0]] <= ld_data_i[23:0];
+    if (port_we && ld_addr_i[11:3] == 9'(LD_BURST >> 3))
+      burst_q[ld_addr_i[2:0]] <= ld_data_i[7:0];
+    if (port_we && ld_addr_i[11:3] == 9'(LD_TXM >> 3))
+      txm_q[ld_addr_i[2:0]] <= ld_data_i[NUM_CH-1:0];
+    if (port_we && ld_addr_i == 12'(LD_RXANY)) rx_any_q <= ld_data_i[NUM_CH-1:0];
     if (share_we) begin
       share_q[share_a][share_b] <= share && share_a != share_b;
       share_q[share_b][share_a] <= share && share_a != share_b;
@@ -309,6 +358,10 @@ module ms_sched_uc
       ld_dm_we = 1'b1;
       ld_dm_a  = 10'(MAIN + M_START);
       ld_dm_d  = tick_i;
+    end else if (port_dm) begin
+      ld_dm_we = 1'b1;
+      ld_dm_a  = ld_addr_i[9:0];
+      ld_dm_d  = ld_data_i;
     end
   end
 
@@ -422,7 +475,11 @@ module ms_sched_uc
     winb_we = '0;
     winb_wa = WAW'(bus_wd);
     winb_wd = (2 * XW)'(win_wd);
-    if (eng_rst) begin
+    if (eng_rst && port_blk_b) begin       // BLK + 64 s + 32 + e: {a, b} of (s, e)
+      winb_wa = blk_row(ld_addr_i[8:6], ld_addr_i[4:1]);
+      winb_wd = {2{port_a_q, ld_data_i[BW-1:0]}};
+      winb_we = {ld_addr_i[0], !ld_addr_i[0]};
+    end else if (eng_rst) begin
       winb_wa = blk_row(blk_addr[7:5], blk_addr[4:1]);
       winb_wd = {2{blk_a, blk_b}};
       winb_we = {blk_we && blk_addr[0], blk_we && !blk_addr[0]};

@@ -18,6 +18,11 @@ module ms_scheduler_tb #(
   input  logic                 rst_i,
   input  logic                 enable_i,
   input  logic                 apply_i,
+  input  logic                 hold_i,        // the load port (ms_sched_uc)
+  input  logic                 ld_we_i,
+  input  logic [11:0]          ld_addr_i,
+  input  logic [31:0]          ld_data_i,
+  input  logic                 start_i,
   input  logic [31:0]          tick_start_i,  // tick counter value during reset (wrap tests)
   input  logic [7:0]           glitch_min_i,
   input  logic [15:0]          miss_gate_i,
@@ -143,6 +148,11 @@ module ms_scheduler_tb #(
     .tick_i             (tick_q),
     .enable_i           (enable_i),
     .apply_i            (apply_i),
+    .hold_i             (hold_i),
+    .ld_we_i            (ld_we_i),
+    .ld_addr_i          (ld_addr_i),
+    .ld_data_i          (ld_data_i),
+    .start_i            (start_i),
     .vs_ren_o           (),
     .vs_raddr_o         (vs_raddr),
     .vs_rdata_i         (vs_rdata),

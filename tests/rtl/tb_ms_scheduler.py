@@ -30,11 +30,15 @@ from multisonar.constants import DEVICE_DECISION_LEAD, speed_of_sound
 from multisonar.layout import load_layout
 from multisonar.protocol import CfgError
 from multisonar.schedule import Schedule, VirtualSensor
-from multisonar.tools.sched_program.layout import WSLOTS  # window slots per element of the program
+from multisonar.tools.sched_program.layout import BLK, WSLOTS  # WSLOTS: window slots per element
+from multisonar.tools.sched_program.system import load_image
 from echo_driver import EchoDriver
 from tbutil import CLK_PERIOD_PS, start_clock
 
 LEAD = int(os.environ.get("SCHED_LEAD", str(DEVICE_DECISION_LEAD)))
+# how a table reaches the scheduler: "apply" (the table inputs, apply_i: ms_sched_cfg checks and
+# loads) or "port" (the load port: load_image's words, start_i; hold_i before a reload)
+LOAD_VIA = os.environ.get("SCHED_LOAD", "apply")
 # overrun_reported runs on builds whose lead is at most this (too short for the engine)
 OVERRUN_LEAD = 4096
 MS = 48_000
@@ -127,6 +131,8 @@ class Bench:
         dut.dly_we_i.value = 0
         dut.dly_addr_i.value = 0
         dut.dly_wdata_i.value = 0
+        for port in ("hold_i", "ld_we_i", "ld_addr_i", "ld_data_i", "start_i"):
+            getattr(dut, port).value = 0
         for _ in range(4):
             await RisingEdge(dut.clk_i)
         dut.rst_i.value = 0
@@ -157,12 +163,36 @@ class Bench:
         await RisingEdge(dut.clk_i)  # leave the read-only phase
         return self.t_origin - 1
 
+    async def load_port(self) -> None:
+        """Write the load image (load_image: what the firmware's sched_table.c writes) through the
+        load port, one word per clock, blank offset a before its b, then start_i."""
+        dut = self.dut
+        image = load_image(self.cfg, lead=LEAD, latency=1 + max(self.g, 1), miss_gate=self.gate)
+        order = [a for a in sorted(image) if a < BLK]
+        order += [x for a in sorted(image) if a >= BLK and not a & 32 for x in (a, a + 32)]
+        assert sorted(order) == sorted(image)
+        for addr, word in ((a, image[a]) for a in order):
+            dut.ld_we_i.value, dut.ld_addr_i.value, dut.ld_data_i.value = 1, addr, word
+            await RisingEdge(dut.clk_i)
+        dut.ld_we_i.value = 0
+        dut.start_i.value = 1
+        await RisingEdge(dut.clk_i)
+        dut.start_i.value = 0
+
     async def start(self, source, tick_start: int = 0) -> int:
         """Reset, load the table, enable; returns the model's start tick."""
         self.source = source
         await self.reset(tick_start)
-        await self.load()
-        self.dut.enable_i.value = 1
+        if LOAD_VIA == "port":
+            # the table inputs empty: enabling checks them (EMPTY_TABLE, nothing loaded)
+            self.dut.mode_i.value = 0
+            self.dut.enable_i.value = 1
+            while int(self.dut.cfg_error_o.value) != CfgError.EMPTY_TABLE:
+                await RisingEdge(self.dut.clk_i)
+            cocotb.start_soon(self.load_port())
+        else:
+            await self.load()
+            self.dut.enable_i.value = 1
         s0 = await self.wait_running()
         self.tasks = [cocotb.start_soon(self._pulse_loop())]
         return s0
@@ -828,23 +858,29 @@ async def reconfigure_while_pulses_in_flight(dut):
     rec = RecordingSource(SyntheticEchoSource(ranges))
     e0 = await b.start(rec)
     await b.run_until(e0 + 50 * MS)
-    # new table on the inputs, delay RAM entries of the new sensors, then apply
     b2 = Bench(dut, s_new)
-    for port, v in table_values(s_new.to_registers()["sensors"]).items():
-        getattr(dut, port).value = v
-    for addr, val in sorted(s_new.to_registers()["delay_mem"].items()):
-        dut.dly_we_i.value, dut.dly_addr_i.value, dut.dly_wdata_i.value = 1, addr, val
+    if LOAD_VIA == "port":      # hold, then the new image through the load port and start_i
+        dut.hold_i.value = 1
         await RisingEdge(dut.clk_i)
-    dut.dly_we_i.value = 0
-    dut.apply_i.value = 1
-    await RisingEdge(dut.clk_i)
-    dut.apply_i.value = 0
+        dut.hold_i.value = 0
+    else:                       # new table on the inputs, delay RAM entries of the new sensors, apply
+        for port, v in table_values(s_new.to_registers()["sensors"]).items():
+            getattr(dut, port).value = v
+        for addr, val in sorted(s_new.to_registers()["delay_mem"].items()):
+            dut.dly_we_i.value, dut.dly_addr_i.value, dut.dly_wdata_i.value = 1, addr, val
+            await RisingEdge(dut.clk_i)
+        dut.dly_we_i.value = 0
+        dut.apply_i.value = 1
+        await RisingEdge(dut.clk_i)
+        dut.apply_i.value = 0
     await FallingEdge(dut.running_o)
     stop_at = b.unwrap(int(dut.u_sched.stop_at_q.value))
     n_pulses_old, n_rows_old = len(b.pulses), len(rec.rows)
     b.cfg = s_new.validate()  # pulses from now on belong to the new table
+    if LOAD_VIA == "port":
+        cocotb.start_soon(b2.load_port())
     s1 = await b.wait_running()
-    assert int(dut.cfg_error_o.value) == 0
+    assert LOAD_VIA == "port" or int(dut.cfg_error_o.value) == 0
     dur2 = 60 * MS
     await b.run_until(s1 + dur2 + 3000)
     words, trig = await b.read_logs()

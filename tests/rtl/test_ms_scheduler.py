@@ -29,3 +29,13 @@ def test_ms_scheduler_overrun():
     run_cocotb("ms_scheduler_tb", "tb_ms_scheduler", sources=SOURCES, variant="lead4096",
                parameters={**PARAMETERS, "LEAD": 4096}, icarus_ok=False, extra_env={"SCHED_LEAD": "4096"},
                testcase=["overrun_reported"])
+
+
+@pytest.mark.sim
+def test_ms_scheduler_load_port():
+    """Tables through the load port (the words of load_image, what the firmware writes), start_i,
+    and a reload after hold_i: the same scoreboards as through apply_i and ms_sched_cfg."""
+    run_cocotb("ms_scheduler_tb", "tb_ms_scheduler", sources=SOURCES, parameters=PARAMETERS, icarus_ok=False,
+               extra_env={"SCHED_LOAD": "port"},
+               testcase=["static_ranges_phased_order2", "four_sensors_shared_elements",
+                         "reconfigure_while_pulses_in_flight", "init_only_and_wrap"])

@@ -174,13 +174,15 @@ static void blank_interval(const ms_table_src_t *t, uint32_t vs, const entry_t *
 
 uint32_t ms_table_load(const ms_table_src_t *t, ms_table_put_fn put, void *ctx)
 {
-    uint32_t act = 0, touch[MS_TABLE_ENTRIES];
+    uint32_t act = 0, rx_any = 0, touch[MS_TABLE_ENTRIES];
     entry_t s;
     for (uint32_t vs = 0; vs < MS_TABLE_ENTRIES; vs++) {
         decode(t, vs, &s);
         touch[vs] = s.tx | s.xt | s.rx;
-        if (s.mode != 0)
+        if (s.mode != 0) {
             act |= 1u << vs;
+            rx_any |= s.rx;
+        }
     }
     for (uint32_t vs = 0; vs < MS_TABLE_ENTRIES; vs++) {
         if (!(act >> vs & 1u))
@@ -221,7 +223,13 @@ uint32_t ms_table_load(const ms_table_src_t *t, ms_table_put_fn put, void *ctx)
             put(ctx, MS_SCHED_BLK + 64u * vs + e, a);
             put(ctx, MS_SCHED_BLK + 64u * vs + 32u + e, b);
         }
+        /* the load port's own tables (window lengths: tracking, then an init ping's) */
+        put(ctx, MS_SCHED_LD_WLEN + 2u * vs, s.t_v + s.t_n);
+        put(ctx, MS_SCHED_LD_WLEN + 2u * vs + 1u, s.max_tof - s.blank);
+        put(ctx, MS_SCHED_LD_BURST + vs, s.burst);
+        put(ctx, MS_SCHED_LD_TXM + vs, s.tx);
     }
+    put(ctx, MS_SCHED_LD_RXANY, rx_any);
     uint32_t latency = (t->glitch_min > 1u ? t->glitch_min : 1u) + 1u;
     put(ctx, MS_SCHED_MAIN + MS_SCHED_M_P, t->lead);
     put(ctx, MS_SCHED_MAIN + MS_SCHED_M_L, latency);

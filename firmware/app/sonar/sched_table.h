@@ -27,12 +27,13 @@ typedef struct {
  * through *entry, the refused table entry (0 for EMPTY_TABLE and for an accepted table). */
 uint32_t ms_table_check(const ms_table_src_t *t, uint32_t *entry);
 
-/* One word of the load image: an address of the engine's bus (data memory, blank offsets). */
+/* One word of the load image, at its address on ms_sched_uc's load port: the engine's data
+ * memory and blank offsets, or the load's own tables (MS_SCHED_LD_*). */
 typedef void (*ms_table_put_fn)(void *ctx, uint32_t addr, uint32_t word);
 
-/* Every word a load writes for an accepted table (load_image: sensor words, blank offsets, share
- * words, the main loop's constants; not the start tick), in address order per entry. Returns
- * the enabled entries, one bit each. */
+/* Every word a load writes for an accepted table (load_image: sensor words, blank offsets (a
+ * before b), share words, window lengths, burst cycles, tx masks, the rx elements of all, the
+ * main loop's constants; not the start tick). Returns the enabled entries, one bit each. */
 uint32_t ms_table_load(const ms_table_src_t *t, ms_table_put_fn put, void *ctx);
 
 #endif

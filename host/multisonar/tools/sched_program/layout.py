@@ -64,6 +64,11 @@ LAG_CUR, T_DONE, STOP_REQ, STOP_AT, HALT = 0x43C, 0x43D, 0x43E, 0x43F, 0x440
 # the blank offsets of (sensor s, element e): a at BLK + 64 s + e, b at BLK + 64 s + 32 + e
 # (ms_sched_uc keeps them in WIN's spare rows; the program reads them while the slot unit is idle)
 BLK = 0x800
+# the configuration load's own tables, written through ms_sched_uc's load port only (never on the
+# program's bus): the window length of sensor s's windows at LD_WLEN + 2 s + init (init: R - D;
+# tracking: T_V + T_N), its triggers' burst cycles at LD_BURST + s, its tx elements at LD_TXM + s
+# (pulse_tx_o), and the enabled sensors' rx elements at LD_RXANY (the work queue takes their edges)
+LD_WLEN, LD_BURST, LD_TXM, LD_RXANY = 0x480, 0x490, 0x498, 0x4A0
 
 # per-sensor words at SENS + 32 s
 SENS = 0x000

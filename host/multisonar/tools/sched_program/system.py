@@ -17,7 +17,7 @@ from typing import Any
 
 from ...fastfiring import _Line, _rows, share_matrix
 from ..sched_ucode import MASK32
-from .layout import (BLK, EVT_HI, HD_EL, LAG_CUR, MAIN, M_ACT, M_ARMED, M_GATE, M_L, M_P, M_START,
+from .layout import (BLK, EVT_HI, HD_EL, LAG_CUR, LD_BURST, LD_RXANY, LD_TXM, LD_WLEN, MAIN, M_ACT, M_ARMED, M_GATE, M_L, M_P, M_START,
                      M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT, Q_T, SENS, SENS_STRIDE,
                      STOP_AT, STOP_REQ, S_BLK, S_D, S_HI, S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE,
                      S_QOFF, S_REINIT, S_RMAX, S_RX, S_SHARE, S_TN, S_TV, S_TX, S_VMAX, SU_FLAGS, TICK,
@@ -111,13 +111,19 @@ def load_image(cfg: Any, *, lead: int, latency: int, miss_gate: int | None,
     table ``cfg``: every enabled sensor's words and blank offsets (sensor_words), its share
     word, and the main loop's constants (decision lead P, edge latency L, miss gate, enabled
     sensors); not the start tick, which the start writes. The firmware's load
-    (firmware/app/sonar/sched_table.c) writes the same words."""
+    (firmware/app/sonar/sched_table.c) writes the same words. Besides the engine's bus (data memory, blank offsets) the load port takes
+the hardware's own tables at LD_* (window lengths, burst cycles, tx and rx masks)."""
     mem = {MAIN + M_P: int(lead), MAIN + M_L: int(latency), MAIN + M_GATE: int(miss_gate or 0),
            MAIN + M_ACT: sum(1 << c.id for c in cfg)}
     share = share_matrix(cfg)
     for i, c in enumerate(cfg):
         shares = sum(1 << o.id for j, o in enumerate(cfg) if j != i and share[i][j])
         mem.update(sensor_words(c, shares, reinit_every))
+        mem[LD_WLEN + 2 * c.id] = window_length(c, False)
+        mem[LD_WLEN + 2 * c.id + 1] = window_length(c, True)
+        mem[LD_BURST + c.id] = c.burst_cycles
+        mem[LD_TXM + c.id] = sum(1 << int(e) for e in c.tx)
+    mem[LD_RXANY] = sum(1 << int(e) for e in {int(e) for c in cfg for e in c.rx})
     return mem
 
 
@@ -215,8 +221,9 @@ class EngineSystem:
         self.latency = self.echo.latency
         self.lead, self.start, self.qdepth = int(decision_lead), int(start_tick), qdepth
         mem: dict[int, int] = {ONEHOT + k: 1 << k for k in range(32)}
-        mem.update(load_image(self.cfg, lead=self.lead, latency=self.latency, miss_gate=miss_gate,
-                              reinit_every=reinit_every))
+        mem.update({a: w for a, w in load_image(self.cfg, lead=self.lead, latency=self.latency,
+                                                 miss_gate=miss_gate, reinit_every=reinit_every).items()
+                    if not LD_WLEN <= a <= LD_RXANY})    # the hardware's tables: win_len below
         mem[MAIN + M_START] = self.start
         self.win_len = {(c.id, init): window_length(c, bool(init)) for c in self.cfg for init in (0, 1)}
         self.m = _Bus(self.image.words, mem, self)
