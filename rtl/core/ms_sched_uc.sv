@@ -275,6 +275,39 @@ module ms_sched_uc
   assign port_blk_a = port_we && ld_addr_i >= 12'(BLK) && !ld_addr_i[5];
   assign port_blk_b = port_we && ld_addr_i >= 12'(BLK) && ld_addr_i[5];
   always_ff @(posedge clk_i) if (port_blk_a) port_a_q <= ld_data_i[DELAY_W-1:0];
+  // the per-sensor tables' one write each, from the loader or the port (one write port keeps
+  // wlen_q in LUT-RAM and the others' entries free of per-entry multiplexers)
+  logic              wl_we, bu_we, tm_we;
+  logic [3:0]        wl_a;
+  logic [23:0]       wl_d;
+  logic [2:0]        tab_a;
+  logic [7:0]        bu_d;
+  logic [NUM_CH-1:0] tm_d;
+  always_comb begin
+    wl_we = rec_i_q == 5'd0 || rec_i_q == 5'd1;   // while the record's first two words go out
+    wl_a  = {rec_q.vs, rec_i_q[0]};
+    wl_d  = rec_i_q[0] ? rec_qoff : 24'(rec_q.tv) + 24'(rec_q.tn);
+    bu_we = ld_we;
+    tm_we = ld_we;
+    tab_a = ld_vs;
+    bu_d  = ld_burst;
+    tm_d  = ld_tx;
+    if (port_we && ld_addr_i[11:4] == 8'(LD_WLEN >> 4)) begin
+      wl_we = 1'b1;
+      wl_a  = ld_addr_i[3:0];
+      wl_d  = ld_data_i[23:0];
+    end
+    if (port_we && ld_addr_i[11:3] == 9'(LD_BURST >> 3)) begin
+      bu_we = 1'b1;
+      tab_a = ld_addr_i[2:0];
+      bu_d  = ld_data_i[7:0];
+    end
+    if (port_we && ld_addr_i[11:3] == 9'(LD_TXM >> 3)) begin
+      tm_we = 1'b1;
+      tab_a = ld_addr_i[2:0];
+      tm_d  = ld_data_i[NUM_CH-1:0];
+    end
+  end
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
       rec_i_q <= '1;
@@ -289,18 +322,11 @@ module ms_sched_uc
                  vmax: ld_vmax, rmax: ld_rmax, phase: ld_phase, dbl: ld_dbl, lo: ld_lo,
                  hi: ld_hi, nrx: popcount(ld_rx)};
       act_q[ld_vs]   <= ld_act;
-      burst_q[ld_vs] <= ld_burst;
-      txm_q[ld_vs]   <= ld_tx;
       rx_any_q       <= (ld_vs == '0 ? '0 : rx_any_q) | (ld_act ? ld_rx : '0);
     end
-    if (rec_i_q == 5'd0 || rec_i_q == 5'd1)   // while the record's first two words go out
-      wlen_q[{rec_q.vs, rec_i_q[0]}] <= rec_i_q[0] ? rec_qoff : 24'(rec_q.tv) + 24'(rec_q.tn);
-    if (port_we && ld_addr_i[11:4] == 8'(LD_WLEN >> 4))
-      wlen_q[ld_addr_i[3:0]] <= ld_data_i[23:0];
-    if (port_we && ld_addr_i[11:3] == 9'(LD_BURST >> 3))
-      burst_q[ld_addr_i[2:0]] <= ld_data_i[7:0];
-    if (port_we && ld_addr_i[11:3] == 9'(LD_TXM >> 3))
-      txm_q[ld_addr_i[2:0]] <= ld_data_i[NUM_CH-1:0];
+    if (wl_we) wlen_q[wl_a] <= wl_d;
+    if (bu_we) burst_q[tab_a] <= bu_d;
+    if (tm_we) txm_q[tab_a] <= tm_d;
     if (port_we && ld_addr_i == 12'(LD_RXANY)) rx_any_q <= ld_data_i[NUM_CH-1:0];
     if (share_we) begin
       share_q[share_a][share_b] <= share && share_a != share_b;
