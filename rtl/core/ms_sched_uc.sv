@@ -102,7 +102,7 @@ module ms_sched_uc
   logic        fin_done;    // the loader's final words are written
   logic        start_now;   // C_FINISH -> C_RUN: the start tick is tick_i
   logic        hold_q, hold_d;  // C_STOPPING for hold_i: no load follows
-  logic        port_open;   // the load port writes (C_OFF, no apply pending)
+  logic        port_open;   // the load port writes: C_OFF (no apply pending: the caller's part)
   always_comb begin
     ctl_d        = ctl_q;
     started_d    = started_q;
