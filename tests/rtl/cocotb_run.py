@@ -16,6 +16,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 GEN = ROOT / "build" / "gen"
 SIMULATORS = ("verilator", "icarus")
+# testbench wrappers that make their own clock with delays (Verilator --timing): no VPI call per
+# clock edge, which caps cocotb's GPI clock at a few hundred thousand cycles per second
+OWN_CLOCK_TOPS = frozenset({"ms_scheduler_tb"})
 
 
 def selected_simulator() -> str:
@@ -72,6 +75,8 @@ def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = Non
     plusargs: list[str] = []
     if sim == "verilator":
         build_args = ["-Wno-fatal", "-O3", "--x-assign", "fast", "--x-initial", "fast"]
+        if top in OWN_CLOCK_TOPS:
+            build_args += ["--timing"]
         if waves:
             build_args += ["--trace-fst", "--trace-structs"]
         if coverage:  # line coverage for `make coverage`; one data file per testbench module

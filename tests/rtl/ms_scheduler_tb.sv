@@ -7,14 +7,18 @@
 // testbench reads at the end: every event word, and every trigger as {element, tick it fires}
 // (the tick of the arming cycle plus trig_delay_o, i.e. when ms_tx_phaser would trigger it).
 // The whole virtual-sensor table is driven as flat vectors (sensor s at bits [s*W +: W]).
+// The clock `clk` is made here (a build with Verilator --timing; tests/rtl/cocotb_run.py
+// OWN_CLOCK_TOPS), not driven through the simulator interface: cocotb's GPI clock costs a VPI
+// callback per edge, which held the scoreboards to 130-500 k cycles/s. The testbench writes
+// its inputs at falling edges, where no write races a rising edge.
 module ms_scheduler_tb #(
+  parameter int CLK_HALF_PS = 10417,   // tests/rtl/tbutil.py CLK_PERIOD_PS / 2
   parameter int NUM_CH    = 24,
   parameter int LEAD      = 4096,
   parameter int EVT_DEPTH = 8192,
   parameter int TRG_DEPTH = 4096,
   parameter string UCODE_FILE = ""  // the engine's program image (empty: the gen step's)
 ) (
-  input  logic                 clk_i,
   input  logic                 rst_i,
   input  logic                 enable_i,
   input  logic                 apply_i,
@@ -65,8 +69,11 @@ module ms_scheduler_tb #(
 );
   localparam int NUM_VS = 8;
 
+  logic clk = 1'b0;
+  always #(CLK_HALF_PS * 1ps) clk = ~clk;
+
   logic [31:0] tick_q;
-  always_ff @(posedge clk_i) begin
+  always_ff @(posedge clk) begin
     if (rst_i) tick_q <= tick_start_i;
     else       tick_q <= tick_q + 32'd1;
   end
@@ -75,7 +82,7 @@ module ms_scheduler_tb #(
   logic [NUM_CH-1:0] rise, level;
   for (genvar i = 0; i < NUM_CH; i++) begin : g_rx
     ms_rx_conditioner u_rx (
-      .clk_i       (clk_i),
+      .clk_i       (clk),
       .rst_i       (rst_i),
       .echo_i      (echo_i[i]),
       .glitch_min_i(glitch_min_i),
@@ -87,7 +94,7 @@ module ms_scheduler_tb #(
   logic [7:0]  dly_raddr;
   logic [15:0] dly_rdata, dly_rdata_a;
   ms_ram_dp #(.WIDTH(16), .DEPTH(256)) u_dly (
-    .clk_i    (clk_i),
+    .clk_i    (clk),
     .we_a_i   (dly_we_i),
     .addr_a_i (dly_addr_i),
     .wdata_a_i(dly_wdata_i),
@@ -133,7 +140,7 @@ module ms_scheduler_tb #(
         default: vs_word = 32'(vs_phase[e]);
       endcase
   endfunction
-  always_ff @(posedge clk_i) vs_rdata <= vs_word(int'(vs_raddr));
+  always_ff @(posedge clk) vs_rdata <= vs_word(int'(vs_raddr));
 
   logic             trig_valid;
   logic [4:0]       trig_el;
@@ -143,7 +150,7 @@ module ms_scheduler_tb #(
   logic [63:0]      evt_data;
 
   ms_sched_uc #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .LEAD(LEAD), .UCODE_FILE(UCODE_FILE)) u_sched (
-    .clk_i              (clk_i),
+    .clk_i              (clk),
     .rst_i              (rst_i),
     .tick_i             (tick_q),
     .enable_i           (enable_i),
@@ -184,7 +191,7 @@ module ms_scheduler_tb #(
   logic [15:0] evt_cnt_q;
   logic [39:0] trg_mem [TRG_DEPTH];
   logic [15:0] trg_cnt_q;
-  always_ff @(posedge clk_i) begin
+  always_ff @(posedge clk) begin
     if (rst_i) begin
       evt_cnt_q <= '0;
       trg_cnt_q <= '0;

@@ -33,7 +33,7 @@ from multisonar.schedule import Schedule, VirtualSensor
 from multisonar.tools.sched_program.layout import BLK, WSLOTS  # WSLOTS: window slots per element
 from multisonar.tools.sched_program.system import load_image
 from echo_driver import EchoDriver
-from tbutil import CLK_PERIOD_PS, start_clock
+from tbutil import CLK_PERIOD_PS
 
 LEAD = int(os.environ.get("SCHED_LEAD", str(DEVICE_DECISION_LEAD)))
 # how a table reaches the scheduler: "apply" (the table inputs, apply_i: ms_sched_cfg checks and
@@ -117,7 +117,6 @@ class Bench:
 
     async def reset(self, tick_start: int = 0) -> None:
         dut = self.dut
-        start_clock(dut.clk_i)
         dut.rst_i.value = 1
         dut.enable_i.value = 0
         dut.apply_i.value = 0
@@ -134,7 +133,7 @@ class Bench:
         for port in ("hold_i", "ld_we_i", "ld_addr_i", "ld_data_i", "start_i"):
             getattr(dut, port).value = 0
         for _ in range(4):
-            await RisingEdge(dut.clk_i)
+            await FallingEdge(dut.clk)
         dut.rst_i.value = 0
 
     async def load(self, regs: dict | None = None) -> None:
@@ -147,9 +146,9 @@ class Bench:
         mem.update(regs["delay_mem"])
         for addr, val in sorted(mem.items()):
             dut.dly_we_i.value, dut.dly_addr_i.value, dut.dly_wdata_i.value = 1, addr, val
-            await RisingEdge(dut.clk_i)
+            await FallingEdge(dut.clk)
         dut.dly_we_i.value = 0
-        await RisingEdge(dut.clk_i)
+        await FallingEdge(dut.clk)
 
     async def wait_running(self) -> int:
         """Wait for running_o; returns the start tick S (unwrapped) and sets the time base."""
@@ -160,7 +159,7 @@ class Bench:
         t32 = int(dut.tick_o.value)  # tick of the cycle this edge starts: S + 1
         self.ref_ps = edge_ps
         self.t_origin = t32 if not self.pulses else self.unwrap(t32)
-        await RisingEdge(dut.clk_i)  # leave the read-only phase
+        await FallingEdge(dut.clk)  # leave the read-only phase
         return self.t_origin - 1
 
     async def load_port(self) -> None:
@@ -173,10 +172,10 @@ class Bench:
         assert sorted(order) == sorted(image)
         for addr, word in ((a, image[a]) for a in order):
             dut.ld_we_i.value, dut.ld_addr_i.value, dut.ld_data_i.value = 1, addr, word
-            await RisingEdge(dut.clk_i)
+            await FallingEdge(dut.clk)
         dut.ld_we_i.value = 0
         dut.start_i.value = 1
-        await RisingEdge(dut.clk_i)
+        await FallingEdge(dut.clk)
         dut.start_i.value = 0
 
     async def start(self, source, tick_start: int = 0) -> int:
@@ -188,7 +187,7 @@ class Bench:
             self.dut.mode_i.value = 0
             self.dut.enable_i.value = 1
             while int(self.dut.cfg_error_o.value) != CfgError.EMPTY_TABLE:
-                await RisingEdge(self.dut.clk_i)
+                await FallingEdge(self.dut.clk)
             cocotb.start_soon(self.load_port())
         else:
             await self.load()
@@ -777,10 +776,11 @@ async def apply_refusals_leave_the_schedule_running(dut):
         every = change.pop("*", False)
         for i in (range(len(bad)) if every else [1]):
             bad[i].update(change)
+        await FallingEdge(dut.clk)
         for port, v in table_values(bad).items():
             getattr(dut, port).value = v
         dut.apply_i.value = 1
-        await RisingEdge(dut.clk_i)
+        await FallingEdge(dut.clk)
         dut.apply_i.value = 0
         await Timer(2000 * CLK_PERIOD_PS, unit="ps")
         got = (int(dut.cfg_error_o.value), int(dut.cfg_error_vs_o.value))
@@ -788,6 +788,7 @@ async def apply_refusals_leave_the_schedule_running(dut):
         assert got == want, f"{what}: cfg_error {got}, expected {want}"
         assert int(dut.running_o.value) == 1, f"{what}: the running schedule stopped"
     # the good table back on the inputs (an apply of it would restart: not done here)
+    await FallingEdge(dut.clk)
     for port, v in table_values(sched.to_registers()["sensors"]).items():
         getattr(dut, port).value = v
     dur = 60 * MS
@@ -800,16 +801,17 @@ async def apply_refusals_leave_the_schedule_running(dut):
     # stopped: a refused apply reports the same way
     bad = [dict(f) for f in sched.to_registers()["sensors"]]
     bad[0]["order"] = 9
+    await FallingEdge(dut.clk)
     for port, v in table_values(bad).items():
         getattr(dut, port).value = v
     dut.apply_i.value = 1
-    await RisingEdge(dut.clk_i)
+    await FallingEdge(dut.clk)
     dut.apply_i.value = 0
     await Timer(2000 * CLK_PERIOD_PS, unit="ps")
     assert (int(dut.cfg_error_o.value), int(dut.cfg_error_vs_o.value), int(dut.running_o.value)) == \
         (int(CfgError.ORDER), 0, 0)
     # all entries off: EMPTY_TABLE on enable, nothing runs
-    await RisingEdge(dut.clk_i)
+    await FallingEdge(dut.clk)
     for port, v in table_values([dict(f, mode=0) for f in sched.to_registers()["sensors"]]).items():
         getattr(dut, port).value = v
     dut.enable_i.value = 1
@@ -859,19 +861,20 @@ async def reconfigure_while_pulses_in_flight(dut):
     e0 = await b.start(rec)
     await b.run_until(e0 + 50 * MS)
     b2 = Bench(dut, s_new)
+    await FallingEdge(dut.clk)
     if LOAD_VIA == "port":      # hold, then the new image through the load port and start_i
         dut.hold_i.value = 1
-        await RisingEdge(dut.clk_i)
+        await FallingEdge(dut.clk)
         dut.hold_i.value = 0
     else:                       # new table on the inputs, delay RAM entries of the new sensors, apply
         for port, v in table_values(s_new.to_registers()["sensors"]).items():
             getattr(dut, port).value = v
         for addr, val in sorted(s_new.to_registers()["delay_mem"].items()):
             dut.dly_we_i.value, dut.dly_addr_i.value, dut.dly_wdata_i.value = 1, addr, val
-            await RisingEdge(dut.clk_i)
+            await FallingEdge(dut.clk)
         dut.dly_we_i.value = 0
         dut.apply_i.value = 1
-        await RisingEdge(dut.clk_i)
+        await FallingEdge(dut.clk)
         dut.apply_i.value = 0
     await FallingEdge(dut.running_o)
     stop_at = b.unwrap(int(dut.u_sched.stop_at_q.value))
