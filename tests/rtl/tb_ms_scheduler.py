@@ -92,6 +92,21 @@ def table_values(sensors: list[dict]) -> dict[str, int]:
     return out
 
 
+async def write_words(clk, we, addr, data, words) -> None:
+    """(address, word) pairs through a write port, one per clock, written at falling edges."""
+    for a, w in words:
+        we.value, addr.value, data.value = 1, a, w
+        await FallingEdge(clk)
+    we.value = 0
+
+
+async def strobe(clk, sig) -> None:
+    """sig high for one clock (written at falling edges)."""
+    sig.value = 1
+    await FallingEdge(clk)
+    sig.value = 0
+
+
 class Bench:
     def __init__(self, dut, sched: Schedule, glitch_min: int = 24, miss_gate: int = DEFAULT_MISS_GATE):
         self.dut, self.sched = dut, sched
@@ -144,10 +159,7 @@ class Bench:
             getattr(dut, port).value = v
         mem = {a: 0xBEEF for a in range(256) if a // 32 >= len(regs["sensors"])}
         mem.update(regs["delay_mem"])
-        for addr, val in sorted(mem.items()):
-            dut.dly_we_i.value, dut.dly_addr_i.value, dut.dly_wdata_i.value = 1, addr, val
-            await FallingEdge(dut.clk)
-        dut.dly_we_i.value = 0
+        await write_words(dut.clk, dut.dly_we_i, dut.dly_addr_i, dut.dly_wdata_i, sorted(mem.items()))
         await FallingEdge(dut.clk)
 
     async def wait_running(self) -> int:
@@ -170,13 +182,8 @@ class Bench:
         order = [a for a in sorted(image) if a < BLK]
         order += [x for a in sorted(image) if a >= BLK and not a & 32 for x in (a, a + 32)]
         assert sorted(order) == sorted(image)
-        for addr, word in ((a, image[a]) for a in order):
-            dut.ld_we_i.value, dut.ld_addr_i.value, dut.ld_data_i.value = 1, addr, word
-            await FallingEdge(dut.clk)
-        dut.ld_we_i.value = 0
-        dut.start_i.value = 1
-        await FallingEdge(dut.clk)
-        dut.start_i.value = 0
+        await write_words(dut.clk, dut.ld_we_i, dut.ld_addr_i, dut.ld_data_i, ((a, image[a]) for a in order))
+        await strobe(dut.clk, dut.start_i)
 
     async def start(self, source, tick_start: int = 0) -> int:
         """Reset, load the table, enable; returns the model's start tick."""
@@ -779,9 +786,7 @@ async def apply_refusals_leave_the_schedule_running(dut):
         await FallingEdge(dut.clk)
         for port, v in table_values(bad).items():
             getattr(dut, port).value = v
-        dut.apply_i.value = 1
-        await FallingEdge(dut.clk)
-        dut.apply_i.value = 0
+        await strobe(dut.clk, dut.apply_i)
         await Timer(2000 * CLK_PERIOD_PS, unit="ps")
         got = (int(dut.cfg_error_o.value), int(dut.cfg_error_vs_o.value))
         want = (int(code), 0 if every else 1)
@@ -804,9 +809,7 @@ async def apply_refusals_leave_the_schedule_running(dut):
     await FallingEdge(dut.clk)
     for port, v in table_values(bad).items():
         getattr(dut, port).value = v
-    dut.apply_i.value = 1
-    await FallingEdge(dut.clk)
-    dut.apply_i.value = 0
+    await strobe(dut.clk, dut.apply_i)
     await Timer(2000 * CLK_PERIOD_PS, unit="ps")
     assert (int(dut.cfg_error_o.value), int(dut.cfg_error_vs_o.value), int(dut.running_o.value)) == \
         (int(CfgError.ORDER), 0, 0)
@@ -863,19 +866,13 @@ async def reconfigure_while_pulses_in_flight(dut):
     b2 = Bench(dut, s_new)
     await FallingEdge(dut.clk)
     if LOAD_VIA == "port":      # hold, then the new image through the load port and start_i
-        dut.hold_i.value = 1
-        await FallingEdge(dut.clk)
-        dut.hold_i.value = 0
+        await strobe(dut.clk, dut.hold_i)
     else:                       # new table on the inputs, delay RAM entries of the new sensors, apply
         for port, v in table_values(s_new.to_registers()["sensors"]).items():
             getattr(dut, port).value = v
-        for addr, val in sorted(s_new.to_registers()["delay_mem"].items()):
-            dut.dly_we_i.value, dut.dly_addr_i.value, dut.dly_wdata_i.value = 1, addr, val
-            await FallingEdge(dut.clk)
-        dut.dly_we_i.value = 0
-        dut.apply_i.value = 1
-        await FallingEdge(dut.clk)
-        dut.apply_i.value = 0
+        await write_words(dut.clk, dut.dly_we_i, dut.dly_addr_i, dut.dly_wdata_i,
+                          sorted(s_new.to_registers()["delay_mem"].items()))
+        await strobe(dut.clk, dut.apply_i)
     await FallingEdge(dut.running_o)
     stop_at = b.unwrap(int(dut.u_sched.stop_at_q.value))
     n_pulses_old, n_rows_old = len(b.pulses), len(rec.rows)
