@@ -4,9 +4,9 @@
 // the rest of the RTL never touches its hwif structs, holds the phasing-delay table in
 // block RAM (the regblock treats it as external memory) and the virtual-sensor table VS[8]
 // (an external regfile of the regblock) in distributed RAM: 9 words per implemented entry
-// (NUM_VS of the map's 8; the others read as zero and ignore writes), written per byte lane,
-// read through one port by the scheduler (a word per clock while vs_ren_i) and by the bus,
-// whose reads wait while the scheduler reads.
+// (NUM_VS of the map's 8; the others read as zero and ignore writes), written per byte lane.
+// Both tables are the firmware's: it checks them and writes the scheduler's load image through
+// LOAD_ADDR / LOAD_DATA (one ld_we_o strobe per LOAD_DATA write, a clock after it).
 // CAPS reports the build's parameters (NUM_CH, NUM_VS, WSLOTS, EVT_DEPTH_W).
 // After a reset the table is refilled with its reset values, one word per clock (VS_WORDS
 // clocks); the bus is stalled meanwhile.
@@ -16,8 +16,7 @@
 // each pass a register slice by the regblock; inside it a register access answers on
 // the next clock, a VS-table write one clock later and a read two clocks later (a written
 // value is in effect from the clock after the request, as for the other registers), a
-// delay-table access one clock after the RAM read; a VS-table read a clock more for each
-// clock the scheduler reads the table, at most 9 in a row). VS-table writes take byte lanes: byte k
+// delay-table access one clock after the RAM read). VS-table writes take byte lanes: byte k
 // is written when wr_biten bit 8k is set (the SoC bridges only make whole-byte enables).
 // Unmapped addresses and writes to read-only registers answer with rd_err / wr_err.
 //
@@ -52,21 +51,16 @@ module ms_csr
   output logic                          bus_wr_err_o,
   // settings to the core
   output logic                          enable_o,
-  output logic                          apply_o,           // one-clock strobe
+  output logic                          hold_o,            // one-clock strobes
+  output logic                          start_o,
   output logic                          clear_counters_o,  // one-clock strobe
   output logic [15:0]                   burst_half_period_o,
   output logic [7:0]                    burst_cycles_o,
   output logic [7:0]                    glitch_min_o,
-  output logic [15:0]                   miss_gate_o,       // RX_FILTER.miss_gate, ticks (0 off)
-  // virtual-sensor table read port for the core: word entry * 9 + register (TX_MASK 0 ..
-  // PHASE 8, the register map's layout and field positions), read in a clock with vs_ren_i,
-  // data one clock later
-  input  logic                          vs_ren_i,
-  input  logic [6:0]                    vs_raddr_i,
-  output logic [31:0]                   vs_rdata_o,
-  // phasing-delay table read port for the core: entry vs*32 + element, data one clock later
-  input  logic [7:0]                    delay_raddr_i,
-  output logic [DELAY_W-1:0]            delay_rdata_o,
+  // the scheduler's load port: LOAD_DATA written with LOAD_ADDR, a clock after the write
+  output logic                          ld_we_o,
+  output logic [11:0]                   ld_addr_o,
+  output logic [31:0]                   ld_data_o,
   // event FIFO head (first-word-fall-through) read through EVT_LO / EVT_HI
   input  logic                          evt_rvalid_i,
   input  logic [63:0]                   evt_rdata_i,
@@ -75,8 +69,6 @@ module ms_csr
   input  logic                          running_i,
   input  logic                          sched_overrun_i,
   input  logic                          tx_collision_i,
-  input  logic [3:0]                    cfg_error_i,
-  input  logic [3:0]                    cfg_error_vs_i,
   input  logic [11:0]                   fifo_level_i,
   input  logic                          event_i,
   input  logic                          overflow_i,
@@ -180,8 +172,6 @@ module ms_csr
     hwif_in.STATUS.sched_overrun.next = sched_overrun_i;
     hwif_in.TX_COLLISIONS.count.incr  = tx_collision_i;
     hwif_in.TX_COLLISIONS.count.hwclr = hwif_out.CTRL.clear_counters.value;
-    hwif_in.STATUS.cfg_error.next    = cfg_error_i;
-    hwif_in.STATUS.cfg_error_vs.next = cfg_error_vs_i;
     hwif_in.STATUS.fifo_level.next   = fifo_level_i;
     hwif_in.EVENTS.count.incr        = event_i;
     hwif_in.EVENTS.count.hwclr       = hwif_out.CTRL.clear_counters.value;
@@ -241,12 +231,22 @@ module ms_csr
   end
 
   assign enable_o            = hwif_out.CTRL.enable.value;
-  assign apply_o             = hwif_out.CTRL.apply.value;
+  assign hold_o              = hwif_out.CTRL.hold.value;
+  assign start_o             = hwif_out.CTRL.start.value;
   assign clear_counters_o    = hwif_out.CTRL.clear_counters.value;
   assign burst_half_period_o = hwif_out.BURST.half_period.value;
   assign burst_cycles_o      = hwif_out.BURST.cycles.value;
   assign glitch_min_o        = hwif_out.RX_FILTER.glitch_min.value;
-  assign miss_gate_o         = hwif_out.RX_FILTER.miss_gate.value;
+  // RX_FILTER.miss_gate reaches the scheduler through the firmware's load image; named here for
+  // the testbenches that read the register file's contents through the hierarchy
+  logic [15:0] miss_gate;
+  logic        unused_miss_gate;
+  assign miss_gate        = hwif_out.RX_FILTER.miss_gate.value;
+  assign unused_miss_gate = ^miss_gate;
+  // LOAD_DATA's value is the written word from the clock after its swmod strobe
+  always_ff @(posedge clk_i) ld_we_o <= !rst_i && hwif_out.LOAD_DATA.data.swmod;
+  assign ld_addr_o           = hwif_out.LOAD_ADDR.addr.value;
+  assign ld_data_o           = hwif_out.LOAD_DATA.data.value;
 
   // ---- virtual-sensor table (external regfile VS[8] of sonar_regs.rdl). Field layout and
   // reset values are the register map's; tests/rtl/tb_ms_csr.py checks every field's reset,
@@ -342,22 +342,17 @@ module ms_csr
         if (rq_wr_biten_q[8*b]) vs_m[VS_AW'(vs_word)][8*b +: 8] <= rq_wr_data_q[8*b +: 8] & vs_fields_w[8*b +: 8];
     end
   end
-  // The read port: in a clock with vs_ren_i the core's word (vs_raddr_i), else the bus's
-  // (vs_word_q); the word is in vs_rd_q one clock later. A bus read takes two register stages
-  // (the word address, then the RAM read), so its answer (vs_rd_ack_q) comes two clocks after
-  // the request, or later by the clocks it waits (vs_rd_wait_q) for the core to leave the
-  // port; its address is held meanwhile.
+  // The bus's read: the word address is registered (vs_word_q), the RAM read a clock later
+  // (vs_rd_q), so the answer (vs_rd_ack_q) comes two clocks after the request.
   logic [6:0]              vs_word_q;
   logic                    vs_impl_q;  // the read's entry is implemented (< NUM_VS), else it reads 0
   logic [31:0]             vs_rd_q;
   logic                    vs_rd_impl_q;  // vs_impl_q of the word in vs_rd_q
-  logic [VS_ENTRIES-1:0]   vs_rd_req_q, vs_rd_wait_q, vs_rd_pend;
-  assign unused_vs_hi = ^{vs_raddr_i, vs_word_q};
-  assign vs_rd_pend   = vs_rd_req_q | vs_rd_wait_q;  // a bus read wants the port in this clock
+  logic [VS_ENTRIES-1:0]   vs_rd_req_q;
+  assign unused_vs_hi = ^vs_word_q;
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
       vs_rd_req_q  <= '0;
-      vs_rd_wait_q <= '0;
       vs_rd_ack_q  <= '0;
       vs_wr_ack_q  <= '0;
     end else begin
@@ -365,34 +360,24 @@ module ms_csr
         vs_rd_req_q[v] <= hwif_out.VS[v].req && !hwif_out.VS[v].req_is_wr;
         vs_wr_ack_q[v] <= hwif_out.VS[v].req && hwif_out.VS[v].req_is_wr;
       end
-      vs_rd_wait_q <= vs_ren_i ? vs_rd_pend : '0;
-      vs_rd_ack_q  <= vs_ren_i ? '0 : vs_rd_pend;
+      vs_rd_ack_q <= vs_rd_req_q;
     end
-    if (!(vs_ren_i && (|vs_rd_pend))) begin
-      vs_word_q <= vs_word;
-      vs_impl_q <= 32'(vs_sel) < 32'(NUM_VS);
-    end
-    vs_rd_q      <= vs_m[VS_AW'(vs_ren_i ? vs_raddr_i : vs_word_q)];
+    vs_word_q    <= vs_word;
+    vs_impl_q    <= 32'(vs_sel) < 32'(NUM_VS);
+    vs_rd_q      <= vs_m[VS_AW'(vs_word_q)];
     vs_rd_impl_q <= vs_impl_q;
   end
-  assign vs_rdata_o   = vs_rd_q;
   assign vs_rdata_bus = vs_rd_impl_q ? vs_rd_q : 32'd0;
 
-  // ---- phasing-delay table: external memory of the regblock, kept in block RAM.
-  // The RAM stores DELAY_W bits per entry; the upper bits of a bus write are dropped (the
-  // host validator refuses delays that do not fit) and read back as zero.
-
-  // B_WRITE_FIRST: one DP16KD instead of two (ms_ram_dp); a core read of the entry the bus
-  // writes in the same clock sees the new delay, which is as good as the old one
-  ms_ram_dp #(.WIDTH(DELAY_W), .DEPTH(256), .B_WRITE_FIRST(1'b1)) u_delay_ram (
-    .clk_i     (clk_i),
-    .we_a_i    (hwif_out.DELAY.req & hwif_out.DELAY.req_is_wr),
-    .addr_a_i  (hwif_out.DELAY.addr[9:2]),
-    .wdata_a_i (hwif_out.DELAY.wr_data[DELAY_W-1:0]),
-    .rdata_a_o (delay_rdata_a),
-    .addr_b_i  (delay_raddr_i),
-    .rdata_b_o (delay_rdata_o)
-  );
+  // ---- phasing-delay table: external memory of the regblock, kept in block RAM (one
+  // DP16KD). The RAM stores DELAY_W bits per entry; the upper bits of a bus write are dropped
+  // (the firmware refuses a table whose delays do not fit) and read back as zero.
+  logic [DELAY_W-1:0] delay_m [256];
+  always_ff @(posedge clk_i) begin
+    if (hwif_out.DELAY.req && hwif_out.DELAY.req_is_wr)
+      delay_m[hwif_out.DELAY.addr[9:2]] <= hwif_out.DELAY.wr_data[DELAY_W-1:0];
+    delay_rdata_a <= delay_m[hwif_out.DELAY.addr[9:2]];
+  end
 
   always_ff @(posedge clk_i) begin
     if (rst_i) begin

@@ -46,20 +46,16 @@ module ms_sonar_core #(
   end
 
   // ---- registers
-  logic                          enable, apply, unused_clear_counters;
+  logic                          enable, hold, start, unused_clear_counters;
   logic [15:0]                   burst_half_period;
   logic [7:0]                    unused_burst_cycles, glitch_min;
-  logic [15:0]                   miss_gate;
-  logic                          vs_ren;
-  logic [6:0]                    vs_raddr;
-  logic [31:0]                   vs_rdata;
-  logic [7:0]                    delay_raddr;
-  logic [DELAY_W-1:0]            delay_rdata;
+  logic                          ld_we;
+  logic [11:0]                   ld_addr;
+  logic [31:0]                   ld_data;
   logic                          fifo_rvalid, fifo_pop, fifo_overflow;
   logic [63:0]                   fifo_rdata;
   logic [11:0]                   fifo_level;
   logic                          running, overrun, pulse, tx_collision;
-  logic [3:0]                    cfg_error, cfg_error_vs;
   logic                          evt_valid;
   logic [63:0]                   evt_data;
 
@@ -69,14 +65,13 @@ module ms_sonar_core #(
     .bus_req_i, .bus_req_is_wr_i, .bus_addr_i, .bus_wr_data_i, .bus_wr_biten_i,
     .bus_req_stall_wr_o, .bus_req_stall_rd_o, .bus_rd_ack_o, .bus_rd_err_o, .bus_rd_data_o,
     .bus_wr_ack_o, .bus_wr_err_o,
-    .enable_o (enable), .apply_o (apply), .clear_counters_o (unused_clear_counters),
+    .enable_o (enable), .hold_o (hold), .start_o (start),
+    .clear_counters_o (unused_clear_counters),
     .burst_half_period_o (burst_half_period), .burst_cycles_o (unused_burst_cycles),
-    .glitch_min_o (glitch_min), .miss_gate_o (miss_gate),
-    .vs_ren_i (vs_ren), .vs_raddr_i (vs_raddr), .vs_rdata_o (vs_rdata),
-    .delay_raddr_i (delay_raddr), .delay_rdata_o (delay_rdata),
+    .glitch_min_o (glitch_min), .ld_we_o (ld_we), .ld_addr_o (ld_addr), .ld_data_o (ld_data),
     .evt_rvalid_i (fifo_rvalid), .evt_rdata_i (fifo_rdata), .evt_pop_o (fifo_pop),
     .running_i (running), .sched_overrun_i (overrun), .tx_collision_i (tx_collision),
-    .cfg_error_i (cfg_error), .cfg_error_vs_i (cfg_error_vs), .fifo_level_i (fifo_level),
+    .fifo_level_i (fifo_level),
     .event_i (evt_valid), .overflow_i (fifo_overflow), .pulse_i (pulse)
   );
 
@@ -100,19 +95,16 @@ module ms_sonar_core #(
   logic [31:0]               pulse_t0;
 
   ms_sched_uc #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .DELAY_W(DELAY_W), .LEAD(LEAD), .WSLOTS(WSLOTS)) u_sched (
-    .clk_i, .rst_i, .tick_i (tick_q), .enable_i (enable), .apply_i (apply),
-    // the load port is unused here: CTRL.apply has ms_sched_cfg check and load the CSRs' table
-    .hold_i (1'b0), .ld_we_i (1'b0), .ld_addr_i ('0), .ld_data_i ('0), .start_i (1'b0),
-    .vs_ren_o (vs_ren), .vs_raddr_o (vs_raddr), .vs_rdata_i (vs_rdata),
-    .burst_half_period_i (burst_half_period), .glitch_min_i (glitch_min), .miss_gate_i (miss_gate),
-    .delay_raddr_o (delay_raddr), .delay_rdata_i (delay_rdata), .rise_i (rise),
+    .clk_i, .rst_i, .tick_i (tick_q), .enable_i (enable),
+    // the firmware's check and load (CTRL.hold, LOAD_ADDR / LOAD_DATA, CTRL.start)
+    .hold_i (hold), .ld_we_i (ld_we), .ld_addr_i (ld_addr), .ld_data_i (ld_data), .start_i (start),
+    .glitch_min_i (glitch_min), .rise_i (rise),
     .trig_valid_o (trig_valid), .trig_el_o (trig_el), .trig_delay_o (trig_delay),
     .trig_burst_o (trig_burst),
     .pulse_o (pulse), .pulse_vs_o (pulse_vs), .pulse_tx_o (unused_pulse_tx), .pulse_seq_o (pulse_seq), .pulse_t0_o (pulse_t0),
     .pulse_init_o (pulse_init),
     .evt_valid_o (evt_valid), .evt_data_o (evt_data),
-    .running_o (running), .cfg_error_o (cfg_error),
-    .cfg_error_vs_o (cfg_error_vs), .overrun_o (overrun)
+    .running_o (running), .overrun_o (overrun)
   );
 
   // ---- transmitters: the scheduler arms one element per clock (one-hot fire, its delay

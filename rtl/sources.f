@@ -27,7 +27,6 @@ rtl/core/ms_sched_div.sv
 rtl/core/ms_sched_slot.sv
 rtl/core/ms_sched_closes.sv
 rtl/core/ms_sched_workq.sv
-rtl/core/ms_sched_cfg.sv
 rtl/core/ms_sched_uc.sv
 rtl/ms_sonar_core.sv
 rtl/ms_system.sv

@@ -440,8 +440,8 @@ class FastFiringModel:
         self.lead = int(decision_lead)
         if self.lead < 0:
             raise ValueError(f"decision_lead {self.lead} must be >= 0 ticks")
-        #: Gated miss rule (RTL: RX_FILTER.miss_gate, latched at apply; docs/fast_firing.md
-        #: section 4.4): a tracking window's first echo farther than ``miss_gate`` ticks from the
+        #: Gated miss rule (RTL: RX_FILTER.miss_gate, taken when the firmware loads the table;
+        #: docs/fast_firing.md section 4.4): a tracking window's first echo farther than ``miss_gate`` ticks from the
         #: prediction is reported but neither updates the track nor resets the miss count (the
         #: window counts as empty), so another pulse's echo cannot keep a lost track alive. It
         #: applies once the track's velocity is measured (``_RxState.vel``: the last sample

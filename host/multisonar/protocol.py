@@ -218,7 +218,7 @@ class DeviceError(RuntimeError):
 
 
 class CfgRejected(DeviceError):
-    """START refused: the device's apply-time check of the virtual-sensor table failed."""
+    """START refused: the device's check of the virtual-sensor table (firmware, at START) failed."""
 
     def __init__(self, opcode: int, payload: bytes) -> None:
         code = payload[0] if len(payload) > 0 else 0

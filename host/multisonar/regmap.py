@@ -28,8 +28,8 @@ SENSOR_FIELDS: dict[str, tuple[str, str]] = {
     "burst_cycles": ("VS_TRACK", "BURST_CYCLES"),
     "phase": ("VS_PHASE", "TICKS"),
 }
-#: scheduler fields that are not registers: the table index itself, and D, which the RTL
-#: derives when the table is applied.
+#: scheduler fields that are not registers: the table index itself, and D, which the firmware
+#: derives when it loads the table.
 NOT_REGISTERS = {"id", "blank"}
 
 
@@ -54,7 +54,8 @@ def check_field_widths() -> None:
 def schedule_writes(schedule: Schedule) -> list[tuple[int, int]]:
     """(address, value) bus writes that load ``schedule`` into the VS table and delay memory.
 
-    Sensors not in the schedule are written with mode 0 (off). Apply with CTRL.apply after.
+    Sensors not in the schedule are written with mode 0 (off). The firmware checks and loads
+    them at START (load_writes: what it writes to the scheduler).
     """
     R = _regs()
     regs = schedule.to_registers()
@@ -72,3 +73,18 @@ def schedule_writes(schedule: Schedule) -> list[tuple[int, int]]:
     for entry, ticks in sorted(regs["delay_mem"].items()):
         writes.append((mem.address + entry * mem.stride, ticks))
     return writes
+
+
+def load_writes(schedule: Schedule, *, glitch_min: int, miss_gate: int, lead: int) -> list[tuple[int, int]]:
+    """(address, value) bus writes of the scheduler's load image for ``schedule`` through
+    LOAD_ADDR / LOAD_DATA, as the firmware's START writes them (firmware/app/sonar/sched_table.c;
+    the scheduler stopped), before CTRL.enable | CTRL.start. ``glitch_min`` and ``miss_gate``
+    are RX_FILTER's fields, ``lead`` the scheduler's decision lead."""
+    from .tools.sched_program.system import load_image, load_sequence
+
+    R = _regs()
+    image = load_image(schedule.validate(), lead=lead, latency=1 + max(glitch_min, 1), miss_gate=miss_gate)
+    out = []
+    for a, w in load_sequence(image):
+        out += [(R.REGISTERS["LOAD_ADDR"].addr(), a), (R.REGISTERS["LOAD_DATA"].addr(), w)]
+    return out

@@ -438,8 +438,9 @@ class Schedule:
         }
 
 
-#: Per-sensor CSR fields: name -> (width bits, description). 'blank' is derived (the RTL
-#: computes it at apply: max(t_dead, t_xtalk) + max phasing delay) and listed for checking.
+#: Per-sensor CSR fields: name -> (width bits, description). 'blank' is derived (the firmware
+#: computes it when it loads the table: max(t_dead, t_xtalk) + max phasing delay) and listed
+#: for checking.
 REGISTER_FIELDS: dict[str, tuple[int, str]] = {
     "id": (VS_ID_W, "table index = sensor id in events"),
     "tx_mask": (24, "TX_MASK: adjacent transmit elements"),

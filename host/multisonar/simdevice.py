@@ -9,7 +9,7 @@ Behind the endpoints it does what the board does:
 * a register file with the sonar core's map (``multisonar.generated.sonar_regs``): WRITE_REGS /
   READ_REGS work on it with the board's address checks;
 * START decodes the virtual-sensor table **from the registers** (VS_* registers and the DELAY
-  memory, exactly as the RTL latches them at apply), checks it (``CfgError`` codes, reported
+  memory, exactly as the firmware checks and loads them), checks it (``CfgError`` codes, reported
   as CFG_REJECTED), and runs the tick-exact :class:`~multisonar.fastfiring.FastFiringModel` on
   the acoustic model of the scene (:class:`~multisonar.fastfiring.SceneEchoSource`);
 * every pulse becomes one frame once its last window has closed: the pulse's ToF records and,
@@ -62,14 +62,18 @@ def _regs():
 class RegisterFile:
     """Sonar-core CSRs by byte address. Reset values from the generated map."""
 
-    #: registers the command decoder owns (START / STOP / CLEAR_COUNTERS), not writable by WRITE_REGS
-    DECODER_OWNED = ("CTRL",)
+    #: registers the firmware owns (START / STOP / CLEAR_COUNTERS, its verdict in STATUS), not
+    #: writable by WRITE_REGS
+    DECODER_OWNED = ("CTRL", "STATUS")
+    #: the scheduler's load port, the firmware's alone: neither readable nor writable over USB
+    FIRMWARE_ONLY = ("LOAD_ADDR", "LOAD_DATA")
 
     def __init__(self) -> None:
         R = _regs()
         self.values: dict[int, int] = {}
         self.writable_mask: dict[int, int] = {}
         self.names: dict[int, str] = {}
+        self.hidden: set[int] = set()
         for reg in R.REGISTERS.values():
             idxs = itertools.product(*(range(n) for n in reg.dims)) if reg.dims else [()]
             wmask = 0
@@ -80,7 +84,9 @@ class RegisterFile:
                 a = reg.addr(*ix)
                 self.values[a] = reg.reset
                 self.names[a] = reg.name + ("[" + ",".join(map(str, ix)) + "]" if ix else "")
-                if wmask and reg.name not in self.DECODER_OWNED:
+                if reg.name in self.FIRMWARE_ONLY:
+                    self.hidden.add(a)
+                elif wmask and reg.name not in self.DECODER_OWNED:
                     self.writable_mask[a] = wmask
         from .schedule import DELAY_W
 
@@ -98,7 +104,7 @@ class RegisterFile:
                 self.mem_entries.add(a)
 
     def readable(self, addr: int) -> bool:
-        return addr in self.values
+        return addr in self.values and addr not in self.hidden
 
     def writable(self, addr: int) -> bool:
         return addr in self.writable_mask
@@ -120,7 +126,7 @@ class _CfgErr(Exception):
 
 
 def decode_vs_table(regs: RegisterFile, layout: Any) -> list[Any]:
-    """The virtual-sensor table as the RTL latches it at apply: ResolvedSensor per enabled
+    """The virtual-sensor table as the firmware checks and loads it: ResolvedSensor per enabled
     entry (mode != 0), ids = table index. Raises _CfgErr with the cfg_error code."""
     from .schedule import DELAY_W, MAX_ORDER, MODE_CODE, ResolvedSensor, _adjacent_run, _xtalk
 

@@ -4,6 +4,10 @@
 // modes and results below are that model's.
 //
 // Timing contract (clocks of clk_i; ticks and offsets modulo 2^32, compares signed):
+//   - Range: every difference of two ticks the scan takes (a window's end or start, TA, TB,
+//     TWA, TWB, a close tick) lies within +-2^25 (the scheduler's windows end less than
+//     2^24 + LEAD ticks after the tick, and a slot is freed when its window closes). The scan
+//     computes modulo 2^RW (RW = 26), which then gives the model's 32-bit results.
 //   - go_i (one clock) with mode_i, el_i, bon_i, won_i, valid_i and ta_i, tb_i, twa_i, twb_i:
 //     busy_o is high from the next clock for n + 4 clocks (n = valid slots); x_o, flags_o
 //     and minc_o hold the results from the clock busy_o falls to the next go_i (n + 5 clocks
@@ -55,13 +59,15 @@ module ms_sched_slot #(
   output logic [31:0]       minc_o
 );
   localparam logic [1:0] M_CONF = 2'd0, M_EDGE = 2'd1, M_HEAD = 2'd2, M_SENSOR = 2'd3;
+  localparam int RW = 26;   // the scan's arithmetic width (the range above)
+  typedef logic [RW-1:0] rt_t;
 
   // ---- the scan's operands, latched at go
   logic [1:0]        mode_q;
   logic [EW-1:0]     el_q;
   logic              bon_q, won_q, full_q, bwin_q;
-  logic [31:0]       ta_q, tb_q, twa_q, twb_q, tal_q;
-  logic [7:0]        latm1_q;
+  logic [31:0]       ta_q;               // whole: minc_o = TA + the close's distance
+  rt_t               tb_q, twa_q, twb_q, tal_q;
   logic [WSLOTS-1:0] srem_q, srem_d;
   logic              go_q;               // the clock after go (busy while no slot is issued)
   logic [2:0]        tail_q;             // go's marker through the pipeline, for n = 0
@@ -73,12 +79,11 @@ module ms_sched_slot #(
       won_q   <= won_i && mode_i == M_CONF;
       full_q  <= won_i && mode_i == M_CONF && &valid_i;
       ta_q    <= ta_i;
-      tb_q    <= mode_i == M_EDGE ? ta_i + 32'd1 : tb_i;  // EDGE: [TA, TA + 1)
-      twa_q   <= twa_i;
-      twb_q   <= twb_i;
-      tal_q   <= ta_i - 32'(latm1_i);     // close - TA = end - (TA - latm1)
-      latm1_q <= latm1_i;
-      bwin_q  <= $signed(twa_i - ta_i) > 0;  // end - TA > end - TWA
+      tb_q    <= mode_i == M_EDGE ? RW'(ta_i) + rt_t'(1) : RW'(tb_i);  // EDGE: [TA, TA + 1)
+      twa_q   <= RW'(twa_i);
+      twb_q   <= RW'(twb_i);
+      tal_q   <= RW'(ta_i - 32'(latm1_i));     // close - TA = end - (TA - latm1)
+      bwin_q  <= $signed(RW'(twa_i - ta_i)) > 0;  // end - TA > end - TWA
     end
   end
 
@@ -96,10 +101,10 @@ module ms_sched_slot #(
   // D: the fold
   logic          v_b, v_s, v_c, v_d;
   logic [KW-1:0] k_b, k_s, k_c, k_d;
-  logic [31:0]   end_s, start_c, end_c;
+  rt_t           end_s, start_c, end_c;
   logic [23:0]   len_s;
   logic [2:0]    sensor_s, sensor_c, sensor_d;
-  logic [31:0]   rel_b_d, rel_w_d, close_d, crel_d;
+  rt_t           rel_b_d, rel_w_d, crel_d;
   logic          ov_b_d, ov_w_d;
   always_ff @(posedge clk_i) begin
     if (rst_i || go_i) begin
@@ -122,35 +127,35 @@ module ms_sched_slot #(
     k_b      <= k_a;
     // B: the window's end from the slot's t0 and end offset
     k_s      <= k_b;
-    end_s    <= win_t0_i + 32'(win_we_i);
+    end_s    <= RW'(win_t0_i) + RW'(win_we_i);
     len_s    <= win_len_i;
     sensor_s <= win_sensor_i;
     // S: its start
     k_c      <= k_s;
-    start_c  <= end_s - 32'(len_s);
+    start_c  <= end_s - RW'(len_s);
     end_c    <= end_s;
     sensor_c <= sensor_s;
     // C: overlaps, retries, the close tick and its distance after TA
     k_d      <= k_c;
     sensor_d <= sensor_c;
-    rel_b_d  <= end_c - ta_q;
+    rel_b_d  <= end_c - RW'(ta_q);
     rel_w_d  <= end_c - twa_q;
-    ov_b_d   <= bon_q && $signed(end_c - ta_q) > 0 && $signed(start_c - tb_q) < 0;
+    ov_b_d   <= bon_q && $signed(end_c - RW'(ta_q)) > 0 && $signed(start_c - tb_q) < 0;
     ov_w_d   <= won_q && $signed(end_c - twa_q) > 0 && $signed(start_c - twb_q) < 0;
-    close_d  <= end_c + 32'(latm1_q);
     crel_d   <= end_c - tal_q;
   end
 
   // D: fold the slot into the results (two-process: next from current, then registers)
-  logic [31:0] best_q, best_d, minc_q, minc_d, crel_q, crel_dd, mask_q, mask_d;
+  // (two candidates' difference fits RW bits: both are ends after TA or TWA; two close
+  // distances' may not, so they compare on RW + 1 bits)
+  rt_t         best_q, best_d, crel_q, crel_dd, cand;
+  logic [31:0] mask_q, mask_d;
   logic [KW-1:0] hit_k_q, hit_k_d, min_k_q, min_k_d;
   logic        any_q, any_d, seen_q, seen_d;
-  logic [31:0] cand;
   always_comb begin
     best_d  = best_q;
     any_d   = any_q;
     hit_k_d = hit_k_q;
-    minc_d  = minc_q;
     crel_dd = crel_q;
     min_k_d = min_k_q;
     seen_d  = seen_q;
@@ -162,8 +167,7 @@ module ms_sched_slot #(
         if (!any_q) hit_k_d = k_d;            // EDGE: the one slot holding TA
         any_d = 1'b1;
       end
-      if (!seen_q || $signed(crel_d - crel_q) < 0) begin
-        minc_d  = close_d;
+      if (!seen_q || $signed({crel_d[RW-1], crel_d}) < $signed({crel_q[RW-1], crel_q})) begin
         crel_dd = crel_d;
         min_k_d = k_d;
       end
@@ -176,7 +180,6 @@ module ms_sched_slot #(
       any_q  <= 1'b0;
       seen_q <= 1'b0;
       best_q <= '0;
-      minc_q <= '0;
       mask_q <= '0;
       hit_k_q <= '0;
       min_k_q <= '0;
@@ -184,7 +187,6 @@ module ms_sched_slot #(
       any_q   <= any_d;
       seen_q  <= seen_d;
       best_q  <= best_d;
-      minc_q  <= minc_d;
       mask_q  <= mask_d;
       hit_k_q <= hit_k_d;
       min_k_q <= min_k_d;
@@ -193,12 +195,17 @@ module ms_sched_slot #(
   end
 
   assign busy_o = go_q || srem_q != '0 || v_b || v_s || v_c || v_d || tail_q != '0;
+  logic unused_hi;           // the bits above RW of the operands the scan takes modulo 2^RW
+  assign unused_hi = ^{tb_i[31:RW], twb_i[31:RW], win_t0_i[31:RW]};
+  logic [31:0] best, minc;   // the results on 32 bits: a distance sign-extended, TA + distance
+  assign best = 32'($signed(best_q));
+  assign minc = seen_q ? ta_q + 32'($signed(crel_q)) : '0;
   always_comb begin
     unique case (mode_q)
-      M_CONF:   begin x_o = any_q ? best_q : '0;      flags_o = {6'd0, full_q, any_q};
-                      minc_o = minc_q; end
+      M_CONF:   begin x_o = any_q ? best : '0;        flags_o = {6'd0, full_q, any_q};
+                      minc_o = minc; end
       M_EDGE:   begin x_o = any_q ? 32'(hit_k_q) : '0; flags_o = {7'd0, any_q};  minc_o = '0; end
-      M_HEAD:   begin x_o = 32'(min_k_q);             flags_o = {7'd0, seen_q}; minc_o = minc_q; end
+      M_HEAD:   begin x_o = 32'(min_k_q);             flags_o = {7'd0, seen_q}; minc_o = minc; end
       M_SENSOR: begin x_o = mask_q;                   flags_o = '0;             minc_o = '0; end
     endcase
     if (busy_o) flags_o = 8'h80;

@@ -40,11 +40,10 @@ module ms_soc_tb #(
     .bus_req_stall_wr_o (stall_wr), .bus_req_stall_rd_o (stall_rd),
     .bus_rd_ack_o (rd_ack), .bus_rd_err_o (rd_err), .bus_rd_data_o (rd_data),
     .bus_wr_ack_o (wr_ack), .bus_wr_err_o (wr_err),
-    .enable_o (), .apply_o (), .clear_counters_o (), .burst_half_period_o (), .burst_cycles_o (),
-    .glitch_min_o (), .vs_ren_i (1'b0), .vs_raddr_i (7'd0), .vs_rdata_o (),
-    .delay_raddr_i (8'd0), .delay_rdata_o (),
+    .enable_o (), .hold_o (), .start_o (), .clear_counters_o (), .burst_half_period_o (),
+    .burst_cycles_o (), .glitch_min_o (), .ld_we_o (), .ld_addr_o (), .ld_data_o (),
     .evt_rvalid_i (1'b0), .evt_rdata_i (64'd0), .evt_pop_o (),
-    .running_i (1'b0), .sched_overrun_i (1'b0), .tx_collision_i (1'b0), .cfg_error_i (4'd0), .cfg_error_vs_i (4'd0), .fifo_level_i (12'd0),
+    .running_i (1'b0), .sched_overrun_i (1'b0), .tx_collision_i (1'b0), .fifo_level_i (12'd0),
     .event_i (1'b0), .overflow_i (1'b0), .pulse_i (1'b0)
   );
   /* verilator lint_on PINCONNECTEMPTY */

@@ -315,8 +315,8 @@ class Fuzzer:
         self.table = table
         self.regs = RegisterFile()
         self.writable = sorted(self.regs.writable_mask)
-        self.readable = sorted(self.regs.values)
-        used = set(self.regs.values)
+        self.readable = [a for a in sorted(self.regs.values) if self.regs.readable(a)]
+        used = set(self.readable)
         self.bad_addrs = [a for a in range(0, 0x800, 4) if a not in used] + [R.REGISTERS["CTRL"].addr()]
         self.kinds: Counter = Counter()
 
@@ -466,11 +466,11 @@ async def hw_table(dut) -> dict[int, int]:
     for v in range(8):
         for r, n in enumerate(names):
             out[R.REGISTERS[n].addr(v)] = int(vs_mem[9 * v + r].value)
-    mem = csr.u_delay_ram.mem_q
+    mem = csr.delay_m
     for i in range(R.MEMORIES["DELAY"].entries):
         out[R.MEMORIES["DELAY"].address + 4 * i] = int(mem[i].value)
     out[R.REGISTERS["BURST"].addr()] = int(csr.burst_half_period_o.value) | int(csr.burst_cycles_o.value) << 16
-    out[R.REGISTERS["RX_FILTER"].addr()] = int(csr.glitch_min_o.value) | int(csr.miss_gate_o.value) << 16
+    out[R.REGISTERS["RX_FILTER"].addr()] = int(csr.glitch_min_o.value) | int(csr.miss_gate.value) << 16
     await Timer(1, unit="ns")
     assert set(out) == set(table_addrs())
     return out

@@ -1,4 +1,5 @@
-"""cocotb tests of ms_csr: the PeakRDL register block plus its delay-table RAM.
+"""cocotb tests of ms_csr: the PeakRDL register block plus its VS-table and delay-table RAMs
+and the scheduler's load port (LOAD_ADDR / LOAD_DATA).
 
 Every expectation comes from the generated Python register map (multisonar.generated.
 sonar_regs), so these tests also prove that RTL, C header and host constants agree: all
@@ -21,9 +22,8 @@ from tbutil import reset, start_clock
 
 async def setup(dut) -> PassthroughMaster:
     start_clock(dut.clk_i)
-    for name in ("running_i", "cfg_error_i", "cfg_error_vs_i", "fifo_level_i", "event_i",
-                 "overflow_i", "pulse_i", "delay_raddr_i", "evt_rvalid_i", "evt_rdata_i", "sched_overrun_i",
-                 "tx_collision_i", "vs_ren_i", "vs_raddr_i"):
+    for name in ("running_i", "fifo_level_i", "event_i", "overflow_i", "pulse_i", "evt_rvalid_i",
+                 "evt_rdata_i", "sched_overrun_i", "tx_collision_i"):
         getattr(dut, name).value = 0
     bus = PassthroughMaster(dut, dut.clk_i)
     await reset(dut.clk_i, dut.rst_i)
@@ -32,25 +32,12 @@ async def setup(dut) -> PassthroughMaster:
 
 
 VS_REGS = ["VS_TX_MASK", "VS_RX_MASK", "VS_MODE", "VS_WINDOW", "VS_T_DEAD", "VS_MAX_TOF", "VS_XTALK",
-           "VS_TRACK", "VS_PHASE"]  # the core's read port: word entry * 9 + index here
+           "VS_TRACK", "VS_PHASE"]
 VS_WORDS = 8 * len(VS_REGS)
 # the build's parameters (tests/rtl/test_ms_csr.py passes them to both): entries implemented,
 # window slots reported
 CSR_NUM_VS = int(os.environ.get("CSR_NUM_VS", "8"))
 CSR_WSLOTS = int(os.environ.get("CSR_WSLOTS", "16"))
-
-
-async def core_port_word(dut, entry: int, reg: str, keep: bool = False) -> int:
-    """Word of the VS table as the core reads it (vs_ren_i, vs_raddr_i, data one clock later);
-    keep: vs_ren_i stays high for the next read of a burst."""
-    await FallingEdge(dut.clk_i)
-    dut.vs_ren_i.value = 1
-    dut.vs_raddr_i.value = entry * len(VS_REGS) + VS_REGS.index(reg)
-    await ClockCycles(dut.clk_i, 1)
-    await FallingEdge(dut.clk_i)
-    if not keep:
-        dut.vs_ren_i.value = 0
-    return int(dut.vs_rdata_o.value)
 
 
 def all_addresses(reg: R.Register):
@@ -88,7 +75,7 @@ def writable_mask(reg: R.Register) -> int:
 @cocotb.test()
 async def read_write_fields_and_outputs(dut):
     """Random values written to every read/write register read back masked to its fields and
-    appear on the outputs the core uses (the VS table through its read port)."""
+    appear on the outputs the core uses."""
     bus = await setup(dut)
     rng = random.Random(1)
     written: dict[tuple[str, tuple[int, ...]], int] = {}
@@ -108,14 +95,9 @@ async def read_write_fields_and_outputs(dut):
         assert got == expect, f"{name}{list(idx)}: read 0x{got:X}, expected 0x{expect:X}"
     n_ch = R.VS_TX_MASK_MASK_WIDTH
     assert n_ch == load_layout().n
-    assert [r for r in R.REGISTERS if r.startswith("VS_")] == VS_REGS, "the core port's word order"
-    for rname in VS_REGS:
-        reg = R.REGISTERS[rname]
-        for v in range(reg.dims[0]):
-            got = await core_port_word(dut, v, rname)
-            for fname, field in reg.fields.items():
-                assert field.get(got) == field.get(written[(rname, (v,))]), f"{rname}[{v}].{fname} = {field.get(got):#x}"
-            assert got & ~writable_mask(reg) == 0, f"{rname}[{v}]: unimplemented bits set on the core port: {got:#x}"
+    assert [r for r in R.REGISTERS if r.startswith("VS_")] == VS_REGS
+    assert int(dut.ld_addr_o.value) == written[("LOAD_ADDR", ())]
+    assert int(dut.ld_data_o.value) == written[("LOAD_DATA", ())]
     burst = written[("BURST", ())]
     assert int(dut.burst_half_period_o.value) == R.REGISTERS["BURST"].fields["HALF_PERIOD"].get(burst)
     assert int(dut.burst_cycles_o.value) == R.REGISTERS["BURST"].fields["CYCLES"].get(burst)
@@ -154,9 +136,8 @@ async def counters_status_and_errors(dut):
     st = R.REGISTERS["STATUS"].fields
     dut.running_i.value = 1
     dut.sched_overrun_i.value = 1
-    dut.cfg_error_i.value = 0xA
-    dut.cfg_error_vs_i.value = 3
     dut.fifo_level_i.value = 0x5A5
+    await bus.write(R.STATUS_ADDR, st["CFG_ERROR"].put(0, 0xA) | st["CFG_ERROR_VS"].put(0, 3))  # the firmware's
     await ClockCycles(dut.clk_i, 2)
     s = await bus.read(R.STATUS_ADDR)
     assert (st["RUNNING"].get(s), st["CFG_ERROR"].get(s), st["CFG_ERROR_VS"].get(s), st["FIFO_LEVEL"].get(s)) == (1, 0xA, 3, 0x5A5)
@@ -176,22 +157,48 @@ async def counters_status_and_errors(dut):
 
 
 @cocotb.test()
-async def delay_table_bus_and_core_port(dut):
-    """The phasing-delay memory: every entry written over the bus reads back over the bus and
-    on the core's read port (one clock of latency)."""
+async def delay_table_bus(dut):
+    """The phasing-delay memory: every entry written over the bus reads back over the bus, its
+    upper bits dropped (16 kept)."""
     bus = await setup(dut)
     mem = R.MEMORIES["DELAY"]
     rng = random.Random(7)
-    values = [rng.getrandbits(16) for _ in range(mem.entries)]
+    values = [rng.getrandbits(32) for _ in range(mem.entries)]
     for i, v in enumerate(values):
         await bus.write(mem.address + i * mem.stride, v)
-    for i in rng.sample(range(mem.entries), 32):
-        assert await bus.read(mem.address + i * mem.stride) == values[i]
     for i in range(mem.entries):
-        await FallingEdge(dut.clk_i)
-        dut.delay_raddr_i.value = i
-        await FallingEdge(dut.clk_i)
-        assert int(dut.delay_rdata_o.value) == values[i], f"core port entry {i}"
+        assert await bus.read(mem.address + i * mem.stride) == values[i] & 0xFFFF, f"entry {i}"
+
+
+@cocotb.test()
+async def load_port_one_strobe_per_data_write(dut):
+    """LOAD_DATA writes reach the scheduler's load port: one ld_we_o strobe per write, a clock
+    after it, with the word and LOAD_ADDR as written (the address written once per run of
+    words, or before each); no strobe from LOAD_ADDR writes or LOAD_DATA reads."""
+    bus = await setup(dut)
+    rng = random.Random(11)
+    seen = []
+
+    async def monitor():
+        while True:
+            await FallingEdge(dut.clk_i)
+            if int(dut.ld_we_o.value):
+                seen.append((int(dut.ld_addr_o.value), int(dut.ld_data_o.value)))
+
+    task = cocotb.start_soon(monitor())
+    want = []
+    for _ in range(40):
+        a, w = rng.getrandbits(12), rng.getrandbits(32)
+        await bus.write(R.LOAD_ADDR_ADDR, a)
+        await bus.write(R.LOAD_DATA_ADDR, w)
+        want.append((a, w))
+        if rng.random() < 0.3:
+            await bus.read(R.LOAD_DATA_ADDR)
+            await bus.write(R.LOAD_ADDR_ADDR, rng.getrandbits(12))
+            await bus.write(R.LOAD_ADDR_ADDR, a)
+    await ClockCycles(dut.clk_i, 4)
+    task.cancel()
+    assert seen == want, (len(seen), len(want), seen[:3], want[:3])
 
 
 @cocotb.test()
@@ -361,68 +368,25 @@ async def back_to_back_requests_keep_order(dut):
 
 
 @cocotb.test()
-async def vs_table_shared_read_port(dut):
-    """The core and the bus share the VS table's read port: while the core reads a word per
-    clock (bursts of 1-9 words, as the scheduler's check and load read an entry), bus reads of
-    the table wait and then answer the word they asked for; the core gets every word one clock
-    after its address."""
-    bus = await setup(dut)
-    rng = random.Random(27)
-    n = min(R.REGISTERS["VS_PHASE"].dims[0], CSR_NUM_VS)
-    regs = ["VS_PHASE", "VS_WINDOW", "VS_TRACK"]
-    want = {}
-    for v in range(n):
-        for r in regs:
-            want[(v, r)] = rng.getrandbits(16)
-            await bus.write(R.REGISTERS[r].addr(v), want[(v, r)])
-    core_words = [(v, r) for v in range(n) for r in regs]
-    core_errors = []
-    done = False
-
-    async def core_reader():
-        while not done:
-            burst = rng.randint(1, 9)
-            for _ in range(burst):
-                v, r = rng.choice(core_words)
-                got = await core_port_word(dut, v, r, keep=True)
-                if got != want[(v, r)]:
-                    core_errors.append((v, r, got))
-            await FallingEdge(dut.clk_i)
-            dut.vs_ren_i.value = 0
-            await ClockCycles(dut.clk_i, rng.randint(0, 3))
-
-    task = cocotb.start_soon(core_reader())
-    for _ in range(60):
-        v, r = rng.choice(core_words)
-        got = await bus.read(R.REGISTERS[r].addr(v))
-        assert got == want[(v, r)], (v, r, hex(got), hex(want[(v, r)]))
-    done = True
-    await task
-    assert not core_errors, core_errors[:5]
-
-
-@cocotb.test()
 async def vs_table_refilled_after_reset(dut):
     """A reset refills the VS table with its reset values, one word per clock, with the bus
-    stalled meanwhile: a value written before the reset is gone from the bus and the core port,
-    also for the last word refilled (a read issued right after the reset waits for it)."""
+    stalled meanwhile: a value written before the reset is gone, also for the last word
+    refilled (a read issued right after the reset waits for it)."""
     bus = await setup(dut)
     reg = R.REGISTERS["VS_PHASE"]
     last = min(reg.dims[0], CSR_NUM_VS) - 1  # the last entry's PHASE: the last word refilled (71 of 72)
     await bus.write(reg.addr(last), 0x123456)
     assert await bus.read(reg.addr(last)) == 0x123456
-    assert await core_port_word(dut, last, "VS_PHASE") == 0x123456
     await reset(dut.clk_i, dut.rst_i)
     patient = PassthroughMaster(dut, dut.clk_i, timeout_cycles=2 * VS_WORDS)
     assert await patient.read(reg.addr(last)) == reg.reset
-    assert await core_port_word(dut, last, "VS_PHASE") == reg.reset
 
 
 @cocotb.test()
 async def caps_and_implemented_entries(dut):
     """CAPS reports the build's parameters (num_ch, num_vs, win_slots, fifo depth); VS entries
     from num_vs on (a reduced build, the 25F's 4) read as zero and ignore writes, the others
-    keep what the bus wrote and give it to the core's read port."""
+    keep what the bus wrote."""
     bus = await setup(dut)
     f = R.REGISTERS["CAPS"].fields
     caps = await bus.read(R.CAPS_ADDR)
@@ -437,6 +401,5 @@ async def caps_and_implemented_entries(dut):
         got = (await bus.read(phase.addr(v)), await bus.read(window.addr(v)))
         if v < CSR_NUM_VS:
             assert got == (0x1000 + v, 0x0002_0003 + (v << 4)), (v, got)
-            assert await core_port_word(dut, v, "VS_PHASE") == 0x1000 + v
         else:
             assert got == (0, 0), f"entry {v} is not implemented (num_vs {CSR_NUM_VS}) but reads {got}"

@@ -2,7 +2,8 @@
 model FastFiringModel with the same decision lead P.
 
 Wrapper tests/rtl/ms_scheduler_tb.sv: tick counter, the real ms_rx_conditioner per channel,
-delay RAM, event log. Python never wakes per clock: it awaits fire_o (one per pulse), asks
+event log. Tables reach the scheduler as the firmware writes them: load_image's words through
+the load port, then start_i (hold_i first when one runs). Python never wakes per clock: it awaits fire_o (one per pulse), asks
 the echo source for the comparator pulses of that pulse (its own instance, seeded like the
 model's) and drives each pulse edge on echo_i with a Timer a quarter clock into the cycle
 the contract names (docs/sonar_core.md: a pulse with start n is first sampled high at the
@@ -10,7 +11,7 @@ edge ending cycle n). At the end it reads the event log and compares, in order:
   - pulses (t0) and triggers (t0 + d_i, element) with the model's,
   - every 64-bit event word with the model's (ToFEvent.pack()).
 The RTL runs a little longer than the model so that every model event has been emitted.
-RTL and model use the same gated miss rule (miss_gate_i / FastFiringModel miss_gate, default
+RTL and model use the same gated miss rule (the load image's M_GATE / FastFiringModel miss_gate, default
 the RX_FILTER.miss_gate reset value; 0 = off in both) and the same number of window slots per
 element (WSLOTS, FastFiringModel win_slots).
 """
@@ -28,17 +29,13 @@ from cocotb.utils import get_sim_time
 from multisonar.fastfiring import DEFAULT_MISS_GATE, FastFiringModel, SceneEchoSource, SyntheticEchoSource, _rows
 from multisonar.constants import DEVICE_DECISION_LEAD, speed_of_sound
 from multisonar.layout import load_layout
-from multisonar.protocol import CfgError
 from multisonar.schedule import Schedule, VirtualSensor
-from multisonar.tools.sched_program.layout import BLK, WSLOTS  # WSLOTS: window slots per element
-from multisonar.tools.sched_program.system import load_image
+from multisonar.tools.sched_program.layout import WSLOTS  # WSLOTS: window slots per element
+from multisonar.tools.sched_program.system import load_image, load_sequence
 from echo_driver import EchoDriver
 from tbutil import CLK_PERIOD_PS
 
 LEAD = int(os.environ.get("SCHED_LEAD", str(DEVICE_DECISION_LEAD)))
-# how a table reaches the scheduler: "apply" (the table inputs, apply_i: ms_sched_cfg checks and
-# loads) or "port" (the load port: load_image's words, start_i; hold_i before a reload)
-LOAD_VIA = os.environ.get("SCHED_LOAD", "apply")
 # overrun_reported runs on builds whose lead is at most this (too short for the engine)
 OVERRUN_LEAD = 4096
 MS = 48_000
@@ -46,15 +43,6 @@ M32 = (1 << 32) - 1
 LAYOUT = load_layout()
 QUARTER = CLK_PERIOD_PS // 4
 NUM_VS = 8
-TABLE = {  # field -> (tb port, width)
-    "tx_mask": ("tx_mask_i", 24), "rx_mask": ("rx_mask_i", 24), "mode": ("mode_i", 2), "order": ("order_i", 4),
-    "miss_limit": ("miss_limit_i", 4), "t_v": ("t_v_i", 16), "t_n": ("t_n_i", 16), "t_dead": ("t_dead_i", 20),
-    "max_tof": ("max_tof_i", 24), "t_xtalk": ("t_xtalk_i", 20), "xtalk_nb": ("xtalk_nb_i", 2),
-    "vmax": ("vmax_i", 16), "burst_cycles": ("burst_cycles_i", 8), "phase": ("phase_i", 24),
-    "reinit_every": ("reinit_every_i", 8),
-}
-
-
 class CountingModel(FastFiringModel):
     """The golden model, counting reservation conflicts (deferrals) and windows whose first
     echo failed the miss gate."""
@@ -79,17 +67,6 @@ class CountingModel(FastFiringModel):
         if w.rejected and not w.cancelled:
             self.gated += 1
         super()._on_close(w)
-
-
-def table_values(sensors: list[dict]) -> dict[str, int]:
-    """Flat table vectors (sensor s at bits [s*W +: W]); missing entries are off (mode 0)."""
-    out = {}
-    for name, (port, w) in TABLE.items():
-        v = 0
-        for s, f in enumerate(sensors):
-            v |= (int(f[name]) & ((1 << w) - 1)) << (s * w)
-        out[port] = v
-    return out
 
 
 async def write_words(clk, we, addr, data, words) -> None:
@@ -134,33 +111,16 @@ class Bench:
         dut = self.dut
         dut.rst_i.value = 1
         dut.enable_i.value = 0
-        dut.apply_i.value = 0
         dut.tick_start_i.value = tick_start
         dut.glitch_min_i.value = self.g
-        dut.miss_gate_i.value = self.gate
-        dut.burst_half_period_i.value = self.regs["globals"]["burst_half_period"]
         dut.echo_i.value = 0
         dut.evt_raddr_i.value = 0
         dut.trg_raddr_i.value = 0
-        dut.dly_we_i.value = 0
-        dut.dly_addr_i.value = 0
-        dut.dly_wdata_i.value = 0
         for port in ("hold_i", "ld_we_i", "ld_addr_i", "ld_data_i", "start_i"):
             getattr(dut, port).value = 0
         for _ in range(4):
             await FallingEdge(dut.clk)
         dut.rst_i.value = 0
-
-    async def load(self, regs: dict | None = None) -> None:
-        """Write the table inputs and the delay RAM (other entries' delays: garbage)."""
-        dut = self.dut
-        regs = regs or self.regs
-        for port, v in table_values(regs["sensors"]).items():
-            getattr(dut, port).value = v
-        mem = {a: 0xBEEF for a in range(256) if a // 32 >= len(regs["sensors"])}
-        mem.update(regs["delay_mem"])
-        await write_words(dut.clk, dut.dly_we_i, dut.dly_addr_i, dut.dly_wdata_i, sorted(mem.items()))
-        await FallingEdge(dut.clk)
 
     async def wait_running(self) -> int:
         """Wait for running_o; returns the start tick S (unwrapped) and sets the time base."""
@@ -178,27 +138,17 @@ class Bench:
         """Write the load image (load_image: what the firmware's sched_table.c writes) through the
         load port, one word per clock, blank offset a before its b, then start_i."""
         dut = self.dut
+        await FallingEdge(dut.clk)
         image = load_image(self.cfg, lead=LEAD, latency=1 + max(self.g, 1), miss_gate=self.gate)
-        order = [a for a in sorted(image) if a < BLK]
-        order += [x for a in sorted(image) if a >= BLK and not a & 32 for x in (a, a + 32)]
-        assert sorted(order) == sorted(image)
-        await write_words(dut.clk, dut.ld_we_i, dut.ld_addr_i, dut.ld_data_i, ((a, image[a]) for a in order))
+        await write_words(dut.clk, dut.ld_we_i, dut.ld_addr_i, dut.ld_data_i, load_sequence(image))
         await strobe(dut.clk, dut.start_i)
 
     async def start(self, source, tick_start: int = 0) -> int:
         """Reset, load the table, enable; returns the model's start tick."""
         self.source = source
         await self.reset(tick_start)
-        if LOAD_VIA == "port":
-            # the table inputs empty: enabling checks them (EMPTY_TABLE, nothing loaded)
-            self.dut.mode_i.value = 0
-            self.dut.enable_i.value = 1
-            while int(self.dut.cfg_error_o.value) != CfgError.EMPTY_TABLE:
-                await FallingEdge(self.dut.clk)
-            cocotb.start_soon(self.load_port())
-        else:
-            await self.load()
-            self.dut.enable_i.value = 1
+        self.dut.enable_i.value = 1
+        cocotb.start_soon(self.load_port())
         s0 = await self.wait_running()
         self.tasks = [cocotb.start_soon(self._pulse_loop())]
         return s0
@@ -748,81 +698,8 @@ async def person_crossing_safety(dut):
 
 
 # --------------------------------------------------------------------------------------
-# Configuration: refusal codes, reconfiguration while pulses are in flight
+# Reconfiguration: hold, reload, restart while pulses are in flight
 # --------------------------------------------------------------------------------------
-
-BAD_TABLES = [  # (what, sensor field changes on entry 1, expected code)
-    ("mode 3", {"mode": 3}, CfgError.BAD_MODE),
-    ("tx empty", {"tx_mask": 0}, CfgError.TX_MASK),
-    ("tx not adjacent", {"tx_mask": 0b101}, CfgError.TX_MASK),
-    ("rx empty", {"rx_mask": 0}, CfgError.RX_MASK),
-    ("order 9", {"order": 9}, CfgError.ORDER),
-    ("K = 0", {"miss_limit": 0}, CfgError.MISS_LIMIT),
-    ("burst 0", {"burst_cycles": 0}, CfgError.BURST),
-    ("dead zone shorter than the burst", {"t_dead": 1000}, CfgError.WINDOW),
-    ("T_V = 0", {"t_v": 0}, CfgError.WINDOW),
-    ("window after max range", {"max_tof": 80_000}, CfgError.MAX_TOF),
-    ("blanking within the lead", {"t_dead": 2000, "t_xtalk": 2000, "burst_cycles": 1}, CfgError.LEAD),
-    ("window within the lead", {"t_v": 2000, "t_n": 2000}, CfgError.WINDOW_SHORT),
-    ("every entry off", {"mode": 0, "*": True}, CfgError.EMPTY_TABLE),
-]
-
-
-@cocotb.test()
-async def apply_refusals_leave_the_schedule_running(dut):
-    """Every refusal code from an apply while running: STATUS code and entry, nothing
-    half-applied (the running schedule keeps firing exactly as the model); then an empty table."""
-    sensors = [VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=2), VirtualSensor("side", tx=[6], rx=[6])]
-    sched = Schedule(LAYOUT, sensors)
-    b = Bench(dut, sched)
-    src = lambda: SyntheticEchoSource({23: 2.0, 0: 1.9, 1: 2.1, 6: 1.5})  # noqa: E731
-    e0 = await b.start(src())
-    for what, change, code in BAD_TABLES:
-        regs = sched.to_registers()
-        bad = [dict(f) for f in regs["sensors"]]
-        every = change.pop("*", False)
-        for i in (range(len(bad)) if every else [1]):
-            bad[i].update(change)
-        await FallingEdge(dut.clk)
-        for port, v in table_values(bad).items():
-            getattr(dut, port).value = v
-        await strobe(dut.clk, dut.apply_i)
-        await Timer(2000 * CLK_PERIOD_PS, unit="ps")
-        got = (int(dut.cfg_error_o.value), int(dut.cfg_error_vs_o.value))
-        want = (int(code), 0 if every else 1)
-        assert got == want, f"{what}: cfg_error {got}, expected {want}"
-        assert int(dut.running_o.value) == 1, f"{what}: the running schedule stopped"
-    # the good table back on the inputs (an apply of it would restart: not done here)
-    await FallingEdge(dut.clk)
-    for port, v in table_values(sched.to_registers()["sensors"]).items():
-        getattr(dut, port).value = v
-    dur = 60 * MS
-    await b.run_until(e0 + dur + 3000)
-    words, trig = await b.read_logs()
-    model = CountingModel(sched, src(), start_tick=e0, decision_lead=LEAD)
-    res = model.run(dur)
-    compare("after refusals", b, res, words, trig, e0 + dur)
-    assert int(dut.overrun_o.value) == 0
-    # stopped: a refused apply reports the same way
-    bad = [dict(f) for f in sched.to_registers()["sensors"]]
-    bad[0]["order"] = 9
-    await FallingEdge(dut.clk)
-    for port, v in table_values(bad).items():
-        getattr(dut, port).value = v
-    await strobe(dut.clk, dut.apply_i)
-    await Timer(2000 * CLK_PERIOD_PS, unit="ps")
-    assert (int(dut.cfg_error_o.value), int(dut.cfg_error_vs_o.value), int(dut.running_o.value)) == \
-        (int(CfgError.ORDER), 0, 0)
-    # all entries off: EMPTY_TABLE on enable, nothing runs
-    await FallingEdge(dut.clk)
-    for port, v in table_values([dict(f, mode=0) for f in sched.to_registers()["sensors"]]).items():
-        getattr(dut, port).value = v
-    dut.enable_i.value = 1
-    await Timer(2000 * CLK_PERIOD_PS, unit="ps")
-    assert (int(dut.cfg_error_o.value), int(dut.running_o.value)) == (int(CfgError.EMPTY_TABLE), 0)
-    dut.enable_i.value = 0
-    dut._log.info("apply refusals: %d codes checked while running, schedule identical to the model", len(BAD_TABLES))
-
 
 class RecordingSource:
     """Wraps an echo source; keeps every comparator row it produced (for replay as noise)."""
@@ -851,9 +728,10 @@ class WithNoise:
 
 @cocotb.test()
 async def reconfigure_while_pulses_in_flight(dut):
-    """Apply a new table while tracking pulses (order 3) are in flight: every tick before the
-    apply's stop tick matches the old model; the old windows vanish without events; the new
-    table starts like a fresh model whose input also carries the old pulses' late echoes."""
+    """Hold, load a new table and start it while tracking pulses (order 3) are in flight: every
+    tick before the hold's stop tick matches the old model; the old windows vanish without
+    events; the new table starts like a fresh model whose input also carries the old pulses'
+    late echoes."""
     old = [VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=3)]
     new = [VirtualSensor("front", tx=[0], rx=[0], order=1),
            VirtualSensor("right", tx=[18], rx=[17, 18, 19], order=2, phase=1e-3)]
@@ -865,22 +743,13 @@ async def reconfigure_while_pulses_in_flight(dut):
     await b.run_until(e0 + 50 * MS)
     b2 = Bench(dut, s_new)
     await FallingEdge(dut.clk)
-    if LOAD_VIA == "port":      # hold, then the new image through the load port and start_i
-        await strobe(dut.clk, dut.hold_i)
-    else:                       # new table on the inputs, delay RAM entries of the new sensors, apply
-        for port, v in table_values(s_new.to_registers()["sensors"]).items():
-            getattr(dut, port).value = v
-        await write_words(dut.clk, dut.dly_we_i, dut.dly_addr_i, dut.dly_wdata_i,
-                          sorted(s_new.to_registers()["delay_mem"].items()))
-        await strobe(dut.clk, dut.apply_i)
+    await strobe(dut.clk, dut.hold_i)  # hold, then the new image through the load port and start_i
     await FallingEdge(dut.running_o)
     stop_at = b.unwrap(int(dut.u_sched.stop_at_q.value))
     n_pulses_old, n_rows_old = len(b.pulses), len(rec.rows)
     b.cfg = s_new.validate()  # pulses from now on belong to the new table
-    if LOAD_VIA == "port":
-        cocotb.start_soon(b2.load_port())
+    cocotb.start_soon(b2.load_port())
     s1 = await b.wait_running()
-    assert LOAD_VIA == "port" or int(dut.cfg_error_o.value) == 0
     dur2 = 60 * MS
     await b.run_until(s1 + dur2 + 3000)
     words, trig = await b.read_logs()
@@ -891,17 +760,60 @@ async def reconfigure_while_pulses_in_flight(dut):
     b_old = Bench(dut, s_old)
     b_old.pulses = b.pulses[:n_pulses_old]
     n_ev1, n_tr1 = len(r1.words), sum(len(s_old.validate()[p.sensor].tx) for p in r1.pulses)
-    compare("before the apply", b_old, r1, words[:n_ev1], trig[:n_tr1], stop_at + LEAD)
+    compare("before the hold", b_old, r1, words[:n_ev1], trig[:n_tr1], stop_at + LEAD)
     in_flight = [p for p in r1.pulses if p.t0 + p.period > stop_at]
-    assert in_flight and sum(len(ws) for ws in m1.windows) > 0, "the apply must hit pulses with open windows"
+    assert in_flight and sum(len(ws) for ws in m1.windows) > 0, "the hold must hit pulses with open windows"
     # phase 2: a fresh model of the new table; the old pulses' echoes still arrive
     old_rows = [r for r in rec.rows[:n_rows_old] if r[1] + r[2] > s1]
     m2 = CountingModel(s_new, WithNoise(SyntheticEchoSource(ranges), old_rows), start_tick=s1, decision_lead=LEAD)
     r2 = m2.run(dur2)
     b2.pulses = b.pulses[n_pulses_old:]
-    compare("after the apply", b2, r2, words[n_ev1:], trig[n_tr1:], s1 + dur2)
+    compare("after the reload", b2, r2, words[n_ev1:], trig[n_tr1:], s1 + dur2)
     dut._log.info("reconfiguration: %d old pulses (%d in flight at the stop), %d new pulses, %d late old echoes",
                   len(r1.pulses), len(in_flight), len(r2.pulses), len(old_rows))
+
+
+@cocotb.test(timeout_time=1, timeout_unit="sec")
+async def hold_and_restart_keeps_the_table(dut):
+    """The load port is closed while the engine runs (a whole image of another table written
+    then changes nothing); hold_i stops it at a tick, start_i without a load runs the loaded
+    table afresh: a fresh model from the new start tick, the old pulses' late echoes as noise."""
+    sensors = [VirtualSensor("front", tx=[0], rx=[23, 0, 1], order=2), VirtualSensor("side", tx=[6], rx=[6])]
+    ranges = {23: 2.0, 0: 1.9, 1: 2.1, 6: 1.5}
+    sched = Schedule(LAYOUT, sensors)
+    other = Schedule(LAYOUT, [VirtualSensor("back", tx=[12], rx=[11, 12, 13], order=4)])
+    b = Bench(dut, sched)
+    rec = RecordingSource(SyntheticEchoSource(ranges))
+    e0 = await b.start(rec)
+    await b.run_until(e0 + 20 * MS)
+    await Bench(dut, other).load_port()  # refused: the engine runs (start_i too: it is running)
+    await b.run_until(e0 + 40 * MS)
+    await FallingEdge(dut.clk)
+    await strobe(dut.clk, dut.hold_i)
+    await FallingEdge(dut.running_o)
+    stop_at = b.unwrap(int(dut.u_sched.stop_at_q.value))
+    n_pulses_old, n_rows_old = len(b.pulses), len(rec.rows)
+    await Timer(5000 * CLK_PERIOD_PS, unit="ps")
+    await FallingEdge(dut.clk)
+    cocotb.start_soon(strobe(dut.clk, dut.start_i))  # running_o rises before the strobe ends
+    s1 = await b.wait_running()
+    dur2 = 40 * MS
+    await b.run_until(s1 + dur2 + 3000)
+    words, trig = await b.read_logs()
+    assert int(dut.overrun_o.value) == 0
+    m1 = CountingModel(sched, SyntheticEchoSource(ranges), start_tick=e0, decision_lead=LEAD)
+    r1 = m1.run(stop_at - e0)
+    b_old = Bench(dut, sched)
+    b_old.pulses = b.pulses[:n_pulses_old]
+    n_ev1, n_tr1 = len(r1.words), sum(len(sched.validate()[p.sensor].tx) for p in r1.pulses)
+    compare("before the hold", b_old, r1, words[:n_ev1], trig[:n_tr1], stop_at + LEAD)
+    old_rows = [r for r in rec.rows[:n_rows_old] if r[1] + r[2] > s1]
+    m2 = CountingModel(sched, WithNoise(SyntheticEchoSource(ranges), old_rows), start_tick=s1, decision_lead=LEAD)
+    r2 = m2.run(dur2)
+    b2 = Bench(dut, sched)
+    b2.pulses = b.pulses[n_pulses_old:]
+    compare("after the restart", b2, r2, words[n_ev1:], trig[n_tr1:], s1 + dur2)
+    dut._log.info("hold and restart: %d pulses before the hold, %d after the restart", len(r1.pulses), len(r2.pulses))
 
 
 @cocotb.test(skip=LEAD > OVERRUN_LEAD)

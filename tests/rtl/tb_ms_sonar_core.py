@@ -1,7 +1,7 @@
 """cocotb test of the whole sonar core through its register bus and its pins.
 
 Configuration goes over the bus exactly as the host and firmware write it
-(multisonar.regmap.schedule_writes), echoes go in on echo_i, triggers are read off drive_o,
+(multisonar.regmap.schedule_writes; the firmware's load image, multisonar.regmap.load_writes), echoes go in on echo_i, triggers are read off drive_o,
 and events come out through EVT_LO / EVT_HI. Everything is compared with the golden model
 (FastFiringModel with the same decision lead) driven by an identically seeded echo source.
 Python wakes per pulse, per echo edge and per drive edge, never per clock.
@@ -18,7 +18,7 @@ from multisonar.constants import DEVICE_DECISION_LEAD
 from multisonar.fastfiring import FastFiringModel, SceneEchoSource, SyntheticEchoSource, _rows, unpack_word
 from multisonar.generated import sonar_regs as R
 from multisonar.layout import load_layout
-from multisonar.regmap import schedule_writes
+from multisonar.regmap import load_writes, schedule_writes
 from multisonar.schedule import Schedule, VirtualSensor
 from echo_driver import EchoDriver
 from passthrough_bfm import PassthroughMaster
@@ -73,9 +73,15 @@ class CoreBench:
         gate = R.REGISTERS["RX_FILTER"].fields["MISS_GATE"]
         if self.miss_gate is not None:
             await self.bus.write(R.RX_FILTER_ADDR, gate.put(await self.bus.read(R.RX_FILTER_ADDR), self.miss_gate))
-        self.gate = gate.get(await self.bus.read(R.RX_FILTER_ADDR))
+        rx_filter = await self.bus.read(R.RX_FILTER_ADDR)
+        self.gate = gate.get(rx_filter)
+        # the firmware's START: the load image through LOAD_ADDR / LOAD_DATA, then enable and start
+        glitch = R.REGISTERS["RX_FILTER"].fields["GLITCH_MIN"].get(rx_filter)
+        for addr, value in load_writes(self.sched, glitch_min=glitch, miss_gate=self.gate, lead=LEAD):
+            await self.bus.write(addr, value)
         self.tasks += [cocotb.start_soon(self._fire_loop()), cocotb.start_soon(self._pins())]
-        await self.bus.write(R.CTRL_ADDR, R.REGISTERS["CTRL"].fields["ENABLE"].mask)
+        ctrl = R.REGISTERS["CTRL"].fields
+        await self.bus.write(R.CTRL_ADDR, ctrl["ENABLE"].mask | ctrl["START"].mask)
 
     async def _fire_loop(self) -> None:
         """One wake per pulse: the scheduler's decision strobe carries t0 (P ticks ahead)."""

@@ -49,6 +49,7 @@ from multisonar.fastfiring import DEFAULT_MISS_GATE, FastFiringModel, _rows
 from multisonar.georecord import geo_records
 from multisonar.layout import load_layout
 from multisonar.tools.fw_schedule import TEMPERATURE_C, schedule_for
+from multisonar.tools.sched_program.layout import MAIN, M_GATE
 from echo_driver import EchoDriver
 from link_reader import LinkReader, send_command
 from tbutil import CLK_PERIOD_PS, reset, start_clock
@@ -293,8 +294,8 @@ async def sonar_app_on_wall_and_point(dut):
         stop = b.stops[k] if k < len(b.stops) else end_tick
         noise = [r for r in b.source.rows if r[1] + r[2] > s0] if k else []
         fires_k = [f for f in b.fires if f[0] > s0 and (k + 1 >= len(b.starts) or f[0] <= b.starts[k + 1])]
-        # the gated miss rule the scheduler latched from RX_FILTER.miss_gate (the firmware keeps the reset value)
-        gate = int(b.sched.gate_q.value)
+        # the gated miss rule the firmware loaded from RX_FILTER.miss_gate (it keeps the reset value)
+        gate = int(b.sched.dm_q[MAIN + M_GATE].value)
         assert gate == DEFAULT_MISS_GATE, f"scheduler miss gate {gate}, RX_FILTER.miss_gate reset {DEFAULT_MISS_GATE}"
         model = FastFiringModel(sched, WithNoise(src, noise) if noise else src, start_tick=s0, decision_lead=LEAD,
                                 miss_gate=gate)

@@ -1,15 +1,16 @@
 """The fast-firing scheduler, ms_sched_uc (the main program of multisonar.tools.sched_program on
 ms_sched_engine with its units; 8 virtual sensors, 16 window slots per element), closed-loop
-against the golden model at the device's decision lead (tests/rtl/tb_ms_scheduler.py)."""
+against the golden model at the device's decision lead (tests/rtl/tb_ms_scheduler.py); tables through
+the load port, as the firmware writes them."""
 
 import pytest
 
 from cocotb_run import GEN, ROOT, run_cocotb
 from multisonar.constants import DEVICE_DECISION_LEAD
 
-SOURCES = [GEN / "rtl/ms_ucode_pkg.sv", GEN / "rtl/ms_sched_io_pkg.sv", ROOT / "rtl/common/ms_ram_dp.sv",
+SOURCES = [GEN / "rtl/ms_ucode_pkg.sv", GEN / "rtl/ms_sched_io_pkg.sv",
            ROOT / "rtl/rx/ms_rx_conditioner.sv", ROOT / "rtl/core/ms_sched_workq.sv",
-           ROOT / "rtl/core/ms_sched_cfg.sv", ROOT / "rtl/core/ms_sched_engine.sv",
+           ROOT / "rtl/core/ms_sched_engine.sv",
            ROOT / "rtl/core/ms_sched_div.sv", ROOT / "rtl/core/ms_sched_slot.sv",
            ROOT / "rtl/core/ms_sched_closes.sv",
            ROOT / "rtl/core/ms_sched_uc.sv", ROOT / "tests/rtl/ms_scheduler_tb.sv"]
@@ -29,13 +30,3 @@ def test_ms_scheduler_overrun():
     run_cocotb("ms_scheduler_tb", "tb_ms_scheduler", sources=SOURCES, variant="lead4096",
                parameters={**PARAMETERS, "LEAD": 4096}, icarus_ok=False, extra_env={"SCHED_LEAD": "4096"},
                testcase=["overrun_reported"])
-
-
-@pytest.mark.sim
-def test_ms_scheduler_load_port():
-    """Tables through the load port (the words of load_image, what the firmware writes), start_i,
-    and a reload after hold_i: the same scoreboards as through apply_i and ms_sched_cfg."""
-    run_cocotb("ms_scheduler_tb", "tb_ms_scheduler", sources=SOURCES, parameters=PARAMETERS, icarus_ok=False,
-               extra_env={"SCHED_LOAD": "port"},
-               testcase=["static_ranges_phased_order2", "four_sensors_shared_elements",
-                         "reconfigure_while_pulses_in_flight"])

@@ -1,5 +1,5 @@
-"""Random virtual-sensor tables for the checks of the table (ms_sched_cfg's testbench and the
-firmware's sched_table.c): valid entries, some switched off, and single fields pushed to each
+"""Random virtual-sensor tables for the check of the table (the firmware's sched_table.c,
+tests/test_fw_sched_table.py): valid entries, some switched off, and single fields pushed to each
 refusal of multisonar.simdevice.decode_vs_table. No cocotb: the host tests import it too."""
 
 from __future__ import annotations

@@ -5,7 +5,8 @@
  *                   exact completion, ToF frames (never waits for geometry)
  *   geo.c           the geometry path: jobs queued by pulses.c, ms_fix_fast, geometry frames
  *   sensors.c       the running table from the registers, each sensor's prepared geometry
- *   reaim.c         re-aiming in bounded slices (prepare, apply, hand-over in the event stream)
+ *   reaim.c         re-aiming in bounded slices (prepare, hold, load, hand-over in the event stream)
+ *   table.c         the table's check and load on the CSRs (sched_table.c), the scheduler's start
  *   cmd.c           the command transport: a transfer -> section 4 checks -> handler -> reply
  *   cmd_handlers.c  one handler per opcode, registered in cmd_handlers[]
  *
@@ -38,14 +39,13 @@
 #define REAIM_HOLDOFF 4800000u /* 100 ms between moves: each restarts every sensor's track */
 #define CLOSE_MARGIN 48000u  /* 1 ms after the last window can close */
 #define CMD_WORDS 272u       /* ms_link_cmd_rx keeps 1088 bytes of a transfer */
-#define START_WAIT 200000u   /* cycles for the scheduler to validate + start the table */
-#define VALIDATE_CYCLES 4000u /* the apply-time check is over after this (~300 clocks) */
+#define START_WAIT 200000u   /* cycles for the scheduler to stop or to start */
 #ifndef APP_BUILD_ID
 #define APP_BUILD_ID 0u
 #endif
 #define WDT_CYCLES 48000000u /* 1 s: far above any bounded slice */
-#define APPLY_WAIT 2000000u  /* cycles for an apply to be taken (its restart seen) */
-#define ID_WRAP_MARGIN 256u  /* no apply while a pulse id is this close to its 16-bit wrap */
+#define APPLY_WAIT 2000000u  /* cycles for a re-aim's hold, or its restart to be seen */
+#define ID_WRAP_MARGIN 256u  /* no re-aim while a pulse id is this close to its 16-bit wrap */
 #define SCAN_TICKS 48000u    /* timeout scan period, 1 ms (time-outs are a backstop) */
 #define GEO_JOBS 8           /* closed pulses waiting for their fix */
 
@@ -53,7 +53,7 @@
 #define FRAME_INIT 1u      /* init ping */
 #define FRAME_TRUNC 2u     /* more ToF records than MAX_EV */
 #define FRAME_LOST 8u      /* event-FIFO words of this pulse were lost (overflow): no fix */
-#define FRAME_CUT 16u      /* closed before every window reported (re-initialisation, apply, stop) */
+#define FRAME_CUT 16u      /* closed before every window reported (re-initialisation, re-aim, stop) */
 #define FRAME_GEO 32u      /* a geometry frame: the records of a pulse whose ToF frame went before */
 
 /* event word, high half (docs/fast_firing.md section 6) */
@@ -161,6 +161,11 @@ int reaim_step(int idle);               /* the pending re-aim's next slice; 1 wh
 int reaim_restart_seen(uint32_t id, uint32_t init, uint32_t now);
 void reaim_cancel(void);
 const sensor_t *placement_of(int si, int shift); /* the sensor's groups at shift, if known */
+/* table.c */
+uint32_t table_check(void);            /* 0 accepted, else CfgError | entry << 8 (and in STATUS) */
+void table_load_start(void);           /* the scheduler stopped: load the table, start it */
+void table_write_delay(uint32_t vs, uint32_t el, uint32_t v);
+void table_note_delay(uint32_t i, uint32_t v); /* DELAY word i written with v (over-wide?) */
 /* cmd.c */
 void handle_command(void);
 void stop_run(void);

@@ -3,7 +3,6 @@
  * 1024 bytes). */
 #include "cmd.h"
 
-enum { CFG_ERROR_DELAY = 8 }; /* multisonar.protocol.CfgError.DELAY */
 enum { PAR_TEMPERATURE_CC = 1, PAR_GEOMETRY, PAR_TOF_RECORDS, PAR_MAX_ECHOES, PAR_GLITCH_MIN };
 
 static int writable(uint32_t a)
@@ -18,34 +17,6 @@ static int writable(uint32_t a)
 }
 
 static int readable(uint32_t a) { return !(a & 3u) && (a <= SONAR_OFF(EVT_HI) || writable(a)); }
-
-/* DELAY words last written by the host with bits the scheduler's delay RAM does not keep (it
-   stores DELAY_BITS of each 32-bit word; rtl/ms_sonar_core.sv DELAY_W, multisonar.schedule.DELAY_W):
-   one bit per (table entry, element); START refuses an enabled entry whose tx element has one
-   (CfgError DELAY), as the RTL alone would fire a wrong, truncated delay */
-#define DELAY_BITS 16u
-static uint32_t delay_over[8];
-
-static void note_delay_write(uint32_t a, uint32_t v)
-{
-    if (a < SONAR_OFF(DELAY) || a >= SONAR_OFF(DELAY) + (uint32_t)sizeof(sonar_regs__DELAY_t))
-        return;
-    uint32_t i = (a - SONAR_OFF(DELAY)) / 4u, bit = 1u << (i % 32u);
-    if (v >> DELAY_BITS)
-        delay_over[i / 32u] |= bit;
-    else
-        delay_over[i / 32u] &= ~bit;
-}
-
-/* lowest enabled entry with an over-wide tx delay, or -1 */
-static int delay_refused(void)
-{
-    for (int vs = 0; vs < 8; vs++)
-        if ((MS_SONAR(VS[vs].MODE) & SONAR_REGS__VS__MODE__MODE_bm)
-            && (delay_over[vs] & MS_SONAR(VS[vs].TX_MASK) & SONAR_REGS__VS__TX_MASK__MASK_bm))
-            return vs;
-    return -1;
-}
 
 static uint32_t bad_address(uint32_t i, uint32_t a, uint32_t *rlen)
 {
@@ -83,7 +54,8 @@ static uint32_t cmd_write_regs(const uint32_t *pl, uint32_t len, uint32_t *rlen)
         if (!writable(a))
             return bad_address(i, a, rlen);
         SONAR_AT(a) = pl[2 * i + 1];
-        note_delay_write(a, pl[2 * i + 1]);
+        if (a >= SONAR_OFF(DELAY))
+            table_note_delay((a - SONAR_OFF(DELAY)) / 4u, pl[2 * i + 1]);
     }
     rbuf[3] = len / 8u;
     *rlen = 2u;
@@ -119,7 +91,7 @@ void stop_run(void)
         ;
 }
 
-/* START: discard old frames, table from the registers, enable, wait for the verdict */
+/* START: discard old frames; the table in the registers checked, loaded and started */
 static uint32_t cmd_start(const uint32_t *pl, uint32_t len, uint32_t *rlen)
 {
     (void)pl;
@@ -130,12 +102,13 @@ static uint32_t cmd_start(const uint32_t *pl, uint32_t len, uint32_t *rlen)
     groups_clear();
     geo_clear();
     reaim_cancel();
+    MS_SONAR(CTRL) = 0u; /* stopped (a CPU-only watchdog reset can leave it running) */
     while (MS_SONAR(EVT_HI) & SONAR_REGS__EVT_HI__VALID_bm) /* drain */
         ;
-    int bad = delay_refused();
-    if (bad >= 0) { /* checked before the scheduler validates: the RTL cannot see the lost bits */
-        ms_report(0xE0000000u | (CFG_ERROR_DELAY << 4) | (uint32_t)bad);
-        rbuf[3] = CFG_ERROR_DELAY | ((uint32_t)bad << 8);
+    uint32_t refused = table_check();
+    if (refused) {
+        ms_report(0xE0000000u | (refused & 0xFu) << 4 | refused >> 8);
+        rbuf[3] = refused;
         *rlen = 2u;
         return ST_CFG_REJECTED;
     }
@@ -143,22 +116,13 @@ static uint32_t cmd_start(const uint32_t *pl, uint32_t len, uint32_t *rlen)
     apply_rx_filter();
     for (int i = 0; i < 8; i++)
         last_pulse_id[i] = 0;
-    MS_SONAR(CTRL) = 0u;
-    MS_SONAR(CTRL) = SONAR_REGS__CTRL__ENABLE_bm; /* the rising edge validates and applies */
+    table_load_start();
     uint32_t t = now32();
-    for (;;) {
-        uint32_t st = MS_SONAR(STATUS), dt = now32() - t;
+    while (!(MS_SONAR(STATUS) & SONAR_REGS__STATUS__RUNNING_bm)) {
         ms_wdt_kick();
-        if (st & SONAR_REGS__STATUS__RUNNING_bm)
-            break;
-        if ((dt > VALIDATE_CYCLES && ST_FIELD(st, CFG_ERROR)) || dt > START_WAIT) {
+        if (now32() - t > START_WAIT) {
             MS_SONAR(CTRL) = 0u;
-            if (!ST_FIELD(st, CFG_ERROR))
-                return ST_INTERNAL;
-            ms_report(0xE0000000u | (ST_FIELD(st, CFG_ERROR) << 4) | ST_FIELD(st, CFG_ERROR_VS));
-            rbuf[3] = ST_FIELD(st, CFG_ERROR) | (ST_FIELD(st, CFG_ERROR_VS) << 8);
-            *rlen = 2u;
-            return ST_CFG_REJECTED;
+            return ST_INTERNAL;
         }
     }
     running = 1;

@@ -7,7 +7,7 @@
  * Main loop, one bounded slice at a time: kick the watchdog; serve a waiting command; while
  * running: pop every waiting event word (pulses.c: the ToF path, frames at once); else, when
  * no command waits either and the busy budget allows, run one geometry job (geo.c) or, with
- * none, one slice of a re-aim (reaim.c); every pass: the verdict of an apply under way; every
+ * none, one slice of a re-aim (reaim.c); every pass: a re-aim's hold, load or restart; every
  * 1 ms: pulses past their time-out. Two paths leave the firmware (../shared/DESIGN.md section
  * 6): the ToF path is exact and never waits; the geometry path (fixes, re-aiming) is best
  * effort and bounded, and skips (counted) rather than delay the ToF path.
@@ -129,7 +129,7 @@ APP_HOT int main(void)
                 slice_done(t_job);
         }
         t_job = now32();
-        if (reaim_step(0)) /* an apply's verdict (refused, or no restart in time) */
+        if (reaim_step(0)) /* a re-aim's hold over (load, start), or no restart in time */
             slice_done(t_job);
         /* timeouts (every window of a pulse has closed max_tof after its t0), checked every
          * 1 ms: the scan of the groups stays out of the per-event path */

@@ -9,28 +9,29 @@
  * track and fires init pings, so the hold-off bounds what re-aiming costs the other sensors,
  * and the restart's init pings do not count as lost tracks (the counters restart with it).
  *
- *   APPLY    (not while a pulse id is within ID_WRAP_MARGIN of its 16-bit wrap) the moved
- *            groups placed, the sensor's VS entry and delay memory rewritten, CTRL.apply;
- *   WAIT     the main loop goes on. The scheduler validates the table while running; taken,
- *            it finishes every tick before the apply, drops all windows and restarts every
- *            sensor with an init ping of pulse id 0. Words leave the event FIFO in the order
- *            they were written, so the first such record (reaim_restart_seen) is the first
- *            word of the new table: every pulse still open is the old table's and goes out,
- *            cut; then the moved groups' geometry is prepared (ms_prepare, ~32 k cycles) and
- *            takes over. Here it delays no ToF frame: every pulse is out, and the new table's
- *            first event comes T_dead (1.5 ms by default) after its first trigger, which is
- *            after this record. STATUS.cfg_error set by this apply means refused: the entry
- *            is put back (the running table never changed). No restart within APPLY_WAIT:
- *            accepted if the check passed (the records went in an overflow), else put back. */
+ *   MOVE     (not while a pulse id is within ID_WRAP_MARGIN of its 16-bit wrap) the moved
+ *            groups placed, the sensor's VS entry and delay memory rewritten and the table
+ *            checked (table_check): refused, the entry is put back and the running table
+ *            never stops; accepted, CTRL.hold: the scheduler finishes every tick before it,
+ *            drops all windows and stops;
+ *   HOLD     once STATUS.running is low: the table loaded and started (table_load_start);
+ *   WAIT     the main loop goes on. Every sensor restarts with an init ping of pulse id 0.
+ *            Words leave the event FIFO in the order they were written, so the first such
+ *            record (reaim_restart_seen) is the first word of the new table: every pulse still
+ *            open is the old table's and goes out, cut; then the moved groups' geometry is
+ *            prepared (ms_prepare, ~32 k cycles) and takes over. Here it delays no ToF frame:
+ *            every pulse is out, and the new table's first event comes T_dead (1.5 ms by
+ *            default) after its first trigger, which is after this record. No restart within
+ *            APPLY_WAIT: taken over all the same (the record went in an overflow). */
 #include "app.h"
 
 #define REAIM_BANG ((int32_t)((uint32_t)REAIM_DEG * (4294967296.0 / 360.0)))
 
-enum { RA_IDLE, RA_APPLY, RA_WAIT };
+enum { RA_IDLE, RA_MOVE, RA_HOLD, RA_WAIT };
 static struct {
     int state, si, dir, why;
     sensor_t nw;           /* the moved groups and their prepared array */
-    uint32_t t_apply, err_before;
+    uint32_t t_hold;
 } ra;
 /* the moved sensor's groups before its last move: jobs of its old pulses still queued at the
  * hand-over are solved on them (the next move is prepared only when the job queue is empty) */
@@ -52,7 +53,7 @@ static void request(int si, int dir, int why)
 {
     if (ra.state != RA_IDLE || (taken_any && now32() - t_taken < REAIM_HOLDOFF))
         return;
-    ra.state = RA_APPLY;
+    ra.state = RA_MOVE;
     ra.si = si;
     ra.dir = dir;
     ra.why = why;
@@ -81,7 +82,7 @@ static void write_group(const app_sensor_t *c, const sensor_t *s)
     VS_REG(c->vs, TX_MASK) = s->tx_mask;
     VS_REG(c->vs, RX_MASK) = s->rx_mask;
     for (int k = 0; k < c->n_tx; k++)
-        DELAY_ENTRY(c->vs, s->tx[k]) = c->delay[k];
+        table_write_delay(c->vs, s->tx[k], c->delay[k]);
 }
 
 static void report(uint32_t vs, uint32_t shift, uint32_t err)
@@ -102,7 +103,7 @@ static void put_back(uint32_t err)
 {
     const app_sensor_t *c = &cfgs[ra.si];
     for (int k = 0; k < c->n_tx; k++)
-        DELAY_ENTRY(c->vs, ra.nw.tx[k]) = 0u;
+        table_write_delay(c->vs, ra.nw.tx[k], 0u);
     write_group(c, &sens[ra.si]);
     report(c->vs, (uint32_t)sens[ra.si].shift, err);
     ra.state = RA_IDLE;
@@ -143,39 +144,46 @@ APP_HOT int reaim_restart_seen(uint32_t id, uint32_t init, uint32_t now)
     return 1;
 }
 
-/* idle: the next slice of a move; every pass: the apply's verdict. Returns 1 when it worked. */
+/* idle: the next slice of a move; every pass: whether the hold is over. Returns 1 when it
+ * worked. */
 APP_HOT int reaim_step(int idle)
 {
     uint32_t t = now32();
     const app_sensor_t *c = &cfgs[ra.si];
     switch (ra.state) {
-    case RA_APPLY:
+    case RA_MOVE: {
         if (!idle || near_wrap())
             return 0;
         prev_si = -1; /* runs with the job queue empty: no job of an older placement waits */
         sensor_place(&ra.nw, c, (sens[ra.si].shift + ra.dir + APP_RING_N) % APP_RING_N);
         for (int k = 0; k < c->n_tx; k++)
-            DELAY_ENTRY(c->vs, sens[ra.si].tx[k]) = 0u;
+            table_write_delay(c->vs, sens[ra.si].tx[k], 0u);
         write_group(c, &ra.nw);
-        ra.err_before = ST_FIELD(MS_SONAR(STATUS), CFG_ERROR);
-        MS_SONAR(CTRL) = SONAR_REGS__CTRL__ENABLE_bm | SONAR_REGS__CTRL__APPLY_bm;
-        ra.t_apply = now32();
-        ra.state = RA_WAIT;
-        break;
-    case RA_WAIT: {
-        uint32_t err = ST_FIELD(MS_SONAR(STATUS), CFG_ERROR);
-        if (err && !ra.err_before) {
-            put_back(err);
-        } else if (t - ra.t_apply > APPLY_WAIT) {
-            if (err)
-                put_back(err);
-            else
-                take_over(t);
-        } else {
-            return 0;
+        uint32_t refused = table_check();
+        if (refused) {
+            put_back(refused & 0xFu);
+            break;
         }
+        MS_SONAR(CTRL) = SONAR_REGS__CTRL__ENABLE_bm | SONAR_REGS__CTRL__HOLD_bm;
+        ra.t_hold = now32();
+        ra.state = RA_HOLD;
         break;
     }
+    case RA_HOLD:
+        if (MS_SONAR(STATUS) & SONAR_REGS__STATUS__RUNNING_bm) {
+            if (t - ra.t_hold <= APPLY_WAIT)
+                return 0;
+            MS_SONAR(CTRL) = 0u; /* the hold never ended: stop, and load all the same */
+        }
+        table_load_start();
+        ra.t_hold = now32();
+        ra.state = RA_WAIT;
+        break;
+    case RA_WAIT:
+        if (t - ra.t_hold <= APPLY_WAIT)
+            return 0;
+        take_over(t);
+        break;
     default:
         return 0;
     }

@@ -5,7 +5,7 @@ carries its virtual-sensor table in its image: this tool turns a validated
 :class:`~multisonar.schedule.Schedule` into a C header with
 
 * the register writes of :func:`multisonar.regmap.schedule_writes` (sonar-block byte
-  offsets, values), written at boot before ``CTRL.apply | CTRL.enable``;
+  offsets, values), written at boot; START checks, loads and starts them;
 * per sensor what the firmware needs for geometry and re-aiming: table index, transmit and
   receive elements, phasing delays, base masks, the virtual source in micrometres for every
   rotation of the group around the ring (re-aiming shifts a group by whole elements, so no
@@ -118,7 +118,7 @@ def header(config: str = "scene", temperature_c: float = TEMPERATURE_C) -> str:
          "#define APP_MAX_GROUP 8",
          f"#define APP_MAX_ORDER {MAX_ORDER}  /* the scheduler's highest fast-firing order (CAPS) */",
          f"#define APP_NUM_VS {NUM_VS}", "",
-         "/* schedule_writes(): sonar-block byte offset, value; then CTRL.apply | CTRL.enable */",
+         "/* schedule_writes(): sonar-block byte offset, value; START checks, loads and starts them */",
          "static const uint32_t app_writes[APP_NUM_WRITES][2] = {"]
     L += [f"    {{0x{a:03X}u, 0x{v:08X}u}}," for a, v in writes]
     L += ["};", "", "/* element outward axes, binary angle (2^32 per turn) */",

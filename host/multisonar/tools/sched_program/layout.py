@@ -74,7 +74,7 @@ LD_WLEN, LD_BURST, LD_TXM, LD_RXANY = 0x480, 0x490, 0x498, 0x4A0
 SENS = 0x000
 S_DUE, S_QUIET, S_SEQ, S_FLAGS, S_OPEN, S_TRK, S_K, S_MODE = 0, 1, 3, 4, 5, 6, 18, 23
 S_REINIT, S_SHARE = 22, 24
-# the table's words the main loop reads (the loader writes them): next evaluation (as a t0),
+# the table's words the main loop reads (the firmware's load writes them): next evaluation (as a t0),
 # element masks (tx, rx, with a blank interval), order, T_V, T_N, blanking D, max ToF R, T_E
 # limits, v_max, R - D, start phase, receivers
 S_NXT, S_TX, S_RX, S_BLK, S_ORDER, S_TV, S_TN, S_D, S_RMAX = 2, 7, 8, 9, 10, 11, 12, 13, 14
@@ -85,7 +85,7 @@ UCODE_WORDS = 1024    # ms_sched_uc's ROM depth: two DP16KD of 512 x 36 (the pro
 # main-loop variables at MAIN + M_*: the start tick, decision lead P, L = edge latency, the
 # miss gate, the next logical tick, the current one, its edges and closes left, td and armed,
 # the sensor of the SCHED phase, saved kernel results; sensor masks: the table's sensors
-# (M_ACT, the loader's), those to re-evaluate now (M_WAKE), those EDF holds (M_HOLD), those the
+# (M_ACT, the load's), those to re-evaluate now (M_WAKE), those EDF holds (M_HOLD), those the
 # SCHED phase has still to visit (M_SREM)
 M_START, M_P, M_L, M_GATE, M_ENG, M_CUR, M_EDGES, M_CLOSES = range(8)
 M_TD, M_ARMED, M_S, M_RX, M_SLOT, M_RES, M_QUIET, M_INIT = range(8, 16)

@@ -88,7 +88,7 @@ class EngineRun:
 
 
 def sensor_words(c: Any, shares: int, reinit_every: int | None = None) -> dict[int, int]:
-    """The loader's words of resolved sensor ``c`` (its table entry, sched_program's layout)."""
+    """The load image's words of resolved sensor ``c`` (its table entry, sched_program's layout)."""
     mask = lambda es: sum(1 << int(e) for e in es)  # noqa: E731
     base = SENS + SENS_STRIDE * c.id
     lo, hi = c.te_limits()
@@ -111,8 +111,9 @@ def load_image(cfg: Any, *, lead: int, latency: int, miss_gate: int | None,
     table ``cfg``: every enabled sensor's words and blank offsets (sensor_words), its share
     word, and the main loop's constants (decision lead P, edge latency L, miss gate, enabled
     sensors); not the start tick, which the start writes. The firmware's load
-    (firmware/app/sonar/sched_table.c) writes the same words. Besides the engine's bus (data memory, blank offsets) the load port takes
-the hardware's own tables at LD_* (window lengths, burst cycles, tx and rx masks)."""
+    (firmware/app/sonar/sched_table.c) writes the same words. Besides the engine's bus (data
+    memory, blank offsets) the load port takes the hardware's own tables at LD_* (window
+    lengths, burst cycles, tx and rx masks)."""
     mem = {MAIN + M_P: int(lead), MAIN + M_L: int(latency), MAIN + M_GATE: int(miss_gate or 0),
            MAIN + M_ACT: sum(1 << c.id for c in cfg)}
     share = share_matrix(cfg)
@@ -125,6 +126,16 @@ the hardware's own tables at LD_* (window lengths, burst cycles, tx and rx masks
         mem[LD_TXM + c.id] = sum(1 << int(e) for e in c.tx)
     mem[LD_RXANY] = sum(1 << int(e) for e in {int(e) for c in cfg for e in c.rx})
     return mem
+
+
+def load_sequence(image: dict[int, int]) -> list[tuple[int, int]]:
+    """``image``'s words in an order the load port takes: by address, except that each blank
+    offset a (BLK + 64 s + e) goes right before its b (+ 32), which commits the pair."""
+    order = [a for a in sorted(image) if a < BLK]
+    order += [x for a in sorted(image) if a >= BLK and not a & 32 for x in (a, a + 32)]
+    if sorted(order) != sorted(image):
+        raise ValueError("load image: a blank offset b without its a")
+    return [(a, image[a]) for a in order]
 
 
 def window_length(c: Any, init: bool) -> int:
