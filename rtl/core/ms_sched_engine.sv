@@ -10,10 +10,11 @@
 //     (one per clock, no stalls; a taken branch, call or return puts its target in the R stage
 //     in the next clock).
 //   - The instruction in the R stage in clock k reads the registers and flags and decides its
-//     branch; in clock k + 1 (X stage) it computes and drives the bus (bus_re_o / bus_we_o,
-//     bus_addr_o = ra + imm, bus_wdata_o = rb) and sets the flags; in clock k + 2 (W stage)
-//     its result, or bus_rdata_i for a load (the data of the address read in the clock
-//     before), is written to rd and forwarded to the instruction then in the R stage.
+//     branch and adds its bus address; in clock k + 1 (X stage) it computes and drives the bus
+//     (bus_re_o / bus_we_o, bus_addr_o = ra + imm from a register, bus_wdata_o = rb) and sets
+//     the flags; in clock k + 2 (W stage) its result, or bus_rdata_i for a load (the data of
+//     the address read in the clock before), is written to rd and forwarded to the
+//     instruction then in the R stage.
 //   - So a result and the flags are usable from the second instruction after their producer;
 //     the assembler puts a NOP between neighbours that would read too early (the core has no
 //     interlocks and reads a stale value there).
@@ -72,11 +73,12 @@ module ms_sched_engine
   logic          r_taken;
   assign r_taken = cond_holds(r_rd[3:0], z_q, n_q);
 
-  // W stage of a compare-and-branch: taken squashes the R and X stages (kill)
-  logic          w_cb_q, kill;
-  logic [3:0]    w_cc_q;
+  // W stage of a compare-and-branch: taken squashes the R and X stages (kill). Its condition
+  // is decided at the end of its X stage, on the flags it sets there, and registered: kill
+  // gates the bus strobes, whose decode fans out across the scheduler
+  logic          w_kill_q, kill;
   logic [PW-1:0] w_tgt_q;
-  assign kill = w_cb_q && cond_holds(w_cc_q, z_q, n_q);
+  assign kill = w_kill_q;
 
   always_comb begin
     pc_d = pc_q + PW'(1);
@@ -177,7 +179,8 @@ module ms_sched_engine
   logic [PW-1:0] x_tgt_q;
   logic [4:0]    x_rd_q;
   logic [31:0]   x_a_q, x_b_q;
-  logic [AW-1:0] x_off_q;              // bus address offset (imm, sign-extended)
+  logic [AW-1:0] x_addr_q;             // bus address ra + imm, added here in the R stage: the
+                                       // X stage drives it from a register to the bus decode
   logic [1:0]    x_rotb_q;             // ROTB: bytes to rotate by
   always_ff @(posedge clk_i) begin
     x_fn_q  <= r_fn;
@@ -191,7 +194,7 @@ module ms_sched_engine
     x_a_q   <= r_a;
     x_b_q   <= r_u_b ? {r_rb, r_imm, 12'd0} : r_imm_b ? 32'($signed(r_imm))
              : r_k_b ? 32'($signed({r_rb, r_imm[14:11]})) : r_bit_b ? 32'd1 << r_rb : r_b;
-    x_off_q  <= AW'($signed(r_imm));
+    x_addr_q <= AW'(r_a) + AW'($signed(r_imm));
     x_rotb_q <= r_imm[1:0];
   end
 
@@ -251,8 +254,7 @@ module ms_sched_engine
       z_q <= (x_fn_q == FN_LSB) ? (x_onehot == '0) : (x_alu == '0);
       n_q <= x_alu[31];
     end
-    w_cb_q  <= !rst_i && x_cb_q && !kill;
-    w_cc_q  <= x_cc_q;
+    w_kill_q <= !rst_i && x_cb_q && !kill && cond_holds(x_cc_q, x_alu == '0, x_alu[31]);
     w_tgt_q <= x_tgt_q;
     w_we_q  <= x_we_q && !kill;
     w_ld_q  <= x_ld_q;
@@ -262,7 +264,7 @@ module ms_sched_engine
 
   assign bus_re_o    = x_ld_q && !kill;
   assign bus_we_o    = x_st_q && !kill;
-  assign bus_addr_o  = x_a_q[AW-1:0] + x_off_q;
+  assign bus_addr_o  = x_addr_q;
   assign bus_wdata_o = x_b_q;  // ST's b operand is rb (r_imm_b is low for it)
 
 endmodule
