@@ -726,6 +726,30 @@ class WithNoise:
         return [r for r in self.rows if r[1] + r[2] > t_start and r[1] < t_end]
 
 
+def compare_hold_segments(dut, b: Bench, rec: RecordingSource, ranges: dict, old: Schedule, new: Schedule,
+                          ticks: tuple[int, int, int, int], split: tuple[int, int], words, trig):
+    """A hold's two segments against the model: the old table from its start e0 up to the
+    hold's stop tick, then a fresh model of the table started at s1 whose input also carries
+    the old pulses' late echoes. ticks = (e0, stop tick, s1, duration after s1); split =
+    (pulses, echo rows) recorded before the restart. Returns the first model, both results
+    and the late echoes."""
+    e0, stop_at, s1, dur2 = ticks
+    n_pulses_old, n_rows_old = split
+    m1 = CountingModel(old, SyntheticEchoSource(ranges), start_tick=e0, decision_lead=LEAD)
+    r1 = m1.run(stop_at - e0)
+    b_old = Bench(dut, old)
+    b_old.pulses = b.pulses[:n_pulses_old]
+    n_ev1, n_tr1 = len(r1.words), sum(len(old.validate()[p.sensor].tx) for p in r1.pulses)
+    compare("before the hold", b_old, r1, words[:n_ev1], trig[:n_tr1], stop_at + LEAD)
+    old_rows = [r for r in rec.rows[:n_rows_old] if r[1] + r[2] > s1]
+    m2 = CountingModel(new, WithNoise(SyntheticEchoSource(ranges), old_rows), start_tick=s1, decision_lead=LEAD)
+    r2 = m2.run(dur2)
+    b_new = Bench(dut, new)
+    b_new.pulses = b.pulses[n_pulses_old:]
+    compare("after the restart", b_new, r2, words[n_ev1:], trig[n_tr1:], s1 + dur2)
+    return m1, r1, r2, old_rows
+
+
 @cocotb.test()
 async def reconfigure_while_pulses_in_flight(dut):
     """Hold, load a new table and start it while tracking pulses (order 3) are in flight: every
@@ -754,21 +778,10 @@ async def reconfigure_while_pulses_in_flight(dut):
     await b.run_until(s1 + dur2 + 3000)
     words, trig = await b.read_logs()
     assert int(dut.overrun_o.value) == 0
-    # phase 1: the old model up to the stop tick
-    m1 = CountingModel(s_old, SyntheticEchoSource(ranges), start_tick=e0, decision_lead=LEAD)
-    r1 = m1.run(stop_at - e0)
-    b_old = Bench(dut, s_old)
-    b_old.pulses = b.pulses[:n_pulses_old]
-    n_ev1, n_tr1 = len(r1.words), sum(len(s_old.validate()[p.sensor].tx) for p in r1.pulses)
-    compare("before the hold", b_old, r1, words[:n_ev1], trig[:n_tr1], stop_at + LEAD)
+    m1, r1, r2, old_rows = compare_hold_segments(dut, b, rec, ranges, s_old, s_new, (e0, stop_at, s1, dur2),
+                                                 (n_pulses_old, n_rows_old), words, trig)
     in_flight = [p for p in r1.pulses if p.t0 + p.period > stop_at]
     assert in_flight and sum(len(ws) for ws in m1.windows) > 0, "the hold must hit pulses with open windows"
-    # phase 2: a fresh model of the new table; the old pulses' echoes still arrive
-    old_rows = [r for r in rec.rows[:n_rows_old] if r[1] + r[2] > s1]
-    m2 = CountingModel(s_new, WithNoise(SyntheticEchoSource(ranges), old_rows), start_tick=s1, decision_lead=LEAD)
-    r2 = m2.run(dur2)
-    b2.pulses = b.pulses[n_pulses_old:]
-    compare("after the reload", b2, r2, words[n_ev1:], trig[n_tr1:], s1 + dur2)
     dut._log.info("reconfiguration: %d old pulses (%d in flight at the stop), %d new pulses, %d late old echoes",
                   len(r1.pulses), len(in_flight), len(r2.pulses), len(old_rows))
 
@@ -801,18 +814,8 @@ async def hold_and_restart_keeps_the_table(dut):
     await b.run_until(s1 + dur2 + 3000)
     words, trig = await b.read_logs()
     assert int(dut.overrun_o.value) == 0
-    m1 = CountingModel(sched, SyntheticEchoSource(ranges), start_tick=e0, decision_lead=LEAD)
-    r1 = m1.run(stop_at - e0)
-    b_old = Bench(dut, sched)
-    b_old.pulses = b.pulses[:n_pulses_old]
-    n_ev1, n_tr1 = len(r1.words), sum(len(sched.validate()[p.sensor].tx) for p in r1.pulses)
-    compare("before the hold", b_old, r1, words[:n_ev1], trig[:n_tr1], stop_at + LEAD)
-    old_rows = [r for r in rec.rows[:n_rows_old] if r[1] + r[2] > s1]
-    m2 = CountingModel(sched, WithNoise(SyntheticEchoSource(ranges), old_rows), start_tick=s1, decision_lead=LEAD)
-    r2 = m2.run(dur2)
-    b2 = Bench(dut, sched)
-    b2.pulses = b.pulses[n_pulses_old:]
-    compare("after the restart", b2, r2, words[n_ev1:], trig[n_tr1:], s1 + dur2)
+    _, r1, r2, _ = compare_hold_segments(dut, b, rec, ranges, sched, sched, (e0, stop_at, s1, dur2),
+                                         (n_pulses_old, n_rows_old), words, trig)
     dut._log.info("hold and restart: %d pulses before the hold, %d after the restart", len(r1.pulses), len(r2.pulses))
 
 
