@@ -726,6 +726,15 @@ class WithNoise:
         return [r for r in self.rows if r[1] + r[2] > t_start and r[1] < t_end]
 
 
+async def hold(dut, b: Bench, rec: RecordingSource) -> tuple[int, tuple[int, int]]:
+    """hold_i for a clock (from the next falling edge) and the wait for running_o to fall: the
+    hold's stop tick and (pulses, echo rows) recorded until then."""
+    await FallingEdge(dut.clk)
+    await strobe(dut.clk, dut.hold_i)
+    await FallingEdge(dut.running_o)
+    return b.unwrap(int(dut.u_sched.stop_at_q.value)), (len(b.pulses), len(rec.rows))
+
+
 def compare_hold_segments(dut, b: Bench, rec: RecordingSource, ranges: dict, old: Schedule, new: Schedule,
                           ticks: tuple[int, int, int, int], split: tuple[int, int], words, trig):
     """A hold's two segments against the model: the old table from its start e0 up to the
@@ -766,11 +775,7 @@ async def reconfigure_while_pulses_in_flight(dut):
     e0 = await b.start(rec)
     await b.run_until(e0 + 50 * MS)
     b2 = Bench(dut, s_new)
-    await FallingEdge(dut.clk)
-    await strobe(dut.clk, dut.hold_i)  # hold, then the new image through the load port and start_i
-    await FallingEdge(dut.running_o)
-    stop_at = b.unwrap(int(dut.u_sched.stop_at_q.value))
-    n_pulses_old, n_rows_old = len(b.pulses), len(rec.rows)
+    stop_at, split = await hold(dut, b, rec)  # hold, then the new image through the port and start_i
     b.cfg = s_new.validate()  # pulses from now on belong to the new table
     cocotb.start_soon(b2.load_port())
     s1 = await b.wait_running()
@@ -779,7 +784,7 @@ async def reconfigure_while_pulses_in_flight(dut):
     words, trig = await b.read_logs()
     assert int(dut.overrun_o.value) == 0
     m1, r1, r2, old_rows = compare_hold_segments(dut, b, rec, ranges, s_old, s_new, (e0, stop_at, s1, dur2),
-                                                 (n_pulses_old, n_rows_old), words, trig)
+                                                 split, words, trig)
     in_flight = [p for p in r1.pulses if p.t0 + p.period > stop_at]
     assert in_flight and sum(len(ws) for ws in m1.windows) > 0, "the hold must hit pulses with open windows"
     dut._log.info("reconfiguration: %d old pulses (%d in flight at the stop), %d new pulses, %d late old echoes",
@@ -801,11 +806,7 @@ async def hold_and_restart_keeps_the_table(dut):
     await b.run_until(e0 + 20 * MS)
     await Bench(dut, other).load_port()  # refused: the engine runs (start_i too: it is running)
     await b.run_until(e0 + 40 * MS)
-    await FallingEdge(dut.clk)
-    await strobe(dut.clk, dut.hold_i)
-    await FallingEdge(dut.running_o)
-    stop_at = b.unwrap(int(dut.u_sched.stop_at_q.value))
-    n_pulses_old, n_rows_old = len(b.pulses), len(rec.rows)
+    stop_at, split = await hold(dut, b, rec)
     await Timer(5000 * CLK_PERIOD_PS, unit="ps")
     await FallingEdge(dut.clk)
     cocotb.start_soon(strobe(dut.clk, dut.start_i))  # running_o rises before the strobe ends
@@ -814,8 +815,8 @@ async def hold_and_restart_keeps_the_table(dut):
     await b.run_until(s1 + dur2 + 3000)
     words, trig = await b.read_logs()
     assert int(dut.overrun_o.value) == 0
-    _, r1, r2, _ = compare_hold_segments(dut, b, rec, ranges, sched, sched, (e0, stop_at, s1, dur2),
-                                         (n_pulses_old, n_rows_old), words, trig)
+    _, r1, r2, _ = compare_hold_segments(dut, b, rec, ranges, sched, sched, (e0, stop_at, s1, dur2), split,
+                                         words, trig)
     dut._log.info("hold and restart: %d pulses before the hold, %d after the restart", len(r1.pulses), len(r2.pulses))
 
 
