@@ -111,7 +111,7 @@ def test_random_tables_match_the_reference(lib):
         accepted += 1
         act, words = c_load(lib, src)
         assert act == sum(1 << c.id for c in cfg)
-        ref = load_image(cfg, lead=DEVICE_DECISION_LEAD, latency=1 + max(glitch, 1), miss_gate=gate)
+        ref = load_image(cfg, lead=DEVICE_DECISION_LEAD, glitch_min=glitch, miss_gate=gate)
         assert words.keys() == ref.keys(), f"table {t}: addresses only in C " \
             f"{sorted(words.keys() - ref.keys())[:5]}, only in Python {sorted(ref.keys() - words.keys())[:5]}"
         bad = [(hex(a), words[a], ref[a]) for a in sorted(ref) if words[a] != ref[a]]
@@ -200,5 +200,5 @@ def test_refusal_boundaries(lib, fields, code):
     assert (P.CfgError(got), P.CfgError(ref)) == (code, code)
     if cfg is not None:
         _, words = c_load(lib, src)
-        assert words == load_image(cfg, lead=P_LEAD, latency=25, miss_gate=2400)
+        assert words == load_image(cfg, lead=P_LEAD, glitch_min=24, miss_gate=2400)
     del keep

@@ -441,12 +441,12 @@ class FastFiringModel:
         if self.lead < 0:
             raise ValueError(f"decision_lead {self.lead} must be >= 0 ticks")
         #: Gated miss rule (RTL: RX_FILTER.miss_gate, taken when the firmware loads the table;
-        #: docs/fast_firing.md section 4.4): a tracking window's first echo farther than ``miss_gate`` ticks from the
-        #: prediction is reported but neither updates the track nor resets the miss count (the
-        #: window counts as empty), so another pulse's echo cannot keep a lost track alive. It
-        #: applies once the track's velocity is measured (``_RxState.vel``: the last sample
-        #: followed one of the previous pulse; before that the prediction assumes v = 0 and a
-        #: moving reflector would fail the gate).
+        #: docs/fast_firing.md section 4.4): a tracking window's first echo farther than
+        #: ``miss_gate`` ticks from the prediction is reported but neither updates the track nor
+        #: resets the miss count (the window counts as empty), so another pulse's echo cannot
+        #: keep a lost track alive. It applies once the track's velocity is measured
+        #: (``_RxState.vel``: the last sample followed one of the previous pulse; before that the
+        #: prediction assumes v = 0 and a moving reflector would fail the gate).
         #: 0 or None = off (the rule before the register existed). Default: the register's reset
         #: value. Forced re-initialisation: each sensor's ``reinit_every`` M (VirtualSensor field,
         #: RTL MODE.reinit_every, 0 = off): a tracking sensor that has sent M tracking pulses since

@@ -83,8 +83,6 @@ def load_writes(schedule: Schedule, *, glitch_min: int, miss_gate: int, lead: in
     from .tools.sched_program.system import load_image, load_sequence
 
     R = _regs()
-    image = load_image(schedule.validate(), lead=lead, latency=1 + max(glitch_min, 1), miss_gate=miss_gate)
-    out = []
-    for a, w in load_sequence(image):
-        out += [(R.REGISTERS["LOAD_ADDR"].addr(), a), (R.REGISTERS["LOAD_DATA"].addr(), w)]
-    return out
+    image = load_image(schedule.validate(), lead=lead, glitch_min=glitch_min, miss_gate=miss_gate)
+    at_addr, at_data = R.REGISTERS["LOAD_ADDR"].addr(), R.REGISTERS["LOAD_DATA"].addr()
+    return [x for a, w in load_sequence(image) for x in ((at_addr, a), (at_data, w))]

@@ -3,16 +3,16 @@ model FastFiringModel with the same decision lead P.
 
 Wrapper tests/rtl/ms_scheduler_tb.sv: tick counter, the real ms_rx_conditioner per channel,
 event log. Tables reach the scheduler as the firmware writes them: load_image's words through
-the load port, then start_i (hold_i first when one runs). Python never wakes per clock: it awaits fire_o (one per pulse), asks
-the echo source for the comparator pulses of that pulse (its own instance, seeded like the
-model's) and drives each pulse edge on echo_i with a Timer a quarter clock into the cycle
+the load port, then start_i (hold_i first when one runs). Python never wakes per clock: it
+awaits fire_o (one per pulse), asks the echo source for the comparator pulses of that pulse
+(its own instance, seeded like the model's) and drives each pulse edge on echo_i with a Timer a quarter clock into the cycle
 the contract names (docs/sonar_core.md: a pulse with start n is first sampled high at the
 edge ending cycle n). At the end it reads the event log and compares, in order:
   - pulses (t0) and triggers (t0 + d_i, element) with the model's,
   - every 64-bit event word with the model's (ToFEvent.pack()).
 The RTL runs a little longer than the model so that every model event has been emitted.
-RTL and model use the same gated miss rule (the load image's M_GATE / FastFiringModel miss_gate, default
-the RX_FILTER.miss_gate reset value; 0 = off in both) and the same number of window slots per
+RTL and model use the same gated miss rule (the load image's M_GATE / FastFiringModel
+miss_gate, default the RX_FILTER.miss_gate reset value; 0 = off in both) and the same number of window slots per
 element (WSLOTS, FastFiringModel win_slots).
 """
 
@@ -88,7 +88,6 @@ class Bench:
     def __init__(self, dut, sched: Schedule, glitch_min: int = 24, miss_gate: int = DEFAULT_MISS_GATE):
         self.dut, self.sched = dut, sched
         self.cfg = sched.validate()
-        self.regs = sched.to_registers()
         self.g = glitch_min
         self.gate = miss_gate  # RX_FILTER.miss_gate (0 off); the model's miss_gate is the same
         self.pulses: list[tuple[int, int, int, bool]] = []  # (t0 unwrapped, sensor, seq, init)
@@ -139,7 +138,7 @@ class Bench:
         load port, one word per clock, blank offset a before its b, then start_i."""
         dut = self.dut
         await FallingEdge(dut.clk)
-        image = load_image(self.cfg, lead=LEAD, latency=1 + max(self.g, 1), miss_gate=self.gate)
+        image = load_image(self.cfg, lead=LEAD, glitch_min=self.g, miss_gate=self.gate)
         await write_words(dut.clk, dut.ld_we_i, dut.ld_addr_i, dut.ld_data_i, load_sequence(image))
         await strobe(dut.clk, dut.start_i)
 

@@ -1,9 +1,10 @@
 """cocotb test of the whole sonar core through its register bus and its pins.
 
 Configuration goes over the bus exactly as the host and firmware write it
-(multisonar.regmap.schedule_writes; the firmware's load image, multisonar.regmap.load_writes), echoes go in on echo_i, triggers are read off drive_o,
-and events come out through EVT_LO / EVT_HI. Everything is compared with the golden model
-(FastFiringModel with the same decision lead) driven by an identically seeded echo source.
+(multisonar.regmap.schedule_writes; the firmware's load image, multisonar.regmap.load_writes),
+echoes go in on echo_i, triggers are read off drive_o, and events come out through EVT_LO /
+EVT_HI. Everything is compared with the golden model (FastFiringModel with the same decision
+lead) driven by an identically seeded echo source.
 Python wakes per pulse, per echo edge and per drive edge, never per clock.
 """
 

@@ -26,13 +26,19 @@ from .layout import (BLK, EVT_HI, HD_EL, LAG_CUR, LD_BURST, LD_RXANY, LD_TXM, LD
 from .units import EngineWithUnits, Slot
 
 
+def edge_latency(glitch_min: int) -> int:
+    """L = 1 + max(glitch_min, 1): an edge's timestamp is its detection tick - L (RX_FILTER's
+    glitch_min, ms_rx_conditioner)."""
+    return 1 + max(int(glitch_min), 1)
+
+
 class EchoPath:
     """Comparator lines of ``n_el`` receivers fed by ``source`` (an EchoSource)."""
 
     def __init__(self, n_el: int, source: Any, glitch_min: int) -> None:
         self.source = source
         self.g = max(int(glitch_min), 1)
-        self.latency = 1 + self.g
+        self.latency = edge_latency(glitch_min)
         self.lines = [_Line() for _ in range(n_el)]
         self._pending: list[tuple[int, int, int]] = []   # (detection tick, receiver, run start)
 
@@ -105,16 +111,18 @@ def sensor_words(c: Any, shares: int, reinit_every: int | None = None) -> dict[i
     return out
 
 
-def load_image(cfg: Any, *, lead: int, latency: int, miss_gate: int | None,
+def load_image(cfg: Any, *, lead: int, glitch_min: int, miss_gate: int | None,
                reinit_every: int | None = None) -> dict[int, int]:
     """What a configuration load writes on the engine's bus, {address: word}, for the resolved
     table ``cfg``: every enabled sensor's words and blank offsets (sensor_words), its share
-    word, and the main loop's constants (decision lead P, edge latency L, miss gate, enabled
-    sensors); not the start tick, which the start writes. The firmware's load
+    word, and the main loop's constants (decision lead P, edge latency L = 1 + max(glitch_min,
+    1) from RX_FILTER.glitch_min, miss gate, enabled sensors); not the start tick, which the
+    start writes. The firmware's load
     (firmware/app/sonar/sched_table.c) writes the same words. Besides the engine's bus (data
     memory, blank offsets) the load port takes the hardware's own tables at LD_* (window
     lengths, burst cycles, tx and rx masks)."""
-    mem = {MAIN + M_P: int(lead), MAIN + M_L: int(latency), MAIN + M_GATE: int(miss_gate or 0),
+    mem = {MAIN + M_P: int(lead), MAIN + M_L: edge_latency(glitch_min),
+           MAIN + M_GATE: int(miss_gate or 0),
            MAIN + M_ACT: sum(1 << c.id for c in cfg)}
     share = share_matrix(cfg)
     for i, c in enumerate(cfg):
@@ -232,7 +240,7 @@ class EngineSystem:
         self.latency = self.echo.latency
         self.lead, self.start, self.qdepth = int(decision_lead), int(start_tick), qdepth
         mem: dict[int, int] = {ONEHOT + k: 1 << k for k in range(32)}
-        mem.update({a: w for a, w in load_image(self.cfg, lead=self.lead, latency=self.latency,
+        mem.update({a: w for a, w in load_image(self.cfg, lead=self.lead, glitch_min=glitch_min,
                                                  miss_gate=miss_gate, reinit_every=reinit_every).items()
                     if not LD_WLEN <= a <= LD_RXANY})    # the hardware's tables: win_len below
         mem[MAIN + M_START] = self.start
