@@ -119,6 +119,22 @@ def test_calls_return_and_bus_timing():
     assert st[0].cycle == 5
 
 
+def test_indexed_store_limit():
+    """A bus that decodes its registers from r0-based stores (ms_sched_uc) takes an indexed
+    store only below the limit; r0-based stores and loads go anywhere."""
+    p = Program().li(1, 0x3F0).nop().st(1, 1, 0xF).ld(2, 1, 0x10).st(1, 0, 0x400)
+    p.label("end")
+    img = p.assemble()
+    m = Machine(img.words, mem={}, indexed_store_limit=0x400)
+    m.run(50, stop={img.labels["end"]})
+    assert m.mem[0x3FF] == m.mem[0x400] == 0x3F0
+    assert [op.absolute for op in m.trace] == [False, False, True]
+    p = Program().li(1, 0x3F0).nop().st(1, 1, 0x10)
+    m = Machine(p.assemble().words, mem={}, indexed_store_limit=0x400)
+    with pytest.raises(UcodeError, match="indexed store must address below 0x400"):
+        m.run(50)
+
+
 def test_model_refuses_an_unassembled_hazard():
     words = [encode(Program().add(1, 2, 3).items[0]), encode(Program().add(4, 1, 1).items[0])]
     with pytest.raises(UcodeError, match="hazard"):

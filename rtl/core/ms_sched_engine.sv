@@ -10,11 +10,14 @@
 //     (one per clock, no stalls; a taken branch, call or return puts its target in the R stage
 //     in the next clock).
 //   - The instruction in the R stage in clock k reads the registers and flags and decides its
-//     branch and adds its bus address; in clock k + 1 (X stage) it computes and drives the bus
-//     (bus_re_o / bus_we_o, bus_addr_o = ra + imm from a register, bus_wdata_o = rb) and sets
-//     the flags; in clock k + 2 (W stage) its result, or bus_rdata_i for a load (the data of
-//     the address read in the clock before), is written to rd and forwarded to the
-//     instruction then in the R stage.
+//     branch; in clock k + 1 (X stage) it computes and drives the bus (bus_re_o / bus_we_o,
+//     bus_addr_o = ra + imm, bus_wdata_o = rb) and sets the flags; in clock k + 2 (W stage)
+//     its result, or bus_rdata_i for a load (the data of the address read in the clock
+//     before), is written to rd and forwarded to the instruction then in the R stage.
+//   - bus_abs_o (ra is r0) and bus_imm_o (the sign-extended immediate, then the address) come
+//     from registers in the X stage, bus_addr_o from an adder behind them: a bus with many
+//     targets decodes its registers from an absolute access's immediate and keeps the sum
+//     for the memories an indexed access reaches.
 //   - So a result and the flags are usable from the second instruction after their producer;
 //     the assembler puts a NOP between neighbours that would read too early (the core has no
 //     interlocks and reads a stale value there).
@@ -38,6 +41,8 @@ module ms_sched_engine
   output logic          bus_re_o,
   output logic          bus_we_o,
   output logic [AW-1:0] bus_addr_o,
+  output logic          bus_abs_o,
+  output logic [AW-1:0] bus_imm_o,
   output logic [31:0]   bus_wdata_o,
   input  logic [31:0]   bus_rdata_i,
   output logic [PW-1:0] pc_o          // address of the instruction in the R stage
@@ -179,8 +184,8 @@ module ms_sched_engine
   logic [PW-1:0] x_tgt_q;
   logic [4:0]    x_rd_q;
   logic [31:0]   x_a_q, x_b_q;
-  logic [AW-1:0] x_addr_q;             // bus address ra + imm, added here in the R stage: the
-                                       // X stage drives it from a register to the bus decode
+  logic [AW-1:0] x_imm_q;              // the bus address's offset
+  logic          x_abs_q;              // ra is r0: the address is x_imm_q
   logic [1:0]    x_rotb_q;             // ROTB: bytes to rotate by
   always_ff @(posedge clk_i) begin
     x_fn_q  <= r_fn;
@@ -194,7 +199,8 @@ module ms_sched_engine
     x_a_q   <= r_a;
     x_b_q   <= r_u_b ? {r_rb, r_imm, 12'd0} : r_imm_b ? 32'($signed(r_imm))
              : r_k_b ? 32'($signed({r_rb, r_imm[14:11]})) : r_bit_b ? 32'd1 << r_rb : r_b;
-    x_addr_q <= AW'(r_a) + AW'($signed(r_imm));
+    x_imm_q <= AW'($signed(r_imm));
+    x_abs_q <= r_ra == 5'd0;
     x_rotb_q <= r_imm[1:0];
   end
 
@@ -264,7 +270,9 @@ module ms_sched_engine
 
   assign bus_re_o    = x_ld_q && !kill;
   assign bus_we_o    = x_st_q && !kill;
-  assign bus_addr_o  = x_addr_q;
+  assign bus_addr_o  = AW'(x_a_q) + x_imm_q;
+  assign bus_abs_o   = x_abs_q;
+  assign bus_imm_o   = x_imm_q;
   assign bus_wdata_o = x_b_q;  // ST's b operand is rb (r_imm_b is low for it)
 
 endmodule

@@ -170,18 +170,21 @@ module ms_sched_uc
   end
 
   // ------------------------------------------------------------------ engine and bus
-  logic          eng_rst, bus_re, bus_we;
-  logic [AW-1:0] bus_a;
+  logic          eng_rst, bus_re, bus_we, bus_abs;
+  logic [AW-1:0] bus_a, bus_ia;
   logic [31:0]   bus_wd, bus_rd;
   logic [$clog2(UCODE_WORDS)-1:0] eng_pc;
   assign eng_rst = rst_i || ctl_q == C_OFF;
   localparam string UCODE_IMAGE = UCODE_FILE == "" ? UCODE_HEX : UCODE_FILE;
   ms_sched_engine #(.UCODE_WORDS(UCODE_WORDS), .UCODE_FILE(UCODE_IMAGE), .AW(AW)) u_eng (
     .clk_i, .rst_i(eng_rst), .bus_re_o(bus_re), .bus_we_o(bus_we), .bus_addr_o(bus_a),
-    .bus_wdata_o(bus_wd), .bus_rdata_i(bus_rd), .pc_o(eng_pc)
+    .bus_abs_o(bus_abs), .bus_imm_o(bus_ia), .bus_wdata_o(bus_wd), .bus_rdata_i(bus_rd), .pc_o(eng_pc)
   );
+  // the program writes I/O registers only through r0 (sched_program refuses an indexed store
+  // there, the model too): their decode starts at the engine's immediate register, not at the
+  // address adder; an indexed store writes the data memory
   logic io_we;
-  assign io_we = bus_we && !eng_rst;
+  assign io_we = bus_we && bus_abs && !eng_rst;
   function automatic logic io(input logic [AW-1:0] a, input int reg_addr);
     io = int'(a) == reg_addr;
   endfunction
@@ -190,7 +193,7 @@ module ms_sched_uc
   logic [31:0] dm_q [1024];
   logic [31:0] dm_rd_q;
   always_ff @(posedge clk_i) begin
-    if (eng_rst ? ld_dm_we : (bus_we && bus_a < AW'(1024)))
+    if (eng_rst ? ld_dm_we : (bus_we && (!bus_abs || bus_ia < AW'(1024))))
       dm_q[eng_rst ? ld_dm_a : bus_a[9:0]] <= eng_rst ? ld_dm_d : bus_wd;
     dm_rd_q <= dm_q[bus_a[9:0]];
   end
@@ -203,22 +206,22 @@ module ms_sched_uc
   logic [WAW-1:0]    win_ra_q;
   always_ff @(posedge clk_i) begin
     if (io_we) begin
-      if (io(bus_a, SU_TA))    su_ta_q    <= bus_wd;
-      if (io(bus_a, SU_TB))    su_tb_q    <= bus_wd;
-      if (io(bus_a, SU_TWA))   su_twa_q   <= bus_wd;
-      if (io(bus_a, SU_TWB))   su_twb_q   <= bus_wd;
-      if (io(bus_a, SU_VALID)) su_valid_q <= bus_wd[WSLOTS-1:0];
-      if (io(bus_a, W_T0))     w_t0_q     <= bus_wd;
-      if (io(bus_a, W_WE))     w_we_q     <= bus_wd[23:0];
-      if (io(bus_a, W_META))   w_meta_q   <= bus_wd[18:0];
-      if (io(bus_a, TRIG_T))   trig_t_q   <= bus_wd;
-      if (io(bus_a, HD_T))     hd_t_q     <= bus_wd;
-      if (io(bus_a, EVT_LO))   evt_lo_q   <= bus_wd;
-      if (io(bus_a, DIV_X))    div_x_q    <= bus_wd[23:0];
-      if (io(bus_a, WIN_RA))   win_ra_q   <= WAW'(bus_wd);
+      if (io(bus_ia, SU_TA))    su_ta_q    <= bus_wd;
+      if (io(bus_ia, SU_TB))    su_tb_q    <= bus_wd;
+      if (io(bus_ia, SU_TWA))   su_twa_q   <= bus_wd;
+      if (io(bus_ia, SU_TWB))   su_twb_q   <= bus_wd;
+      if (io(bus_ia, SU_VALID)) su_valid_q <= bus_wd[WSLOTS-1:0];
+      if (io(bus_ia, W_T0))     w_t0_q     <= bus_wd;
+      if (io(bus_ia, W_WE))     w_we_q     <= bus_wd[23:0];
+      if (io(bus_ia, W_META))   w_meta_q   <= bus_wd[18:0];
+      if (io(bus_ia, TRIG_T))   trig_t_q   <= bus_wd;
+      if (io(bus_ia, HD_T))     hd_t_q     <= bus_wd;
+      if (io(bus_ia, EVT_LO))   evt_lo_q   <= bus_wd;
+      if (io(bus_ia, DIV_X))    div_x_q    <= bus_wd[23:0];
+      if (io(bus_ia, WIN_RA))   win_ra_q   <= WAW'(bus_wd);
     end
   end
-  assign halted = io_we && io(bus_a, HALT);
+  assign halted = io_we && io(bus_ia, HALT);
 
   // ---- slot unit, divider
   logic              su_busy, su_re;
@@ -236,7 +239,7 @@ module ms_sched_uc
   } win_t;
   win_t           win_rd_q;
   ms_sched_slot #(.NUM_CH(NUM_CH), .WSLOTS(WSLOTS)) u_slot (
-    .clk_i, .rst_i(eng_rst), .go_i(io_we && io(bus_a, SU_GO)), .mode_i(bus_wd[11:10]),
+    .clk_i, .rst_i(eng_rst), .go_i(io_we && io(bus_ia, SU_GO)), .mode_i(bus_wd[11:10]),
     .el_i(EW'(bus_wd[7:0])), .bon_i(bus_wd[8]), .won_i(bus_wd[9]), .valid_i(su_valid_q),
     .ta_i(su_ta_q), .tb_i(su_tb_q), .twa_i(su_twa_q), .twb_i(su_twb_q),
     .latm1_i(latm1), .win_ra_o(su_ra), .win_re_o(su_re), .win_t0_i(win_rd_q.t0),
@@ -245,7 +248,7 @@ module ms_sched_uc
     .busy_o(su_busy), .x_o(su_x), .flags_o(su_flags), .minc_o(su_minc)
   );
   ms_sched_div u_div (
-    .clk_i, .rst_i(eng_rst), .start_i(io_we && io(bus_a, DIV_N)), .x_i(div_x_q),
+    .clk_i, .rst_i(eng_rst), .start_i(io_we && io(bus_ia, DIV_N)), .x_i(div_x_q),
     .n_i(bus_wd[3:0]), .busy_o(div_busy), .q_o(div_q)
   );
 
@@ -283,7 +286,7 @@ module ms_sched_uc
       winb_wa = blk_row(ld_addr_i[8:6], ld_addr_i[4:1]);
       winb_wd = {2{port_a_q, ld_data_i[BW-1:0]}};
       winb_we = {ld_addr_i[0], !ld_addr_i[0]};
-    end else if (io_we && io(bus_a, W_ADDR)) begin
+    end else if (io_we && io(bus_ia, W_ADDR)) begin
       winb_we = 2'b11;
     end
     winb_ra = su_re ? su_ra : blk_re ? blk_row(bus_a[8:6], bus_a[4:1]) : win_ra_q;
@@ -307,10 +310,10 @@ module ms_sched_uc
   assign edges = rise_i & rx_any_q;
   // the heads the program sets (HD_T, then HD_EL commits: element, bit 16 no head)
   ms_sched_closes #(.NUM_CH(NUM_CH)) u_closes (
-    .clk_i, .rst_i(eng_rst), .tick_i, .we_i(io_we && io(bus_a, HD_EL)), .el_i(EW'(bus_wd[7:0])),
+    .clk_i, .rst_i(eng_rst), .tick_i, .we_i(io_we && io(bus_ia, HD_EL)), .el_i(EW'(bus_wd[7:0])),
     .vld_i(!bus_wd[16]), .close_i(hd_t_q), .closes_o(closes)
   );
-  assign q_pop = io_we && io(bus_a, Q_POP);
+  assign q_pop = io_we && io(bus_ia, Q_POP);
   ms_sched_workq #(.WIDTH(QW), .DEPTH(QDEPTH)) u_workq (
     .clk_i, .rst_i(eng_rst), .push_i(!eng_rst && (|edges || |closes)),
     .data_i({tick_prev_q, edges, closes}), .pop_i(q_pop), .head_o(q_head), .empty_o(q_empty),
@@ -318,7 +321,7 @@ module ms_sched_uc
   );
   logic late_head_q, late_trig_q, late_disp_q;
   always_ff @(posedge clk_i)
-    late_head_q <= io_we && io(bus_a, HD_EL) && !bus_wd[16] && $signed(26'(hd_t_q - tick_i)) <= 0;
+    late_head_q <= io_we && io(bus_ia, HD_EL) && !bus_wd[16] && $signed(26'(hd_t_q - tick_i)) <= 0;
 
   // ---- reads: every source answers one clock after the address, as the block RAMs do. The
   // I/O space (0x400 .. 0x43F) is decoded on its low six bits; ONEHOT (32 aligned words of the
@@ -373,14 +376,14 @@ module ms_sched_uc
     pulse_o      <= 1'b0;
     late_trig_q  <= 1'b0;
     late_disp_q  <= 1'b0;
-    if (io_we && io(bus_a, TRIG_EL)) begin
+    if (io_we && io(bus_ia, TRIG_EL)) begin
       trig_valid_o <= 1'b1;
       trig_el_o    <= bus_wd[4:0];
       trig_delay_o <= (DELAY_W + 1)'(trig_rel);
       trig_burst_o <= burst_q[pulse_vs_q];
       late_trig_q  <= trig_rel[19:DELAY_W+1] != '0;   // negative or too far: the engine is late
     end
-    if (io_we && io(bus_a, EVT_HI)) begin
+    if (io_we && io(bus_ia, EVT_HI)) begin
       evt_valid_o <= 1'b1;
       evt_data_o  <= {bus_wd, evt_lo_q};
       if (bus_wd[30] && !bus_wd[29]) begin          // a pulse record: the pulse goes
@@ -393,7 +396,7 @@ module ms_sched_uc
         pulse_init_o <= bus_wd[11];
       end
     end
-    if (io_we && io(bus_a, LAG_CUR))
+    if (io_we && io(bus_ia, LAG_CUR))
       late_disp_q <= $signed(24'(tick_i - bus_wd)) >= $signed(24'(LEAD / 2 + 2));
   end
   // lag_max_q (the benches read it through the hierarchy): the largest tick - logical tick at
@@ -405,7 +408,7 @@ module ms_sched_uc
       lag_max_q <= '0;
       ovr_q     <= 1'b0;
     end else begin
-      if (io_we && io(bus_a, T_DONE) && tick_i - bus_wd > lag_max_q) lag_max_q <= tick_i - bus_wd;
+      if (io_we && io(bus_ia, T_DONE) && tick_i - bus_wd > lag_max_q) lag_max_q <= tick_i - bus_wd;
       if (q_ovf || late_head_q || late_trig_q || late_disp_q) ovr_q <= 1'b1;
     end
   end

@@ -13,6 +13,8 @@ module ms_sched_engine_tb #(
   output logic          bus_re_o,
   output logic          bus_we_o,
   output logic [AW-1:0] bus_addr_o,
+  output logic          bus_abs_o,
+  output logic [AW-1:0] bus_imm_o,
   output logic [31:0]   bus_wdata_o,
   output logic [PW-1:0] pc_o
 );
@@ -30,6 +32,8 @@ module ms_sched_engine_tb #(
     .bus_re_o   (bus_re_o),
     .bus_we_o   (bus_we_o),
     .bus_addr_o (bus_addr_o),
+    .bus_abs_o  (bus_abs_o),
+    .bus_imm_o  (bus_imm_o),
     .bus_wdata_o(bus_wdata_o),
     .bus_rdata_i(rdata_q),
     .pc_o       (pc_o)

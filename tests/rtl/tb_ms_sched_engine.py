@@ -61,11 +61,17 @@ async def run_image(dut, image: Image, mem: dict[int, int], max_cycles: int = 20
     trace = []
     for cyc in range(cycles + 4):
         await FallingEdge(dut.clk_i)
+        # an r0-based access (bus_abs_o) shows its address on bus_imm_o too
+        absolute = bool(int(dut.bus_abs_o.value))
+        if absolute:
+            absolute = int(dut.bus_imm_o.value) == int(dut.bus_addr_o.value)
         if int(dut.bus_we_o.value):
-            trace.append((cyc, True, int(dut.bus_addr_o.value), int(dut.bus_wdata_o.value)))
+            trace.append((cyc, True, int(dut.bus_addr_o.value), int(dut.bus_wdata_o.value),
+                          absolute))
         elif int(dut.bus_re_o.value):
-            trace.append((cyc, False, int(dut.bus_addr_o.value), None))
-    expect = [(op.cycle, op.write, op.addr, op.data if op.write else None) for op in model.trace]
+            trace.append((cyc, False, int(dut.bus_addr_o.value), None, absolute))
+    expect = [(op.cycle, op.write, op.addr, op.data if op.write else None, op.absolute)
+              for op in model.trace]
     return trace, expect, model
 
 

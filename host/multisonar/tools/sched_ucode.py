@@ -523,6 +523,7 @@ class BusOp:
     write: bool
     addr: int
     data: int      # written data, or the data read
+    absolute: bool = False   # ra is r0: the immediate is the address
 
 
 @dataclass
@@ -533,6 +534,10 @@ class Machine:
     raise :class:`UcodeError` (the RTL would read a stale value)."""
     words: list[int]
     addr_bits: int = 12
+    # a store whose ra is not r0 must address below this (None: anywhere). A bus with many
+    # targets decodes them from the immediate of an r0-based store, a register in the X stage
+    # (ms_sched_engine's bus_abs_o / bus_imm_o), and takes an indexed store as a memory write
+    indexed_store_limit: int | None = None
     mem: dict[int, int] = field(default_factory=dict)
     regs: list[int] = field(default_factory=lambda: [0] * NREGS)
     z: bool = False
@@ -603,11 +608,15 @@ class Machine:
             addr = (a + insn.imm) & ((1 << self.addr_bits) - 1)
             if op == "ld":
                 data = self.read(addr) & MASK32
-                self.trace.append(BusOp(self.cycle + 1, False, addr, data))
+                self.trace.append(BusOp(self.cycle + 1, False, addr, data, insn.ra == 0))
                 if insn.rd:
                     r[insn.rd] = data
             else:
-                self.trace.append(BusOp(self.cycle + 1, True, addr, bv))
+                lim = self.indexed_store_limit
+                if insn.ra and lim is not None and addr >= lim:
+                    raise UcodeError(f"pc {self.pc}: st to {addr:#x} through r{insn.ra}: an "
+                                     f"indexed store must address below {lim:#x}")
+                self.trace.append(BusOp(self.cycle + 1, True, addr, bv, insn.ra == 0))
                 self.write(addr, bv)
         elif op in CB_OPS:              # the flags below, then the decision
             bv = {"cbi": insn.k, "cbb": 1 << insn.rb}.get(op, bv)

@@ -27,7 +27,7 @@ variables live in data memory (MAIN + M_*), so each kernel gets its inputs afres
 
 from __future__ import annotations
 
-from ..sched_ucode import Program
+from ..sched_ucode import Program, UcodeError
 from .decision import (SCHED_HOLD, SCHED_NOT_YET, SCHED_QUIET, cand_kernel, conf_kernel, iel_kernel,
                        issue_kernel, order_kernel, sched_kernel)
 from .events import close_kernel, edge_kernel, head_kernel, hit_kernel, safe_kernel
@@ -37,8 +37,8 @@ from .layout import (BA, BB, BLK, BU, CAND, F_ANY_TRK, F_EPOCH, F_IN_INIT, HALT,
                      M_START, M_T0, M_TD, M_TN, M_TV, M_WAKE, M_WIN, NUM_RX, NUM_VS, ONEHOT, Q_C,
                      Q_E, Q_POP, Q_STAT, Q_T, SENS, STOP_AT, STOP_REQ, S_BLK, S_D, S_DUE, S_FLAGS,
                      S_HI, S_LO, S_NRX, S_NXT, S_OPEN, S_ORDER, S_PHASE, S_QOFF, S_QUIET, S_RMAX,
-                     S_RX, S_SEQ, S_TN, S_TRK, S_TV, S_TX, S_VMAX, TICK, TRK, TU, T_DONE, WH,
-                     WIN_META, WIN_RA, WIN_T0, WIN_WE, WR, WSLOTS, WV, R_STRIDE, prologue)
+                     S_RX, S_SEQ, S_TN, S_TRK, S_TV, S_TX, S_VMAX, SU_TA, TICK, TRK, TU, T_DONE,
+                     WH, WIN_META, WIN_RA, WIN_T0, WIN_WE, WR, WSLOTS, WV, R_STRIDE, prologue)
 
 POLL = "poll"   # the idle poll loop's label (the harness skips whole turns of it)
 
@@ -438,4 +438,8 @@ def main_program() -> Program:
     _sched(p)
     p.label("safe_sub")
     safe_kernel(p)
-    return p.ret()
+    p.ret()
+    for insn in p.items:                 # the bus decodes I/O writes from r0-based stores only
+        if not isinstance(insn, str) and insn.op == "st" and insn.ra and insn.imm >= SU_TA:
+            raise UcodeError(f"{insn.where}: I/O store through r{insn.ra}")
+    return p

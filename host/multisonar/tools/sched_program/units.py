@@ -150,7 +150,7 @@ class EngineWithUnits(Machine):
 
     def __init__(self, words: list[int], mem: dict[int, int], slot_unit: SlotUnit | None = None,
                  outputs: Outputs | None = None) -> None:
-        super().__init__(words, mem=mem)
+        super().__init__(words, mem=mem, indexed_store_limit=SU_TA)
         self.su = slot_unit if slot_unit is not None else SlotUnit()
         self.out = outputs if outputs is not None else Outputs()
         self.div = DivUnit()
