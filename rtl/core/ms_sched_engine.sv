@@ -124,12 +124,11 @@ module ms_sched_engine
   assign w_data = w_ld_q ? bus_rdata_i : w_res_q;
   always_ff @(posedge clk_i) if (w_we_q) rf_q[w_rd_q] <= w_data;
 
-  logic [31:0] r_a, r_b;               // operands, the W stage's result forwarded
+  logic [31:0] r_a;                    // a operand, the W stage's result forwarded
   // r0 is never written, so `r_ra != 0` changes nothing here; it keeps Yosys from seeing a
   // transparent read port and merging x_a_q into it, which would put the register-file read
   // (behind an address register) into the X stage's path to the flags
   assign r_a = (w_we_q && w_rd_q == r_ra && r_ra != 5'd0) ? w_data : rf_q[r_ra];
-  assign r_b = (w_we_q && w_rd_q == r_rb) ? w_data : rf_q[r_rb];
 
   // decode into the X stage's controls
   typedef enum logic [3:0] {
@@ -177,6 +176,15 @@ module ms_sched_engine
     end
   end
 
+  // b operand: an immediate form, else rb (forwarded). rb enters last, one multiplexer before
+  // x_b_q: a load's data comes from a block RAM's unregistered output
+  logic        r_b_imm_form;
+  logic [31:0] r_b, r_b_imm;
+  assign r_b          = (w_we_q && w_rd_q == r_rb) ? w_data : rf_q[r_rb];
+  assign r_b_imm_form = r_u_b || r_imm_b || r_k_b || r_bit_b;
+  assign r_b_imm      = r_u_b ? {r_rb, r_imm, 12'd0} : r_imm_b ? 32'($signed(r_imm))
+                      : r_k_b ? 32'($signed({r_rb, r_imm[14:11]})) : 32'd1 << r_rb;
+
   // ------------------------------------------------------------------ X: ALU, bus, flags
   fn_e           x_fn_q;
   logic          x_ld_q, x_st_q, x_we_q, x_cb_q;
@@ -197,8 +205,7 @@ module ms_sched_engine
     x_tgt_q <= r_imm[PW-1:0];
     x_rd_q  <= r_rd;
     x_a_q   <= r_a;
-    x_b_q   <= r_u_b ? {r_rb, r_imm, 12'd0} : r_imm_b ? 32'($signed(r_imm))
-             : r_k_b ? 32'($signed({r_rb, r_imm[14:11]})) : r_bit_b ? 32'd1 << r_rb : r_b;
+    x_b_q   <= r_b_imm_form ? r_b_imm : r_b;
     x_imm_q <= AW'($signed(r_imm));
     x_abs_q <= r_ra == 5'd0;
     x_rotb_q <= r_imm[1:0];

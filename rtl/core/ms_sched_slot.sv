@@ -105,7 +105,10 @@ module ms_sched_slot #(
   logic [23:0]   len_s;
   logic [2:0]    sensor_s, sensor_c, sensor_d;
   rt_t           rel_b_d, rel_w_d, crel_d;
+  rt_t           rel_b_c, rel_w_c;       // stage C: the end's distance after TA, after TWA
   logic          ov_b_d, ov_w_d;
+  assign rel_b_c = end_c - RW'(ta_q);
+  assign rel_w_c = end_c - twa_q;
   always_ff @(posedge clk_i) begin
     if (rst_i || go_i) begin
       srem_q <= go_i ? valid_i : '0;
@@ -138,10 +141,10 @@ module ms_sched_slot #(
     // C: overlaps, retries, the close tick and its distance after TA
     k_d      <= k_c;
     sensor_d <= sensor_c;
-    rel_b_d  <= end_c - RW'(ta_q);
-    rel_w_d  <= end_c - twa_q;
-    ov_b_d   <= bon_q && $signed(end_c - RW'(ta_q)) > 0 && $signed(start_c - tb_q) < 0;
-    ov_w_d   <= won_q && $signed(end_c - twa_q) > 0 && $signed(start_c - twb_q) < 0;
+    rel_b_d  <= rel_b_c;
+    rel_w_d  <= rel_w_c;
+    ov_b_d   <= bon_q && $signed(rel_b_c) > 0 && $signed(start_c - tb_q) < 0;
+    ov_w_d   <= won_q && $signed(rel_w_c) > 0 && $signed(start_c - twb_q) < 0;
     crel_d   <= end_c - tal_q;
   end
 

@@ -81,46 +81,38 @@ module ms_sched_uc
   // ------------------------------------------------------------------ control
   typedef enum logic [1:0] {C_OFF, C_RUN, C_STOPPING} ctl_e;
   ctl_e        ctl_q, ctl_d;
-  logic        en_q, stop_req_q, stop_req_d;
+  logic        en_q;
   logic [31:0] stop_at_q, stop_at_d;
   logic        halted;      // the program wrote HALT (every tick before stop_at_q done)
   logic        start_now;   // C_OFF -> C_RUN: the start tick is tick_i
   always_comb begin
-    ctl_d      = ctl_q;
-    stop_req_d = stop_req_q;
-    stop_at_d  = stop_at_q;
-    start_now  = 1'b0;
+    ctl_d     = ctl_q;
+    stop_at_d = stop_at_q;
+    start_now = 1'b0;
     if (!en_q && ctl_q != C_OFF) begin     // stop: windows dropped, armed triggers still fire
-      ctl_d      = C_OFF;
-      stop_req_d = 1'b0;
+      ctl_d = C_OFF;
     end else begin
       unique case (ctl_q)
         C_OFF: if (start_i && enable_i) begin
           start_now = 1'b1;
           ctl_d     = C_RUN;
         end
-        C_RUN: if (hold_i) begin
-          stop_req_d = 1'b1;
-          stop_at_d  = tick_i;
-          ctl_d      = C_STOPPING;
+        C_RUN: if (hold_i) begin          // STOP_REQ reads 1 from here
+          stop_at_d = tick_i;
+          ctl_d     = C_STOPPING;
         end
-        C_STOPPING: if (halted) begin     // every logical tick before stop_at is done
-          stop_req_d = 1'b0;
-          ctl_d      = C_OFF;
-        end
+        C_STOPPING: if (halted) ctl_d = C_OFF;  // every logical tick before stop_at is done
         default: ctl_d = C_OFF;
       endcase
     end
   end
   always_ff @(posedge clk_i) begin
     if (rst_i) begin
-      ctl_q      <= C_OFF;
-      en_q       <= 1'b0;
-      stop_req_q <= 1'b0;
+      ctl_q <= C_OFF;
+      en_q  <= 1'b0;
     end else begin
-      ctl_q      <= ctl_d;
-      en_q       <= enable_i;
-      stop_req_q <= stop_req_d;
+      ctl_q <= ctl_d;
+      en_q  <= enable_i;
     end
     stop_at_q <= stop_at_d;
   end
@@ -351,7 +343,7 @@ module ms_sched_uc
         6'(WIN_WE - 'h400):   io_rd_q <= 32'(win_rd_q.we);
         6'(WIN_META - 'h400): io_rd_q <= {13'd0, win_rd_q.sensor, 6'd0, win_rd_q.epoch,
                                           win_rd_q.init, win_rd_q.seq};
-        6'(STOP_REQ - 'h400): io_rd_q <= 32'(stop_req_q);
+        6'(STOP_REQ - 'h400): io_rd_q <= 32'(ctl_q == C_STOPPING);
         6'(STOP_AT - 'h400):  io_rd_q <= stop_at_q;
         default:              io_rd_q <= '0;
       endcase
