@@ -585,7 +585,11 @@ def _summary(scene: Any, run: DemoRun, ref: DemoRun | None, fst: str | None) -> 
               "pulse time; the robot's motion during the ~5 ms flight is not compensated."]
     if run.backend == "twin":
         lines += ["The twin's firmware re-aims its virtual sensors at what it finds (adaptive re-aiming); the golden",
-                  "model keeps the configured table, so rates differ where the firmware re-aimed."]
+                  "model keeps the configured table and starts without the twin's boot and configuration. The scene's",
+                  "noise (fading, jitter, spurious pulses) is drawn per pulse, so once the two runs fire at different",
+                  "ticks they see different echoes, and a tracking sensor's rate differs as much as between two noise",
+                  "seeds of the golden model (`seed:` in the scene file). The tests check the twin against the model",
+                  "tick for tick under identical echoes."]
     if fst:
         lines += ["", f"Waveform: {fst} (FST, every signal of ms_system_usb)."]
     return "\n".join(lines) + "\n"
