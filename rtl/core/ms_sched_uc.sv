@@ -172,7 +172,7 @@ module ms_sched_uc
     .clk_i, .rst_i(eng_rst), .bus_re_o(bus_re), .bus_we_o(bus_we), .bus_addr_o(bus_a),
     .bus_abs_o(bus_abs), .bus_imm_o(bus_ia), .bus_wdata_o(bus_wd), .bus_rdata_i(bus_rd), .pc_o(eng_pc)
   );
-  // the program reaches I/O registers only through r0 (sched_program refuses an indexed access
+  // the program writes I/O registers only through r0 (sched_program refuses an indexed store
   // there, the model too): their decode starts at the engine's immediate register, not at the
   // address adder; an indexed store writes the data memory
   logic io_we;
@@ -316,9 +316,8 @@ module ms_sched_uc
     late_head_q <= io_we && io(bus_ia, HD_EL) && !bus_wd[16] && $signed(26'(hd_t_q - tick_i)) <= 0;
 
   // ---- reads: every source answers one clock after the address, as the block RAMs do. The
-  // I/O space (0x400 .. 0x43F), read through r0 only like its writes, is decoded on the
-  // immediate's low six bits; ONEHOT (32 aligned words of the data memory's range, indexed)
-  // reads 1 << k from a decoder on the address.
+  // I/O space (0x400 .. 0x43F) is decoded on its low six bits; ONEHOT (32 aligned words of the
+  // data memory's range) reads 1 << k from a decoder.
   logic [31:0] io_rd_q;
   logic [1:0]  rsel_q;      // 0 data memory, 1 blank offsets a, 2 b, 3 I/O or ONEHOT
   logic        onehot;
@@ -329,7 +328,7 @@ module ms_sched_uc
     if (onehot) begin
       io_rd_q <= 32'd1 << bus_a[4:0];
     end else begin
-      unique case (bus_ia[5:0])
+      unique case (6'(int'(bus_a) - 'h400))
         6'(SU_X - 'h400):     io_rd_q <= su_x;
         6'(SU_FLAGS - 'h400): io_rd_q <= 32'(su_flags);
         6'(SU_MINC - 'h400):  io_rd_q <= su_minc;

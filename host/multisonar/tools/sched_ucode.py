@@ -534,11 +534,10 @@ class Machine:
     raise :class:`UcodeError` (the RTL would read a stale value)."""
     words: list[int]
     addr_bits: int = 12
-    # [lo, hi): I/O registers, reached only through r0; an indexed store (ra not r0) must
-    # address below lo (None: no rule). A bus with many targets decodes its registers from the
-    # immediate, a register in the X stage (ms_sched_engine's bus_abs_o / bus_imm_o), and takes
-    # an indexed store as a memory write
-    io_range: tuple[int, int] | None = None
+    # a store whose ra is not r0 must address below this (None: anywhere). A bus with many
+    # targets decodes them from the immediate of an r0-based store, a register in the X stage
+    # (ms_sched_engine's bus_abs_o / bus_imm_o), and takes an indexed store as a memory write
+    indexed_store_limit: int | None = None
     mem: dict[int, int] = field(default_factory=dict)
     regs: list[int] = field(default_factory=lambda: [0] * NREGS)
     z: bool = False
@@ -607,18 +606,16 @@ class Machine:
             res = (a >> k) | (a << (32 - k))
         elif op in ("ld", "st"):
             addr = (a + insn.imm) & ((1 << self.addr_bits) - 1)
-            if insn.ra and self.io_range is not None:
-                lo, hi = self.io_range
-                if addr >= lo and (op == "st" or addr < hi):
-                    raise UcodeError(f"pc {self.pc}: {op} at {addr:#x} through r{insn.ra}: I/O "
-                                     f"[{lo:#x}, {hi:#x}) is reached through r0 only, an "
-                                     f"indexed store writes below {lo:#x}")
             if op == "ld":
                 data = self.read(addr) & MASK32
                 self.trace.append(BusOp(self.cycle + 1, False, addr, data, insn.ra == 0))
                 if insn.rd:
                     r[insn.rd] = data
             else:
+                lim = self.indexed_store_limit
+                if insn.ra and lim is not None and addr >= lim:
+                    raise UcodeError(f"pc {self.pc}: st to {addr:#x} through r{insn.ra}: an "
+                                     f"indexed store must address below {lim:#x}")
                 self.trace.append(BusOp(self.cycle + 1, True, addr, bv, insn.ra == 0))
                 self.write(addr, bv)
         elif op in CB_OPS:              # the flags below, then the decision

@@ -439,9 +439,7 @@ def main_program() -> Program:
     p.label("safe_sub")
     safe_kernel(p)
     p.ret()
-    for insn in p.items:                 # the bus decodes I/O from r0-based accesses only
-        if isinstance(insn, str) or insn.op not in ("ld", "st") or not insn.ra:
-            continue
-        if insn.imm >= SU_TA and (insn.op == "st" or insn.imm < BLK):
-            raise UcodeError(f"{insn.where}: I/O access through r{insn.ra}")
+    for insn in p.items:                 # the bus decodes I/O writes from r0-based stores only
+        if not isinstance(insn, str) and insn.op == "st" and insn.ra and insn.imm >= SU_TA:
+            raise UcodeError(f"{insn.where}: I/O store through r{insn.ra}")
     return p

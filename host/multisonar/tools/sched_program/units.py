@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from ..sched_ucode import MASK32, Machine, Program, UcodeError, sext
-from .layout import (BLK, DIV_LATENCY, DIV_N, DIV_Q, DIV_STAT, DIV_X, EVT_HI, EVT_LO, HD_EL, HD_T,
+from .layout import (DIV_LATENCY, DIV_N, DIV_Q, DIV_STAT, DIV_X, EVT_HI, EVT_LO, HD_EL, HD_T,
                      SU_CONF, SU_EDGE, SU_FLAGS, SU_GO, SU_HEAD, SU_LATENCY, SU_MINC, SU_TA, SU_TB,
                      SU_TWA, SU_TWB, SU_VALID, SU_X, TRIG_EL, TRIG_T, WSLOTS, W_ADDR, W_META, W_T0,
                      W_WE)
@@ -150,7 +150,7 @@ class EngineWithUnits(Machine):
 
     def __init__(self, words: list[int], mem: dict[int, int], slot_unit: SlotUnit | None = None,
                  outputs: Outputs | None = None) -> None:
-        super().__init__(words, mem=mem, io_range=(SU_TA, BLK))
+        super().__init__(words, mem=mem, indexed_store_limit=SU_TA)
         self.su = slot_unit if slot_unit is not None else SlotUnit()
         self.out = outputs if outputs is not None else Outputs()
         self.div = DivUnit()
