@@ -170,7 +170,8 @@ module ms_sched_uc
   localparam string UCODE_IMAGE = UCODE_FILE == "" ? UCODE_HEX : UCODE_FILE;
   ms_sched_engine #(.UCODE_WORDS(UCODE_WORDS), .UCODE_FILE(UCODE_IMAGE), .AW(AW)) u_eng (
     .clk_i, .rst_i(eng_rst), .bus_re_o(bus_re), .bus_we_o(bus_we), .bus_addr_o(bus_a),
-    .bus_abs_o(bus_abs), .bus_imm_o(bus_ia), .bus_wdata_o(bus_wd), .bus_rdata_i(bus_rd), .pc_o(eng_pc)
+    .bus_abs_o(bus_abs), .bus_imm_o(bus_ia), .bus_wdata_o(bus_wd), .bus_rdata_i(bus_rd),
+    .pc_o(eng_pc)
   );
   // the program writes I/O registers only through r0 (sched_program refuses an indexed store
   // there, the model too): their decode starts at the engine's immediate register, not at the

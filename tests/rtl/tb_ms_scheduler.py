@@ -5,15 +5,15 @@ Wrapper tests/rtl/ms_scheduler_tb.sv: tick counter, the real ms_rx_conditioner p
 event log. Tables reach the scheduler as the firmware writes them: load_image's words through
 the load port, then start_i (hold_i first when one runs). Python never wakes per clock: it
 awaits fire_o (one per pulse), asks the echo source for the comparator pulses of that pulse
-(its own instance, seeded like the model's) and drives each pulse edge on echo_i with a Timer a quarter clock into the cycle
-the contract names (docs/sonar_core.md: a pulse with start n is first sampled high at the
-edge ending cycle n). At the end it reads the event log and compares, in order:
+(its own instance, seeded like the model's) and drives each pulse edge on echo_i with a Timer
+a quarter clock into the cycle the contract names (docs/sonar_core.md: a pulse with start n is
+first sampled high at the edge ending cycle n). At the end it reads the event log and compares, in order:
   - pulses (t0) and triggers (t0 + d_i, element) with the model's,
   - every 64-bit event word with the model's (ToFEvent.pack()).
 The RTL runs a little longer than the model so that every model event has been emitted.
 RTL and model use the same gated miss rule (the load image's M_GATE / FastFiringModel
-miss_gate, default the RX_FILTER.miss_gate reset value; 0 = off in both) and the same number of window slots per
-element (WSLOTS, FastFiringModel win_slots).
+miss_gate, default the RX_FILTER.miss_gate reset value; 0 = off in both) and the same number
+of window slots per element (WSLOTS, FastFiringModel win_slots).
 """
 
 from __future__ import annotations
