@@ -8,7 +8,7 @@ import struct
 
 from multisonar import protocol as P
 from multisonar.constants import speed_of_sound
-from multisonar.fastfiring import DEFAULT_MISS_GATE, FastFiringModel, SyntheticEchoSource
+from multisonar.fastfiring import DEFAULT_MISS_GATE, FastFiringModel, SyntheticEchoSource, _RxState, _Window
 from multisonar.generated import sonar_regs as R
 from multisonar.layout import load_layout
 from multisonar.regmap import schedule_writes
@@ -54,6 +54,31 @@ def test_gate_needs_a_measured_velocity():
     assert sum(p.init for p in res.pulses) == 1
     st = m.sensors[0].rx[10]
     assert st.vel and st.v != 0
+
+
+def test_sample_after_a_skipped_pulse_keeps_velocity_gate_and_miss_count():
+    """An echo that passes the gate after a missed window (pulse gap > 1) moves the track but
+    keeps its velocity, its gate and its miss count; only a gated sample of the next pulse
+    resets the count. So an alias that passes once between misses does not restart the K
+    misses, and the sample after it is still gated (before, v was zeroed and the gate was off
+    until two samples in a row: an alias passing once could take the track over)."""
+    m = FastFiringModel(Schedule(LAYOUT, [VirtualSensor("s", tx=[10], rx=[9, 10, 11], order=2)]),
+                        SyntheticEchoSource({}))
+    s = m.sensors[0]
+    st = _RxState(tracked=True, tof=200_000, seq=10, v=40, miss=2, vel=True)
+    s.rx[10] = st
+
+    def window(seq):
+        return _Window(0, 1 << 30, 0, 0, seq, 10, 0, False, s.epoch)
+    m._sample(s, st, window(12), 200_070)                  # gap 2, within the gate
+    assert (st.tof, st.seq, st.v, st.miss, st.vel) == (200_070, 12, 40, 2, True)
+    assert m._predict(s, st, 13) == 200_110                  # the kept velocity predicts
+    m._sample(s, st, window(13), 200_115)                  # the next pulse: a sample with v
+    assert (st.tof, st.seq, st.v, st.miss, st.vel) == (200_115, 13, 45, 0, True)
+    fresh = _RxState(tracked=True, tof=200_000, seq=10, v=0, miss=1, vel=False)
+    s.rx[10] = fresh
+    m._sample(s, fresh, window(12), 200_500)               # no velocity yet: as before, v = 0
+    assert (fresh.seq, fresh.v, fresh.miss, fresh.vel) == (12, 0, 0, False)
 
 
 def test_simdevice_takes_the_gate_from_rx_filter_at_start():

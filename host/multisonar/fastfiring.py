@@ -568,10 +568,16 @@ class FastFiringModel:
             gap = w.seq - st.seq  # RTL: (seq - last_seq) mod 2**SEQ_W, accepted if 1..127
             if gap <= 0:
                 return
-            vmax = s.cfg.vmax
-            st.vel = gap == 1 and not st.init
-            st.v = max(-vmax, min(vmax, tof - st.tof)) if st.vel else 0
-            st.tof, st.seq, st.miss, st.init = tof, w.seq, 0, False
+            if st.vel and gap > 1:
+                # after a skipped pulse the sample moves the track but keeps its velocity, the
+                # gate and the miss count: only a gated sample of the next pulse resets the count
+                # (docs/fast_firing.md section 4.4)
+                st.tof, st.seq = tof, w.seq
+            else:
+                vmax = s.cfg.vmax
+                st.vel = gap == 1 and not st.init
+                st.v = max(-vmax, min(vmax, tof - st.tof)) if st.vel else 0
+                st.tof, st.seq, st.miss, st.init = tof, w.seq, 0, False
         if s.due - self.lead <= self.now:
             self._push(self.now, _SCHED, s.cfg.id, None)
 

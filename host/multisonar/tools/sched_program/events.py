@@ -39,7 +39,8 @@ def hit_kernel(p: Program) -> Program:
     r10 / r11. The first echo writes its event word (docs/fast_firing.md section 6) and, for a
     window of the current epoch, updates the tracking state (an init ping's first echo starts
     the track; a tracking window's first echo is a sample if the pulse gap is 1..127, with
-    velocity when the gap is 1 after a tracking sample) unless the gated miss rule rejects it
+    velocity when the gap is 1 after a tracking sample; after a gap a track with velocity keeps
+    it, its gate and its miss count) unless the gated miss rule rejects it
     (r12 = 1: then the window counts as a miss). A later echo does nothing. Model:
     FastFiringModel._rise and _sample (max_echoes_per_window = 1)."""
     p.li(12, 0).andi(0, 4, 4).b("ne", "hit_done")        # not the first echo: no event
@@ -68,8 +69,11 @@ def hit_kernel(p: Program) -> Program:
     p.label("hit_sample").tst(27).b("eq", "hit_done")    # gap 0: no sample
     p.andi(0, 27, 0x80).b("ne", "hit_done")              # gap 128..255 (negative): no sample
     p.li(26, 0).li(21, 1)                                # v, flags: tracked
-    p.cmpi(27, 1).b("ne", "hit_write")
-    p.andi(0, 25, 2).b("ne", "hit_write")                # after the init ping's sample: no v
+    p.cmpi(27, 1).b("eq", "hit_next")
+    p.andi(0, 25, 4).b("eq", "hit_write")                # a gap, velocity not measured: v = 0
+    p.mov(26, 18).andi(21, 25, 0xFF)                     # a gap: v, vel and miss count kept
+    p.jmp("hit_write")
+    p.label("hit_next").andi(0, 25, 2).b("ne", "hit_write")   # after the init ping's sample: no v
     p.sub(26, 14, 20).sub(22, 0, 9)                      # v = tof - last tof, within +-v_max
     p.clamp(26, 22, 9)
     p.li(21, 5)                                          # tracked, vel
