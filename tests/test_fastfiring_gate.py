@@ -72,7 +72,7 @@ def test_sample_after_a_skipped_pulse_keeps_velocity_gate_and_miss_count():
         return _Window(0, 1 << 30, 0, 0, seq, 10, 0, False, s.epoch)
     m._sample(s, st, window(12), 200_070)                  # gap 2, within the gate
     assert (st.tof, st.seq, st.v, st.miss, st.vel) == (200_070, 12, 40, 2, True)
-    assert m._predict(s, st, 13) == 200_110                  # the kept velocity predicts
+    assert m._predict(s, st, 13) == 200_110                # the kept velocity predicts
     m._sample(s, st, window(13), 200_115)                  # the next pulse: a sample with v
     assert (st.tof, st.seq, st.v, st.miss, st.vel) == (200_115, 13, 45, 0, True)
     fresh = _RxState(tracked=True, tof=200_000, seq=10, v=0, miss=1, vel=False)

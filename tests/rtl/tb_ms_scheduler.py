@@ -454,7 +454,8 @@ class GateEdgeSource:
     (inside: accepted, the track moves), +-(gate + 1) (outside: reported, counts as a miss, the
     track stays), exactly at the prediction, or no echo. The gate applies only once the track's
     velocity is measured (a sample followed one of the previous pulse; a later sample after a
-    skipped pulse keeps it), so the outside cases hit both states. Init pings: a static reflector per receiver (reset the copy)."""
+    skipped pulse keeps it), so the outside cases hit both states. Init pings: a static
+    reflector per receiver (reset the copy)."""
 
     CASES = ("in+", "out-", "in-", "out+", "mid", "none")
 
@@ -490,7 +491,8 @@ class GateEdgeSource:
             if self.vel[w.rx] and abs(off) > g:
                 self.gated.append((t0, w.rx))
             else:  # a sample: the track moves; v (0) is measured if the last sample was of the
-                j, init = self.last[w.rx]  # previous pulse, and once measured kept until an init ping
+                # previous pulse, and once measured it is kept until the next init ping
+                j, init = self.last[w.rx]
                 self.pred[w.rx] += off
                 self.vel[w.rx] = self.vel[w.rx] or (j == self.k - 1 and not init)
                 self.last[w.rx] = (self.k, False)
