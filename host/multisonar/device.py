@@ -367,8 +367,8 @@ class Device:
     def set_miss_gate(self, ticks: int) -> int:
         """Set the gated miss rule (RX_FILTER.miss_gate, docs/fast_firing.md section 4.4), taking
         effect at the next :meth:`start`: once a track's velocity is measured, a tracking window's
-        first echo farther than ``ticks`` from the prediction counts as a miss (0 off, reset 2400 =
-        50 us). The other safety rule is per sensor: ``VirtualSensor(reinit_every=M)``. Returns the
+        first echo farther than ``ticks`` from the prediction counts as a miss (0 off, reset 600 =
+        12.5 us). The other safety rule is per sensor: ``VirtualSensor(reinit_every=M)``. Returns the
         value read back."""
         from .generated import sonar_regs as R
 

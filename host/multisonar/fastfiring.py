@@ -30,8 +30,8 @@ from .schedule import (DEFAULT_GLITCH_MIN, ELEM_W, MISS_W, SEQ_W, TIMESTAMP_W, T
                        ResolvedSensor, Schedule, effective_order, pulse_period)
 
 SEQ_MASK = (1 << SEQ_W) - 1
-#: RX_FILTER.miss_gate reset value, ticks (50 us): the gated miss rule of the RTL scheduler
-DEFAULT_MISS_GATE = 2400
+#: RX_FILTER.miss_gate reset value, ticks (12.5 us): the gated miss rule of the RTL scheduler
+DEFAULT_MISS_GATE = 600
 TIMESTAMP_MASK = (1 << TIMESTAMP_W) - 1
 MISS_MAX = (1 << MISS_W) - 1
 

@@ -213,7 +213,7 @@ def _gate_step_case():
 
 @cocotb.test(timeout_time=2, timeout_unit="sec")
 async def miss_gate_register_reset_value(dut):
-    """RX_FILTER.miss_gate at its reset value (2400 ticks): the jumped echoes count as misses
+    """RX_FILTER.miss_gate at its reset value (600 ticks): the jumped echoes count as misses
     and K = 2 of them send an init ping; equal to the model with the gate read back."""
     from multisonar.fastfiring import DEFAULT_MISS_GATE
     sensor, factory = _gate_step_case()
