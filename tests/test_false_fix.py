@@ -23,14 +23,15 @@ from multisonar.safety import (FALSE_FIX_TOL_M, RX, TX, _fix_points, run_false_f
                                summarise_false_fixes)
 
 SPURIOUS_HZ = 20.0
-MAX_FALSE_FIXES_PER_S = 0.5
-MAX_FALSE_FIX_RATE = 0.01
+MAX_FALSE_FIXES_PER_S = 0.1  # issue #28
+MAX_FALSE_FIX_RATE = 0.001
 
 
 def test_false_fixes_stay_below_the_stated_rate_at_20_spurious_pulses_per_second():
     s = summarise_false_fixes(run_false_fix_trial(seed, spurious_rate_hz=SPURIOUS_HZ) for seed in range(12))
-    # the spurious pulses do reach the windows (else the bound below would say nothing) ...
-    assert s["false_samples"] >= 0.005 * s["samples"], s
+    # the spurious pulses do reach the windows (else the bound below would say nothing; the gated
+    # miss rule flags most of them, and the geometry skips those) ...
+    assert s["false_samples"] + s["gated_false"] >= 0.005 * (s["samples"] + s["gated"]), s
     # ... the sensor still delivers fixes (no fixes = no false fixes, trivially) ...
     assert s["fixes_per_s"] >= 20, s
     # ... and the geometry turns (almost) none of them into a fix off every true surface

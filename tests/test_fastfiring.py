@@ -189,8 +189,11 @@ def test_event_word_round_trip_and_widths():
                  window_empty=True, init_ping=True)
     w = e.pack()
     assert w < 1 << 44 and ToFEvent.unpack(w, tick=5) == e
+    g = e._replace(window_empty=False, first_echo=True, gated=True)
+    assert g.pack() == g._replace(gated=False).pack() | 1 << 45 and ToFEvent.unpack(g.pack(), tick=5) == g
     spans = sorted((lsb, lsb + width) for lsb, width in EVENT_FIELDS.values())
-    assert all(a[1] == b[0] for a, b in zip(spans, spans[1:]))
+    # contiguous except bit 44, the FIFO's overflow flag on every word
+    assert [(a[1], b[0]) for a, b in zip(spans, spans[1:]) if a[1] != b[0]] == [(44, 45)]
     with pytest.raises(ValueError):
         e._replace(tof=1 << 24).pack()
 

@@ -102,3 +102,45 @@ def test_forced_reinit_at_the_bound_reports_the_known_late_crossings_within_it()
     base, forced = run_trial(25), run_trial(25, reinit_every="bound")
     assert base.outcome == "late"
     assert forced.pre_onset_samples / forced.pre_onset_s < 0.8 * base.pre_onset_samples / base.pre_onset_s
+
+
+#: 50 crossings of the wide generator with seeds that neither scripts/bench_safety.py (0..) nor
+#: `multisonar experiment safety` (default 0..999) uses (issue #28: CI runs at least 50)
+CI_SEEDS = range(900_000, 900_050)
+
+
+def test_wide_generator_crossings_on_unused_seeds_are_reported_within_the_bound():
+    from multisonar.safety import wide_trial_params
+
+    results = [run_trial(seed, params=wide_trial_params(seed)) for seed in CI_SEEDS]
+    s = summarise(results)
+    assert s["counted"] >= 40, s
+    assert len({r.order for r in results}) >= 5, "the wide generator must reach the higher orders"
+    late = [(r.seed, r.order, r.miss_limit, r.latency_pulses, r.bound_pulses) for r in results
+            if r.outcome in ("late", "missed")]
+    assert not late, late
+    assert s["false_fixes"] <= 0.001 * s["fixes"], s
+
+
+def test_wide_trial_parameters_are_reproducible_and_in_domain():
+    from multisonar.safety import wide_trial_params
+
+    orders = set()
+    for seed in range(200):
+        p = wide_trial_params(seed)
+        assert p == wide_trial_params(seed)
+        assert 1.3 <= p["wall_y"] <= 4.0 and 1 <= p["miss_limit"] <= 3 and 1.0 <= p["spurious_rate_hz"] <= 50.0
+        assert 0.35 + p["person_radius"] < p["person_y"] < p["wall_y"] - p["person_radius"]
+        assert abs(p["person_speed"]) <= 2.5 and 0.0 <= p["robot_speed"] <= 2.0
+        orders.add(p["order"])
+    assert orders == set(range(1, 9))
+
+
+def test_gated_echoes_are_flagged_and_never_samples():
+    """A rejected first echo carries the gated bit (event bit 45) and is neither a tracking
+    sample nor a geometry input: seed 12 with the default gate flags some."""
+    r = run_trial(12)
+    assert r.gated > 0 and r.samples > 0
+    from multisonar.safety import run_false_fix_trial
+    f = run_false_fix_trial(12, spurious_rate_hz=20.0)
+    assert f.gated > 0 and f.gated_false + f.gated_alias > 0

@@ -196,7 +196,7 @@ def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: s
     t0_of = {(p.sensor, p.seq): p.t0 for p in pulses}
     by_pulse: dict[tuple[int, int], dict[int, int]] = {}
     for e in events:
-        if e.first_echo and e.in_window:
+        if e.first_echo and e.in_window and not e.gated:
             cands = [seq for t0, seq in issued.get((e.sensor, e.seq), []) if t0 <= e.tick]
             if cands:
                 by_pulse.setdefault((e.sensor, cands[-1]), {})[e.rx] = e.tof
@@ -211,11 +211,12 @@ def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: s
         if fix is not None:
             fixes.append(fix)
     ev = {k: np.array([getattr(e, k) for e in events]) for k in
-          ("tick", "sensor", "seq", "rx", "tof", "in_window", "first_echo", "window_empty", "init_ping")}
+          ("tick", "sensor", "seq", "rx", "tof", "in_window", "first_echo", "window_empty", "init_ping", "gated")}
     return DemoRun("golden", duration, wall_s, list(resolved),
                    pulses={r.id: sum(1 for p in pulses if p.sensor == r.id) for r in resolved},
                    init_pings={r.id: sum(1 for p in pulses if p.sensor == r.id and p.init) for r in resolved},
-                   samples={r.id: sum(1 for e in events if e.sensor == r.id and e.first_echo and e.in_window)
+                   samples={r.id: sum(1 for e in events if e.sensor == r.id and e.first_echo and e.in_window
+                                      and not e.gated)
                             for r in resolved},
                    fixes=fixes, events=ev)
 
@@ -328,11 +329,11 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
     ev = {"t0": ev_rows["t0"], "timestamp": ev_rows["timestamp"], "sensor": ev_rows["vs"],
           "seq": ev_rows["pulse_seq"], "rx": ev_rows["rx"], "tof": ev_rows["tof"],
           "in_window": (flags & 1) > 0, "first_echo": (flags & 2) > 0, "window_empty": (flags & 4) > 0,
-          "init_ping": (flags & 8) > 0}
+          "init_ping": (flags & 8) > 0, "gated": (flags & P.TOF_GATED) > 0}
     pulse_frames = [f for f in frames if not f.is_geometry]
     vs = np.array([f.vs for f in pulse_frames], dtype=int)
     init = np.array([bool(f.flags & P.FRAME_INIT_PING) for f in pulse_frames], dtype=bool)
-    samples = ev["first_echo"] & ev["in_window"]
+    samples = ev["first_echo"] & ev["in_window"] & ~ev["gated"]
     lat_us = commit / (TICK_HZ / 1e6)
     metrics = {
         "sonar_s": duration, "wall_s": round(wall_run, 3), "sonar_s_per_wall_s": round(duration / wall_run, 5),
@@ -370,12 +371,13 @@ def _first_echo_paths(layout: Any, resolved: list[Any], frame: Any, c: float) ->
     (ascending), the source and the path lengths (m), with the sensor's groups moved by the
     re-aim shift that maps its configured receivers onto the frame's; None with fewer than
     three or for a sensor not in ``resolved``."""
+    from . import protocol as P
     from .georecord import sensor_paths
 
     if frame.vs >= len(resolved):
         return None
     sensor, n = resolved[frame.vs], layout.n
-    firsts = {int(x["rx"]): int(x["tof"]) for x in frame.tof if int(x["flags"]) & 3 == 3}
+    firsts = {int(x["rx"]): int(x["tof"]) for x in frame.tof if int(x["flags"]) & P.TOF_SAMPLE_MASK == P.TOF_SAMPLE}
     rxs = sorted(firsts)
     shift = next((k for k in range(n) if set(rxs) <= {(int(e) + k) % n for e in sensor.rx}), None)
     if shift is None or len(rxs) < 3:

@@ -221,7 +221,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     c = speed_of_sound(20.0)
     t_first = int(ev["t0"].min()) if len(ev) else 0
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 5.5))
-    hit = (ev["flags"] & (P.TOF_IN_WINDOW | P.TOF_FIRST_ECHO)) == (P.TOF_IN_WINDOW | P.TOF_FIRST_ECHO)
+    hit = (ev["flags"] & P.TOF_SAMPLE_MASK) == P.TOF_SAMPLE
     for vs in sorted(set(int(v) for v in ev["vs"])):
         m = hit & (ev["vs"] == vs)
         t = ((ev["t0"][m].astype(np.int64) - t_first) & 0xFFFFFFFF) / TICK_HZ

@@ -74,7 +74,7 @@ def _header(ts: Any, ns: int, frame: str) -> Any:
 def export_mcap(recording: str | Path, out: str | Path, *, frame_id: str = "base_link", temperature_c: float = 20.0,
                 layout: Any = None) -> dict[str, int]:
     """Write the bag; returns message counts per kind ({'range': n, 'range_empty': n, 'points': n,
-    'clouds': n, 'tf': n, 'frames': n})."""
+    'clouds': n, 'tf': n, 'frames': n}) and the gated first echoes not written ('gated_skipped')."""
     from .device import read_recording
     from .layout import load_layout
 
@@ -97,7 +97,8 @@ def export_mcap(recording: str | Path, out: str | Path, *, frame_id: str = "base
     Range, PointCloud2, PointField = T["sensor_msgs/msg/Range"], T["sensor_msgs/msg/PointCloud2"], T["sensor_msgs/msg/PointField"]
     TFMessage, TransformStamped = T["tf2_msgs/msg/TFMessage"], T["geometry_msgs/msg/TransformStamped"]
     Transform, Vector3, Quaternion = T["geometry_msgs/msg/Transform"], T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
-    counts = {"frames": len(rec.frames), "range": 0, "range_empty": 0, "clouds": 0, "points": 0, "tf": 0}
+    counts = {"frames": len(rec.frames), "range": 0, "range_empty": 0, "clouds": 0, "points": 0, "tf": 0,
+              "gated_skipped": 0}
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     with open(out, "wb") as fh:
@@ -143,6 +144,9 @@ def export_mcap(recording: str | Path, out: str | Path, *, frame_id: str = "base
                 if flags & P.TOF_WINDOW_EMPTY:
                     rng = math.inf
                     counts["range_empty"] += 1
+                elif flags & P.TOF_GATED:  # rejected by the gated miss rule: likely another pulse's echo
+                    counts["gated_skipped"] += 1
+                    continue
                 elif flags & P.TOF_FIRST_ECHO:
                     rng = float(c * int(r["tof"]) / tick_hz / 2)
                 else:

@@ -54,6 +54,7 @@ class TriggerEvent(NamedTuple):
 EVENT_FIELDS: dict[str, tuple[int, int]] = {
     "tof": (0, TOF_W), "rx": (24, ELEM_W), "seq": (29, SEQ_W), "sensor": (37, VS_ID_W),
     "in_window": (40, 1), "first_echo": (41, 1), "window_empty": (42, 1), "init_ping": (43, 1),
+    "gated": (45, 1),
 }
 
 
@@ -82,6 +83,9 @@ class ToFEvent(NamedTuple):
     first_echo: bool
     window_empty: bool
     init_ping: bool
+    #: a first echo the gated miss rule rejected (docs/fast_firing.md section 4.4): reported, but
+    #: its window counts as a miss; geometry skips it
+    gated: bool = False
 
     def pack(self) -> int:
         return _pack_fields(EVENT_FIELDS, self, "event")
@@ -91,7 +95,7 @@ class ToFEvent(NamedTuple):
         f = _unpack_fields(EVENT_FIELDS, word)
         return cls(tick=tick, sensor=f["sensor"], seq=f["seq"], rx=f["rx"], tof=f["tof"],
                    in_window=bool(f["in_window"]), first_echo=bool(f["first_echo"]),
-                   window_empty=bool(f["window_empty"]), init_ping=bool(f["init_ping"]))
+                   window_empty=bool(f["window_empty"]), init_ping=bool(f["init_ping"]), gated=bool(f["gated"]))
 
 
 #: pulse record word (docs/fast_firing.md section 6): bit 62 set (EVT_HI shows bits 62:32); sensor and init_ping where a
@@ -541,23 +545,24 @@ class FastFiringModel:
             if w.start <= n < w.end:
                 break
         else:
-            return  # outside every window: gated (blanking, dead zone, unexpected echo)
+            return  # outside every window: dropped (blanking, dead zone, unexpected echo)
         w.n_edges += 1
         if w.n_edges > self.max_echoes:
             return
         first = w.n_edges == 1
-        self._emit(ToFEvent(self.now, w.sensor, w.seq & SEQ_MASK, rx, n - w.t0, True, first, False, w.init))
-        if first:
-            s = self.sensors[w.sensor]
-            if w.epoch == s.epoch:
-                st = s.rx[rx]
-                if (self.miss_gate is not None and not w.init and st.tracked and st.vel
-                        and abs(n - w.t0 - self._predict(s, st, w.seq)) > self.miss_gate):
-                    w.rejected = True  # counts as a miss at close; re-evaluated like a sample
-                    if s.due - self.lead <= self.now:
-                        self._push(self.now, _SCHED, s.cfg.id, None)
-                    return
-                self._sample(s, st, w, n - w.t0)
+        s = self.sensors[w.sensor]
+        st = s.rx.get(rx)
+        if (first and w.epoch == s.epoch and self.miss_gate is not None and not w.init and st is not None
+                and st.tracked and st.vel and abs(n - w.t0 - self._predict(s, st, w.seq)) > self.miss_gate):
+            w.rejected = True  # reported flagged 'gated'; counts as a miss at close
+        self._emit(ToFEvent(self.now, w.sensor, w.seq & SEQ_MASK, rx, n - w.t0, True, first, False, w.init,
+                            first and w.rejected))
+        if first and w.epoch == s.epoch:
+            if w.rejected:  # re-evaluated like a sample
+                if s.due - self.lead <= self.now:
+                    self._push(self.now, _SCHED, s.cfg.id, None)
+                return
+            self._sample(s, st, w, n - w.t0)
 
     def _sample(self, s: _SensorState, st: _RxState, w: _Window, tof: int) -> None:
         if w.init:

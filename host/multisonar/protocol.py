@@ -108,8 +108,12 @@ class CfgError(IntEnum):
     WINDOW_SHORT = 12  #: T_V + T_N not longer than half the decision lead
 
 
-#: ToF record flags (bit positions; the event word's flag bits 40..43 shifted down by 40)
-TOF_IN_WINDOW, TOF_FIRST_ECHO, TOF_WINDOW_EMPTY, TOF_INIT_PING = 0x1, 0x2, 0x4, 0x8
+#: ToF record flags (the event word's bits 40..43 shifted down by 40; TOF_GATED is its bit 45): a
+#: gated first echo was rejected by the gated miss rule (docs/fast_firing.md section 4.4), likely
+#: another pulse's echo: reported, but no tracking sample and no geometry input
+TOF_IN_WINDOW, TOF_FIRST_ECHO, TOF_WINDOW_EMPTY, TOF_INIT_PING, TOF_GATED = 0x1, 0x2, 0x4, 0x8, 0x10
+#: the flags of a first echo the geometry uses: in its window, first, not gated
+TOF_SAMPLE_MASK, TOF_SAMPLE = TOF_IN_WINDOW | TOF_FIRST_ECHO | TOF_GATED, TOF_IN_WINDOW | TOF_FIRST_ECHO
 #: frame header flags: init ping, more ToF records than the device keeps, simulated device,
 #: event-FIFO words of the pulse lost (no geometry), closed before every window reported,
 #: a geometry frame (the records of a pulse whose ToF frame went before; no ToF records)

@@ -52,7 +52,7 @@ from .layout import load_layout
 from .schedule import Schedule, ScheduleError, VirtualSensor
 from .scene import parse_scene
 
-__all__ = ["TrialResult", "run_trial", "random_trial_params", "summarise", "as_rows", "FalseFixResult",
+__all__ = ["TrialResult", "run_trial", "random_trial_params", "wide_trial_params", "summarise", "as_rows", "FalseFixResult",
            "run_false_fix_trial", "summarise_false_fixes", "FALSE_FIX_TOL_M"]
 
 _SCENE_FILE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "person_crossing.yaml"
@@ -79,14 +79,17 @@ class TrialResult:
     latency_pulses: int  # -1 when no onset or not detected
     latency_ms: float
     bound_pulses: int  # order + miss_limit + 1
-    samples: int  # first echoes in tracked windows
-    alias_samples: int  # first echoes that are another pulse's echo (interlacing)
-    false_samples: int  # first echoes that match no true echo path (spurious, crosstalk)
+    samples: int  # first echoes in tracked windows that the gated miss rule accepted
+    alias_samples: int  # ... that are another pulse's echo (interlacing)
+    false_samples: int  # ... that match no true echo path (spurious, crosstalk)
     outcome: str  # "detected", "late", "missed", "no_onset"
     duration_s: float = 0.0  # sonar time simulated
     reinit_every: int = 0  # model option used (0: none)
     pre_onset_s: float = 0.0  # sonar time from the first pulse to the onset pulse (whole run without onset)
     pre_onset_samples: int = 0  # true tracking samples of pulses before the onset pulse
+    gated: int = 0  # first echoes in tracked windows that the gated miss rule rejected (flagged gated)
+    fixes: int = 0  # edge / wall fixes of the sensor's pulses, as the firmware makes them (run_false_fix_trial)
+    false_fixes: int = 0  # ... farther than FALSE_FIX_TOL_M from every true surface
 
     @property
     def ok(self) -> bool:
@@ -108,6 +111,26 @@ def random_trial_params(seed: int) -> dict[str, Any]:
     return dict(seed=seed, wall_y=wall_y, person_y=person_y, person_radius=radius, person_speed=speed,
                 robot_speed=robot, order=int(rng.integers(1, 4)),
                 miss_limit=int(rng.integers(1, 4)))
+
+
+def wide_trial_params(seed: int) -> dict[str, Any]:
+    """Trial ``seed`` of the wide generator (issue #28; a pure function of the seed): wall at
+    1.3-4.0 m, person radius 0.15-0.3 m on a lane between ring and wall, robot 0-2 m/s, the
+    person 1.5-3 m/s faster or slower than the robot (at most 2.5 m/s either way), order 1-8
+    (the highest that schedules the wall is taken), K 1-3, spurious pulses log-uniform 1-50 per
+    second and channel. Other seeds than :func:`random_trial_params` draws, same keys plus
+    ``spurious_rate_hz``."""
+    rng = np.random.default_rng([28, seed])
+    wall_y = float(rng.uniform(1.3, 4.0))  # >= 1.3 m: room for a person lane
+    radius = float(rng.uniform(0.15, 0.3))
+    lo, hi = 0.35 + radius + 0.2, wall_y - radius - 0.15
+    person_y = float(rng.uniform(lo, hi))
+    robot = float(rng.uniform(0.0, 2.0))
+    rel = float(rng.uniform(1.5, 3.0)) * (1 if rng.random() < 0.5 else -1)
+    speed = float(np.clip(robot + rel, -2.5, 2.5))
+    return dict(seed=seed, wall_y=wall_y, person_y=person_y, person_radius=radius, person_speed=speed,
+                robot_speed=robot, order=int(rng.integers(1, 9)), miss_limit=int(rng.integers(1, 4)),
+                spurious_rate_hz=float(np.exp(rng.uniform(0.0, math.log(50.0)))))
 
 
 def _scene(p: dict[str, Any], t_cross: float, duration: float, spurious_rate_hz: float | None,
@@ -176,6 +199,8 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
     (``VirtualSensor.reinit_every``, MODE.reinit_every in the RTL; ``"bound"``: N + K + 1 of
     this trial); ``decision_lead``: the scheduler's lead P, ticks (default the device's)."""
     p = dict(params) if params is not None else random_trial_params(seed)
+    if spurious_rate_hz is None:
+        spurious_rate_hz = p.get("spurious_rate_hz")
     layout = load_layout()
     scene = _scene(p, t_cross, duration, spurious_rate_hz)
     sched = _schedule(layout, p["order"], p["miss_limit"], p["wall_y"])
@@ -215,7 +240,7 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
     by_seq: dict[int, int] = {}
     pi = 0
     detect = detect_front = -1
-    samples = false_samples = alias_samples = pre_onset_samples = 0
+    samples = false_samples = alias_samples = pre_onset_samples = gated = 0
     for e in sorted((e for e in res.events if e.sensor == 0), key=lambda e: e.tick):
         while pi < len(pulses) and pulses[pi].t0 <= e.tick:
             by_seq[pulses[pi].seq % 256] = pi
@@ -228,7 +253,9 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
         def near(i: int, src_i: int | None = None) -> bool:
             return any(abs(edge - a) <= tol_ticks for (s_i, rx), (a, _) in truth[i].items()
                        if rx == e.rx and (src_i is None or s_i == src_i))
-        if not e.init_ping:
+        if e.gated:
+            gated += 1
+        elif not e.init_ping:
             samples += 1
             if not near(k):
                 if any(near(i) for i in range(max(0, k - 4), min(len(pulses), k + 2)) if i != k):
@@ -243,6 +270,7 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
             if detect_front < 0 and 0 <= in_front <= k:
                 detect_front = k
     bound = order + p["miss_limit"] + 1
+    fx = _fix_stats(scene, layout, pulses, truth, res.events, tol_ticks, FALSE_FIX_TOL_M)
     if onset < 0:
         outcome, lat, lat_ms = "no_onset", -1, float("nan")
     elif detect < 0:
@@ -260,7 +288,8 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
                        samples=samples, alias_samples=alias_samples, false_samples=false_samples, outcome=outcome,
                        duration_s=duration, reinit_every=int(reinit or 0),
                        pre_onset_s=((pulses[onset].t0 if onset >= 0 else int(duration * TICK_HZ)) - pulses[0].t0) / TICK_HZ
-                       if pulses else 0.0, pre_onset_samples=pre_onset_samples)
+                       if pulses else 0.0, pre_onset_samples=pre_onset_samples, gated=gated,
+                       fixes=fx["fixes"], false_fixes=fx["false_fixes"])
 
 
 def summarise(results: Iterable[TrialResult]) -> dict[str, Any]:
@@ -279,9 +308,10 @@ def summarise(results: Iterable[TrialResult]) -> dict[str, Any]:
                 latency_ms_max=float(lat_ms.max()) if lat_ms.size else float("nan"),
                 latency_ms_median=float(np.median(lat_ms)) if lat_ms.size else float("nan"),
                 samples=samples, alias_samples=sum(r.alias_samples for r in rs),
-                false_samples=sum(r.false_samples for r in rs),
+                false_samples=sum(r.false_samples for r in rs), gated=sum(r.gated for r in rs),
                 false_sample_rate=(sum(r.false_samples for r in rs) / samples) if samples else 0.0,
-                init_pings=sum(r.init_pings for r in rs),
+                init_pings=sum(r.init_pings for r in rs), fixes=sum(r.fixes for r in rs),
+                false_fixes=sum(r.false_fixes for r in rs),
                 samples_per_s=true_samples / sonar_s if sonar_s else float("nan"),
                 pre_onset_samples_per_s=sum(r.pre_onset_samples for r in rs) / pre_s if pre_s else float("nan"))
 
@@ -307,9 +337,12 @@ class FalseFixResult:
     person: bool
     duration_s: float
     pulses: int
-    samples: int  # first echoes in any window of the sensor (init and tracking), all receivers
+    samples: int  # first echoes (not gated) in any window of the sensor (init and tracking), all receivers
     alias_samples: int  # ... that are another pulse's echo (interlacing)
     false_samples: int  # ... that match no true echo path (spurious pulse, crosstalk)
+    gated: int  # first in-window echoes flagged gated (rejected by the gated miss rule; no geometry input)
+    gated_false: int  # ... that match no true echo path
+    gated_alias: int  # ... that are another pulse's echo
     fixes: int  # pulses with a first echo on every receiver giving an edge or wall fix
     false_fixes: int  # fixes farther than tol_m from every true reflector surface
     false_fixes_spurious: int  # ... with a false sample among their echoes
@@ -357,27 +390,17 @@ def _surface_distance(scene: Any, t: float, p: np.ndarray) -> float:
     return min(d)
 
 
-def run_false_fix_trial(seed: int, *, spurious_rate_hz: float | None = None, crosstalk_level: float | None = None,
-                        person: bool = True, t_cross: float = 0.8, duration: float = 1.6, tol_ticks: int = 600,
-                        tol_m: float = FALSE_FIX_TOL_M, miss_gate: int | None = DEFAULT_MISS_GATE) -> FalseFixResult:
-    """The scene and sensor of safety trial ``seed`` (a tracked wall, optionally the person
-    crossing) with the noise raised; every pulse with a first in-window echo on all of the
-    sensor's receivers goes through the host geometry (as the firmware does per pulse). A fix
-    is **false** when its reported point (edge position or wall foot), placed in the world with the robot pose at the reflection instant
-    (t0 + mean ToF / 2), is farther than ``tol_m`` from every true reflector surface then."""
-    p = random_trial_params(seed)
-    layout = load_layout()
-    scene = _scene(p, t_cross, duration, spurious_rate_hz, crosstalk_level, person)
-    sched = _schedule(layout, p["order"], p["miss_limit"], p["wall_y"])
-    src = SceneEchoSource(scene, rng=np.random.default_rng(p["seed"]))
-    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD, miss_gate=miss_gate)
-    res = model.run(int(duration * TICK_HZ))
-    pulses = [q for q in res.pulses if q.sensor == 0]
-    truth = _truth(src.model, pulses)
+def _fix_stats(scene: Any, layout: Any, pulses: list[Any], truth: list[dict[tuple[int, int], tuple[float, float]]],
+               events: Iterable[Any], tol_ticks: int, tol_m: float) -> dict[str, Any]:
+    """The sensor's (id 0) first in-window echoes classed against the truth (own pulse's echo,
+    another pulse's, none) and its pulses with a first echo on every receiver put through the
+    host geometry as the firmware does (gated echoes skipped): the counts of
+    :class:`FalseFixResult` from ``samples`` on."""
     by_seq: dict[int, int] = {}
     pi = 0
     first: list[dict[int, tuple[int, str]]] = [{} for _ in pulses]  # rx -> (tof, "true" | "alias" | "false")
-    for e in sorted((e for e in res.events if e.sensor == 0), key=lambda e: e.tick):
+    gated: dict[str, int] = {}
+    for e in sorted((e for e in events if e.sensor == 0), key=lambda e: e.tick):
         while pi < len(pulses) and pulses[pi].t0 <= e.tick:
             by_seq[pulses[pi].seq % 256] = pi
             pi += 1
@@ -390,7 +413,10 @@ def run_false_fix_trial(seed: int, *, spurious_rate_hz: float | None = None, cro
             return any(abs(edge - a) <= tol_ticks for (_, rx), (a, _) in truth[i].items() if rx == e.rx)
         what = "true" if near(k) else "alias" if any(
             near(i) for i in range(max(0, k - 4), min(len(pulses), k + 2)) if i != k) else "false"
-        first[k][e.rx] = (e.tof, what)
+        if e.gated:  # no geometry input (the firmware and the host skip it)
+            gated[what] = gated.get(what, 0) + 1
+        else:
+            first[k][e.rx] = (e.tof, what)
     full = [k for k, f in enumerate(first) if len(f) == len(RX)]
     c = scene.speed_of_sound
     false_fixes = false_sp = false_al = fixes = unc = false_unc = 0
@@ -417,17 +443,41 @@ def run_false_fix_trial(seed: int, *, spurious_rate_hz: float | None = None, cro
                 false_sp += "false" in kinds
                 false_al += "alias" in kinds and "false" not in kinds
     every = [w for f in first for w in f.values()]
+    return dict(samples=len(every), alias_samples=sum(w[1] == "alias" for w in every),
+                false_samples=sum(w[1] == "false" for w in every), gated=sum(gated.values()),
+                gated_false=gated.get("false", 0), gated_alias=gated.get("alias", 0), fixes=fixes,
+                false_fixes=false_fixes, false_fixes_spurious=false_sp, false_fixes_alias=false_al,
+                max_fix_error_m=worst, uncertain_points=unc, false_uncertain_points=false_unc)
+
+
+def run_false_fix_trial(seed: int, *, spurious_rate_hz: float | None = None, crosstalk_level: float | None = None,
+                        person: bool = True, t_cross: float = 0.8, duration: float = 1.6, tol_ticks: int = 600,
+                        tol_m: float = FALSE_FIX_TOL_M, miss_gate: int | None = DEFAULT_MISS_GATE,
+                        params: dict[str, Any] | None = None) -> FalseFixResult:
+    """The scene and sensor of safety trial ``seed`` (a tracked wall, optionally the person
+    crossing) with the noise raised; every pulse with a first in-window echo on all of the
+    sensor's receivers goes through the host geometry (as the firmware does per pulse). A fix
+    is **false** when its reported point (edge position or wall foot), placed in the world with the robot pose at the reflection instant
+    (t0 + mean ToF / 2), is farther than ``tol_m`` from every true reflector surface then."""
+    p = dict(params) if params is not None else random_trial_params(seed)
+    layout = load_layout()
+    scene = _scene(p, t_cross, duration, spurious_rate_hz, crosstalk_level, person)
+    sched = _schedule(layout, p["order"], p["miss_limit"], p["wall_y"])
+    src = SceneEchoSource(scene, rng=np.random.default_rng(p["seed"]))
+    model = FastFiringModel(sched, src, decision_lead=DEVICE_DECISION_LEAD, miss_gate=miss_gate)
+    res = model.run(int(duration * TICK_HZ))
+    pulses = [q for q in res.pulses if q.sensor == 0]
+    truth = _truth(src.model, pulses)
+    st = _fix_stats(scene, layout, pulses, truth, res.events, tol_ticks, tol_m)
     return FalseFixResult(seed=seed, order=sched.sensors[0].order, spurious_rate_hz=float(scene.noise.spurious_rate_hz),
                           crosstalk_level=float(scene.model.crosstalk_level), person=person, duration_s=duration,
-                          pulses=len(pulses), samples=len(every), alias_samples=sum(w[1] == "alias" for w in every),
-                          false_samples=sum(w[1] == "false" for w in every), fixes=fixes, false_fixes=false_fixes,
-                          false_fixes_spurious=false_sp, false_fixes_alias=false_al, max_fix_error_m=worst,
-                          uncertain_points=unc, false_uncertain_points=false_unc)
+                          pulses=len(pulses), **st)
 
 
 def summarise_false_fixes(results: Iterable[FalseFixResult]) -> dict[str, Any]:
     rs = list(results)
-    n = {k: sum(getattr(r, k) for r in rs) for k in ("samples", "alias_samples", "false_samples", "fixes", "false_fixes",
+    n = {k: sum(getattr(r, k) for r in rs) for k in ("samples", "alias_samples", "false_samples", "gated", "gated_false",
+                                                    "gated_alias", "fixes", "false_fixes",
                                                     "false_fixes_spurious", "false_fixes_alias", "pulses",
                                                     "uncertain_points", "false_uncertain_points")}
     sonar_s = sum(r.duration_s for r in rs)

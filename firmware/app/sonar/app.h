@@ -58,6 +58,7 @@
 
 /* event word, high half (docs/fast_firing.md section 6) */
 #define EVH_OVF (1u << 12)    /* words were dropped before this one */
+#define EVH_GATED (1u << 13)  /* a first echo the gated miss rule rejected (event bit 45) */
 #define EVH_RECORD (1u << 30) /* a record: a pulse's, or with EVH_CANCEL a sensor's cancel */
 #define EVH_CANCEL (1u << 29)
 
@@ -86,7 +87,8 @@ typedef struct {
     uint8_t n_win;     /* windows the pulse opened (pulse record) */
     uint8_t n_term;    /* their terminal events so far (first echo or window_empty) */
     uint32_t done;     /* receivers with their first-echo / window_empty event (element bits) */
-    uint32_t firsts;   /* receivers with a first echo */
+    uint32_t firsts;   /* receivers with a first echo the geometry may use */
+    uint32_t gated;    /* receivers whose first echo the gated miss rule rejected (no geometry) */
     uint32_t t0;       /* trigger tick: the pulse record's; without one (lost), an estimate */
     uint32_t t_done;   /* detection tick of the last terminal event so far */
     uint32_t t_pop;    /* timer at the last word taken for it */
@@ -141,7 +143,7 @@ void cut_open(int vs, uint32_t tick);     /* open pulses of vs (< 0: all) go out
 void scan_timeouts(uint32_t now);
 void groups_clear(void);
 void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_t n_tof,
-                 const uint32_t *tof, uint32_t n_geo, const uint32_t *geo);
+                 const uint32_t *tof, uint32_t gated, uint32_t n_geo, const uint32_t *geo);
 /* geo.c */
 void geo_enqueue(const group_t *g);       /* a complete pulse's fix, or its no-fix outcome */
 int geo_step(void);                       /* one job, if any; returns 1 when one ran */

@@ -126,7 +126,7 @@ APP_HOT static void run_geo_job(const geo_job_t *j)
     uint32_t geo[4], brg;
     uint32_t cls = geo_record(&cl, nf, geo, &brg);
     if (par_geometry)
-        send_packet(FRAME_GEO | j->flags, j->t0, j->vs, j->seq, 0u, 0, 1u, geo);
+        send_packet(FRAME_GEO | j->flags, j->t0, j->vs, j->seq, 0u, 0, 0u, 1u, geo);
     int fixed = cls == 1u || cls == 2u;
     geo_report(0u, now32() - t);
     if (s != &sens[si]) /* a pulse of the groups before a move: no input for the next one */

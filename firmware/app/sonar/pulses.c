@@ -20,7 +20,7 @@ uint32_t word_aside; /* cycles of frames and a re-aim's hand-over, taken out of 
  * link appends the CRC-32 at the commit and drops the frame whole (FRAMES_DROPPED) if the frame
  * queue has no room for it */
 APP_HOT void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_t n_tof,
-                 const uint32_t *tof, uint32_t n_geo, const uint32_t *geo)
+                 const uint32_t *tof, uint32_t gated, uint32_t n_geo, const uint32_t *geo)
 {
     uint32_t *w = fbuf;
     uint32_t plen = 20u + 8u * n_tof + 16u * n_geo;
@@ -36,8 +36,11 @@ APP_HOT void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq,
     uint32_t *p = &w[8];
     uint32_t word1 = (seq << 8) | (vs << 16) | ((flags & FRAME_INIT) ? (8u << 24) : 0u);
     for (uint32_t i = 0; i < n_tof; i++) { /* group_t.rec -> the wire's two words */
+        uint32_t rx = (tof[i] >> 24) & 0x1Fu, fl = tof[i] >> 29;
+        if ((fl & 2u) && ((gated >> rx) & 1u)) /* the first echo of a receiver in `gated` */
+            fl |= 0x10u;
         *p++ = tof[i] & 0xFFFFFFu;
-        *p++ = word1 | ((tof[i] >> 24) & 0x1Fu) | ((tof[i] >> 29) << 24);
+        *p++ = word1 | rx | (fl << 24);
     }
     for (uint32_t i = 0; i < 4u * n_geo; i++)
         *p++ = geo[i];
@@ -51,7 +54,7 @@ APP_HOT void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq,
 APP_HOT static void close_group(group_t *g)
 {
     uint32_t t = now32();
-    send_packet(g->flags, g->t0, g->vs, g->seq, par_tof ? g->n_ev : 0u, g->rec, 0u, 0);
+    send_packet(g->flags, g->t0, g->vs, g->seq, par_tof ? g->n_ev : 0u, g->rec, g->gated, 0u, 0);
     g->used = 0;
     geo_enqueue(g);
     /* mailbox 0x2: from the pulse's completion (the detection tick of its last window's
@@ -90,7 +93,7 @@ APP_HOT static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int in
     }
     /* first_tof / rec are read only where firsts / n_ev say they were written */
     free_g->n_ev = free_g->has_rec = free_g->n_win = free_g->n_term = 0;
-    free_g->done = free_g->firsts = 0;
+    free_g->done = free_g->firsts = free_g->gated = 0;
     free_g->used = 1;
     free_g->vs = (uint8_t)vs;
     free_g->seq = (uint8_t)seq;
@@ -178,12 +181,15 @@ APP_HOT static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
     }
     const sensor_t *s = &sens[vs_index[vs]];
     const app_sensor_t *c = &cfgs[vs_index[vs]];
-    if ((fl & 3u) == 3u) { /* in window, first echo */
-        for (int k = 0; k < c->n_rx; k++)
-            if (s->rx[k] == rx) {
-                g->first_tof[k] = (int32_t)tof;
-                g->firsts |= 1u << rx;
-            }
+    if ((fl & 3u) == 3u) { /* in window, first echo; one the gate rejected is no geometry input */
+        if (hi & EVH_GATED)
+            g->gated |= 1u << rx;
+        else
+            for (int k = 0; k < c->n_rx; k++)
+                if (s->rx[k] == rx) {
+                    g->first_tof[k] = (int32_t)tof;
+                    g->firsts |= 1u << rx;
+                }
         g->done |= 1u << rx;
         g->n_term++;
         g->t_done = g->t0 + tof + edge_lat;         /* the edge's detection tick */

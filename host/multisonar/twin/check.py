@@ -87,7 +87,7 @@ def compare_with_model(run: StreamRun, echo_source: Any, **model_kw: Any) -> dic
     groups: dict[tuple[int, int], list[tuple[int, ...]]] = defaultdict(list)
     for e in res.events:
         groups[(e.sensor, e.seq)].append((e.tof, e.rx, e.seq, e.sensor, int(e.in_window) | int(e.first_echo) << 1
-                                          | int(e.window_empty) << 2 | int(e.init_ping) << 3))
+                                          | int(e.window_empty) << 2 | int(e.init_ping) << 3 | int(e.gated) << 4))
     n_frames = n_rec = 0
     seen = set()
     for f in run.frames:

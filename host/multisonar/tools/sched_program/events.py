@@ -9,14 +9,15 @@ from .layout import (EVT_HI, EVT_LO, F_ANY_TRK, F_EPOCH, F_IN_INIT, F_TRACKING, 
                      SU_SENSOR, SU_TA, SU_VALID, SU_X, S_DUE, S_FLAGS, S_K, S_MODE, S_OPEN, WV)
 
 
-def _tof_event(p: Program, tof: int, seq: int, rx: int, sensor: int, flags: int, kind: int,
+def _tof_event(p: Program, tof: int, seq: int, rx: int, sensor: int, flags: int, kind: int | tuple[int],
                tmp: tuple[int, int, int, int, int]) -> Program:
     """Write a ToF event word (docs/fast_firing.md section 6): tof (register, 24 bits), rx, the
     pulse seq's low byte, the sensor, the init_ping bit from bit 0 of register ``flags`` and
-    ``kind``, the in_window / first_echo / window_empty bits as bits of the high half (0x300:
-    a first echo, 0x400: an empty window). Packed without a shifter: seq << 29 is seq << 5
-    rotated right a byte (its bits 2:0 land in the low half, 7:3 in the high one). Uses the
-    five ``tmp`` registers; ``tof`` and the inputs stay."""
+    ``kind``, the in_window / first_echo / window_empty / gated bits as bits of the high half
+    (0x300: a first echo, 0x400: an empty window, 0x2300: a first echo the gate rejected);
+    ``kind`` is that constant or ``(register,)`` holding it. Packed without a shifter: seq << 29
+    is seq << 5 rotated right a byte (its bits 2:0 land in the low half, 7:3 in the high one).
+    Uses the five ``tmp`` registers; ``tof`` and the inputs stay."""
     a, b, c, d, e = tmp
     p.li(a, 32).andi(b, seq, 0xFF)
     p.mul(b, b, a).rotb(c, rx, 1)                       # seq << 5; rx << 24
@@ -26,7 +27,11 @@ def _tof_event(p: Program, tof: int, seq: int, rx: int, sensor: int, flags: int,
     p.or_(c, c, a).or_(b, b, d)
     p.or_(c, c, tof).andi(d, flags, 1)                  # low half; init_ping
     p.li(a, 2048)
-    p.mul(d, d, a).ori(b, b, kind)                      # init_ping << 11 (bit 43); kind
+    p.mul(d, d, a)                                      # init_ping << 11 (bit 43)
+    if isinstance(kind, tuple):
+        p.or_(b, b, kind[0])
+    else:
+        p.ori(b, b, kind)
     p.or_(b, b, d)
     return p.st(c, 0, EVT_LO).st(b, 0, EVT_HI)
 
@@ -41,17 +46,18 @@ def hit_kernel(p: Program) -> Program:
     the track; a tracking window's first echo is a sample if the pulse gap is 1..127, with
     velocity when the gap is 1 after a tracking sample; after a gap a track with velocity keeps
     it, its gate and its miss count) unless the gated miss rule rejects it
-    (r12 = 1: then the window counts as a miss). A later echo does nothing. Model:
+    (r12 = 1: then the window counts as a miss and the event word has its gated bit). The word
+    is written last, when the gate has decided. A later echo does nothing. Model:
     FastFiringModel._rise and _sample (max_echoes_per_window = 1)."""
     p.li(12, 0).andi(0, 4, 4).b("ne", "hit_done")        # not the first echo: no event
     p.sub(14, 1, 2)
     p.and_(14, 14, R_MASK24)                             # tof
-    _tof_event(p, 14, 3, 6, 7, 4, 0x300, (15, 16, 18, 19, 20))   # in_window, first_echo
-    p.andi(0, 4, 2).b("eq", "hit_done")                  # an earlier epoch's window: no sample
+    p.li(13, 0x300)                                      # the event's kind: in_window, first_echo
+    p.andi(0, 4, 2).b("eq", "hit_event")                 # an earlier epoch's window: no sample
     p.ld(23, 5, 0).ld(24, 5, 1)
     p.andi(0, 4, 1).b("ne", "hit_init")
     p.rotb(25, 24, 3).rotb(26, 23, 3)                    # flags byte; seq byte of the state
-    p.andi(0, 25, 1).b("eq", "hit_done")                 # not tracked: no sample, no gate
+    p.andi(0, 25, 1).b("eq", "hit_event")                # not tracked: no sample, no gate
     p.andi(26, 26, 0xFF).and_(18, 24, R_MASK24)
     p.sub(27, 3, 26).xor(18, 18, R_SIGN24)
     p.andi(27, 27, 0xFF).sub(18, 18, R_SIGN24)           # gap (8 bits); v
@@ -65,9 +71,9 @@ def hit_kernel(p: Program) -> Program:
     p.clamp(22, 10, 11)
     p.sub(22, 14, 22).b("ge", "hit_abs").sub(22, 0, 22)
     p.label("hit_abs").cmp(22, 8).b("le", "hit_sample")
-    p.li(12, 1).jmp("hit_done")                          # rejected: counts as a miss at close
-    p.label("hit_sample").tst(27).b("eq", "hit_done")    # gap 0: no sample
-    p.andi(0, 27, 0x80).b("ne", "hit_done")              # gap 128..255 (negative): no sample
+    p.li(12, 1).li(13, 0x2300).jmp("hit_event")          # rejected: gated; a miss at close
+    p.label("hit_sample").tst(27).b("eq", "hit_event")   # gap 0: no sample
+    p.andi(0, 27, 0x80).b("ne", "hit_event")             # gap 128..255 (negative): no sample
     p.li(26, 0).li(21, 1)                                # v, flags: tracked
     p.cmpi(27, 1).b("eq", "hit_next")
     p.andi(0, 25, 4).b("eq", "hit_write")                # a gap, velocity not measured: v = 0
@@ -80,11 +86,13 @@ def hit_kernel(p: Program) -> Program:
     p.label("hit_write").andi(16, 3, 0xFF).and_(26, 26, R_MASK24)
     p.rotb(16, 16, 1).rotb(21, 21, 1)
     p.or_(23, 14, 16).or_(24, 26, 21)
-    p.st(23, 5, 0).st(24, 5, 1).jmp("hit_done")
+    p.st(23, 5, 0).st(24, 5, 1).jmp("hit_event")
     p.label("hit_init").andi(16, 3, 0xFF).li(21, 3)      # an init ping's echo: tracked, init
     p.rotb(16, 16, 1).rotb(21, 21, 1)
     p.or_(23, 14, 16)
     p.st(23, 5, 0).st(21, 5, 1)
+    p.label("hit_event")
+    _tof_event(p, 14, 3, 6, 7, 4, (13,), (15, 16, 18, 19, 20))
     p.label("hit_done")
     return p
 

@@ -198,7 +198,7 @@ def _edges(p: Program) -> None:
     _get(p, 2, M_L)
     p.sub(1, 1, 2)                                      # the edge's timestamp n = cur - L
     edge_kernel(p)                                      # r10: its window's slot, or -1
-    p.tst(10).b("lt", "edge_next")                      # outside every window: gated
+    p.tst(10).b("lt", "edge_next")                      # outside every window: dropped
     _put(p, 10, M_SLOT)
     _win_read(p, 6, 10)
     p.ld(15, 10, ONEHOT).ld(12, 6, WH)
