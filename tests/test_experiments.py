@@ -283,3 +283,24 @@ def test_cli_experiment_without_a_name_lists_them(capsys):
     assert cli_main(["experiment"]) == 2
     err = capsys.readouterr().err
     assert all(n in err for n in ("fig3", "fig9", "fig10", "person", "tradeoff", "simspeed", "ring"))
+
+
+def test_safety_experiment_writes_the_figures_as_json(tmp_path, capsys):
+    """`multisonar experiment safety --trials 3 --seed S`: the issue's JSON fields, reproducible."""
+    import json
+
+    args = ["experiment", "safety", "--trials", "3", "--seed", "5", "--workers", "1", "--out", str(tmp_path)]
+    assert cli_main(args) == 0
+    assert "within the bound" in capsys.readouterr().out
+    doc = json.loads((tmp_path / "safety.json").read_text())
+    for key in ("trials", "within_bound", "late", "missed", "worst_pulses", "worst_ms", "sample_fraction",
+                "false_fix_rate"):
+        assert key in doc, key
+    assert doc["trials"] == 3 and doc["first_seed"] == 5
+    assert doc["within_bound"] + doc["late"] + doc["missed"] == doc["counted"] <= 3
+    assert 0.5 < doc["sample_fraction"] < 1.5 and 0.0 <= doc["false_fix_rate"] <= 1.0
+    with open(tmp_path / "safety.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [int(r["seed"]) for r in rows] == [5, 6, 7]
+    assert cli_main(["experiment", "fig3", "--trials", "3", "--quick", "--out", str(tmp_path)]) == 1
+    assert "--trials applies to safety only" in capsys.readouterr().err

@@ -6,12 +6,14 @@ in-window echoes on >= 3 receivers that the geometry classes edge (valid point f
 the robot pose at the reflection instant, is more than FALSE_FIX_TOL_M (50 mm) from every true
 reflector surface. The stated condition: the scene's default noise (crosstalk 0.1, jitter
 1 us, fading 1.5 dB) with spurious pulses raised to 20 per channel and second, on the safety
-trials' randomised wall + person-crossing scenes (seeds 0-11 here); stated bound: at most 1 %
-of the fixes and 0.5 false fixes per second of sonar time. Measured (scripts/bench_false_fix.py,
-seeds 0-19): 7 of 1955 fixes (0.36 %, 0.22 /s), all from alias echoes (another pulse's echo of
-a real reflector, consistent on the three receivers); seeds 0-11: 4 of 1077 (0.37 %, 0.21 /s).
+trials' randomised wall + person-crossing scenes (seeds 0-11 here); stated bound (issue #28): at
+most 0.1 % of the fixes and 0.1 false fixes per second of sonar time. First echoes the gated
+miss rule rejects are flagged gated and are no geometry input (firmware and host). Measured
+(scripts/bench_false_fix.py, seeds 0-19): 0 of 2087 fixes at crosstalk 0.1, 2 of 2131 (0.09 %,
+0.06 /s; alias echoes that passed the gate) at crosstalk 1.0; seeds 0-11: 0 of 1193. Before
+gated echoes were skipped: 7 of 1955 (0.36 %, 0.22 /s), all from alias echoes.
 Counting the records the firmware classes "uncertain" as fixes too (no classification guard)
-would give 114 of 4218 off the truth there (2.7 %, 3.6 /s): the test fails then. docs/experiments.md "Safety and false fixes (issue #9)"."""
+would give about 2.7 % off the truth: the test fails then. docs/experiments.md "Safety and false fixes (issue #9)"."""
 
 from __future__ import annotations
 

@@ -96,7 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
     from .experiments import EXPERIMENTS
 
     p = sub.add_parser("experiment", help="the paper's experiments and the speed/accuracy report (golden model)",
-                       description="Run one experiment; writes NAME.md, NAME.csv and NAME.png (fig3, ring: also NAME.json) "
+                       description="Run one experiment; writes NAME.md, NAME.csv and NAME.png (fig3, ring, safety: also NAME.json) "
                        "into --out. "
                        + "; ".join(f"{k}: {d}" for k, (_, d) in EXPERIMENTS.items()))
     p.add_argument("name", nargs="?", choices=list(EXPERIMENTS), metavar="NAME", help=" | ".join(EXPERIMENTS))
@@ -110,6 +110,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "simspeed: time the full-system twin and the RTL system test (Verilator)")
     p.add_argument("--twin", action="store_true",
                    help="fig3: add a column measured on the full-system twin (the whole device in Verilator)")
+    p.add_argument("--trials", type=int, default=None, metavar="N", help="safety: crossings to run [1000; --quick 12]")
+    p.add_argument("--seed", type=int, default=None, metavar="S", help="safety: first seed (trials S..S+N-1) [0]")
     p.set_defaults(func=_cmd_experiment)
 
     p = sub.add_parser("export", help="export a recording (.msrec) for robotics tools (ROS 2 MCAP)")
@@ -139,6 +141,11 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
         if args.name != "fig3":
             raise ValueError("--twin applies to fig3 only (simspeed --rtl times the twin; make demo runs it)")
         opts["twin"] = True
+    for key in ("trials", "seed"):
+        if getattr(args, key) is not None:
+            if args.name != "safety":
+                raise ValueError(f"--{key} applies to safety only")
+            opts[key] = getattr(args, key)
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
     mode = f"Dask scheduler {args.scheduler}" if args.scheduler else f"{workers} local worker(s)"
     print(f"experiment {args.name}{' (quick)' if args.quick else ''}: golden model, {mode}", file=sys.stderr)

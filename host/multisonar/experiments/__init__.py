@@ -10,10 +10,12 @@ tradeoff   firing order, window, receivers, arithmetic -> rate, latency, miss ra
 simspeed   sonar-seconds per wall-second: golden model cases (``--rtl``: the RTL system test)
 ring       full-ring refresh: 8 sensors over all 24 directions, static room, orders 1..MAX_ORDER
            (``--rtl``: the goal distances on the RTL scheduler, Verilator)
+safety     occluder safety: randomised person crossings (``--trials N --seed S``), detection
+           within N+K+1 pulses, tracking samples against the gate-only default, false fixes
 =========  ==============================================================================
 
 Each writes ``NAME.md`` (tables), ``NAME.csv`` (one row per measured point) and ``NAME.png``
-(``fig3`` and ``ring`` also ``NAME.json``, machine-readable figures) into the output folder (default
+(``fig3``, ``ring`` and ``safety`` also ``NAME.json``, machine-readable figures) into the output folder (default
 ``build/experiments/NAME``). Sweeps run on a ``concurrent.futures`` executor (:mod:`.executor`): local processes, or a Dask cluster.
 The backend today is the golden model; the RTL twin joins per experiment as it lands.
 """
@@ -49,6 +51,7 @@ EXPERIMENTS: dict[str, tuple[Callable[..., ExperimentResult], str]] = {
     "tradeoff": (_runner("tradeoff"), "speed/accuracy trade: order, window, receivers, arithmetic"),
     "simspeed": (_runner("simspeed"), "simulation speed: sonar-seconds per wall-second per fidelity"),
     "ring": (_runner("ring"), "full-ring refresh: 8 sensors, all 24 directions, 2 m and 5.7 m (issue #27)"),
+    "safety": (_runner("safety"), "occluder safety: randomised person crossings, false fixes (issue #28)"),
 }
 
 
