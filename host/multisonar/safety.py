@@ -52,8 +52,8 @@ from .layout import load_layout
 from .schedule import Schedule, ScheduleError, VirtualSensor
 from .scene import parse_scene
 
-__all__ = ["TrialResult", "run_trial", "random_trial_params", "wide_trial_params", "summarise", "as_rows", "FalseFixResult",
-           "run_false_fix_trial", "summarise_false_fixes", "FALSE_FIX_TOL_M"]
+__all__ = ["TrialResult", "run_trial", "random_trial_params", "wide_trial_params", "summarise", "as_rows",
+           "FalseFixResult", "run_false_fix_trial", "summarise_false_fixes", "FALSE_FIX_TOL_M"]
 
 _SCENE_FILE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "person_crossing.yaml"
 TX, RX = 6, (5, 6, 7)  # element 6 faces +y (the wall side) on ring24
@@ -456,9 +456,11 @@ def run_false_fix_trial(seed: int, *, spurious_rate_hz: float | None = None, cro
                         params: dict[str, Any] | None = None) -> FalseFixResult:
     """The scene and sensor of safety trial ``seed`` (a tracked wall, optionally the person
     crossing) with the noise raised; every pulse with a first in-window echo on all of the
-    sensor's receivers goes through the host geometry (as the firmware does per pulse). A fix
-    is **false** when its reported point (edge position or wall foot), placed in the world with the robot pose at the reflection instant
-    (t0 + mean ToF / 2), is farther than ``tol_m`` from every true reflector surface then."""
+    sensor's receivers (gated ones skipped) goes through the host geometry (as the firmware does
+    per pulse). A fix is **false** when its reported point (edge position or wall foot), placed in
+    the world with the robot pose at the reflection instant (t0 + mean ToF / 2), is farther than
+    ``tol_m`` from every true reflector surface then. ``params``: the trial's parameters
+    (default :func:`random_trial_params` of ``seed``)."""
     p = dict(params) if params is not None else random_trial_params(seed)
     layout = load_layout()
     scene = _scene(p, t_cross, duration, spurious_rate_hz, crosstalk_level, person)

@@ -88,12 +88,12 @@ def run(executor: Executor, *, quick: bool = False, progress: bool = True, trial
           "(`multisonar.safety.wide_trial_params`). A crossing passes when the person is reported within "
           "N + K + 1 pulses of hiding the tracked wall on one of the sensor's receivers.", "",
           md_table(cols, by_order + [{"order": "all"} | summ], fmt), "",
-          f"- within the bound: **{summ['within_bound']} of {summ['counted']}** crossings where the person hid the wall "
-          f"({summ['no_onset']} trials without an onset are not counted); late {summ['late']}, missed {summ['missed']}; "
-          f"worst {summ['worst_pulses']} pulses / {summ['worst_ms']:.1f} ms",
+          f"- within the bound: **{summ['within_bound']} of {summ['counted']}** crossings where the person hid "
+          f"the wall ({summ['no_onset']} trials without an onset are not counted); late {summ['late']}, "
+          f"missed {summ['missed']}; worst {summ['worst_pulses']} pulses / {summ['worst_ms']:.1f} ms",
           f"- tracking samples: {summ['samples']} = **{summ['sample_fraction']:.1%}** of the gate-only default "
-          f"(gated miss rule {BASELINE_MISS_GATE} ticks) on the same trials ({summ['baseline_samples']}); that default: "
-          f"{summ['baseline_within_bound']} within the bound, {summ['baseline_late']} late or missed",
+          f"(gated miss rule {BASELINE_MISS_GATE} ticks) on the same trials ({summ['baseline_samples']}); "
+          f"that default: {summ['baseline_within_bound']} within the bound, {summ['baseline_late']} late or missed",
           f"- first echoes flagged gated (no sample, no geometry): {summ['gated']}; accepted alias samples "
           f"{summ['alias_samples']}, false samples {summ['false_samples']}",
           f"- fixes: {summ['fixes']}, false (> 50 mm from every true surface) {summ['false_fixes']} = "
@@ -101,8 +101,9 @@ def run(executor: Executor, *, quick: bool = False, progress: bool = True, trial
     if late:
         md += ["", "Crossings outside the bound (seed: order, K, wall, lane, person / robot speed, spurious rate, "
                "latency / bound):"]
-        md += [f"- {r['seed']}: N={r['order']}, K={r['miss_limit']}, wall {r['wall_y']:.2f} m, lane {r['person_y']:.2f} m, "
-               f"{r['person_speed']:+.2f} / {r['robot_speed']:.2f} m/s, {r['spurious_rate_hz']:.1f} /s: "
+        md += [f"- {r['seed']}: N={r['order']}, K={r['miss_limit']}, wall {r['wall_y']:.2f} m, "
+               f"lane {r['person_y']:.2f} m, {r['person_speed']:+.2f} / {r['robot_speed']:.2f} m/s, "
+               f"{r['spurious_rate_hz']:.1f} /s: "
                f"{r['latency_pulses']} / {r['bound_pulses']} pulses ({r['latency_ms']:.1f} ms)" for r in late]
     columns = list(rows[0])
 
@@ -119,8 +120,8 @@ def run(executor: Executor, *, quick: bool = False, progress: bool = True, trial
         ax.plot([0, lim], [0, lim], "k--", lw=0.8, label="bound N+K+1")
         ax.set_xlabel("bound N + K + 1 (pulses)")
         ax.set_ylabel("detection latency (pulses)")
-        ax.set_title(f"{summ['within_bound']}/{summ['counted']} within the bound; samples {summ['sample_fraction']:.1%} "
-                     "of gate-only")
+        ax.set_title(f"{summ['within_bound']}/{summ['counted']} within the bound; "
+                     f"samples {summ['sample_fraction']:.1%} of gate-only")
         ax.legend(fontsize=7, ncol=2)
         fig.tight_layout()
         fig.savefig(path, dpi=120)
