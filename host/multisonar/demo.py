@@ -196,7 +196,7 @@ def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: s
     t0_of = {(p.sensor, p.seq): p.t0 for p in pulses}
     by_pulse: dict[tuple[int, int], dict[int, int]] = {}
     for e in events:
-        if e.first_echo and e.in_window and not e.gated:
+        if e.sample:
             cands = [seq for t0, seq in issued.get((e.sensor, e.seq), []) if t0 <= e.tick]
             if cands:
                 by_pulse.setdefault((e.sensor, cands[-1]), {})[e.rx] = e.tof
@@ -215,8 +215,7 @@ def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: s
     return DemoRun("golden", duration, wall_s, list(resolved),
                    pulses={r.id: sum(1 for p in pulses if p.sensor == r.id) for r in resolved},
                    init_pings={r.id: sum(1 for p in pulses if p.sensor == r.id and p.init) for r in resolved},
-                   samples={r.id: sum(1 for e in events if e.sensor == r.id and e.first_echo and e.in_window
-                                      and not e.gated)
+                   samples={r.id: sum(1 for e in events if e.sensor == r.id and e.sample)
                             for r in resolved},
                    fixes=fixes, events=ev)
 

@@ -87,6 +87,12 @@ class ToFEvent(NamedTuple):
     #: its window counts as a miss; geometry skips it
     gated: bool = False
 
+    @property
+    def sample(self) -> bool:
+        """The first echo of its window that the gate accepted: a tracking sample and a geometry
+        input (firmware, simulated device, host)."""
+        return self.in_window and self.first_echo and not self.gated
+
     def pack(self) -> int:
         return _pack_fields(EVENT_FIELDS, self, "event")
 

@@ -21,7 +21,7 @@ import struct
 import zlib
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Iterable, NamedTuple, Sequence
+from typing import Any, Iterable, NamedTuple, Sequence
 
 import numpy as np
 
@@ -114,6 +114,14 @@ class CfgError(IntEnum):
 TOF_IN_WINDOW, TOF_FIRST_ECHO, TOF_WINDOW_EMPTY, TOF_INIT_PING, TOF_GATED = 0x1, 0x2, 0x4, 0x8, 0x10
 #: the flags of a first echo the geometry uses: in its window, first, not gated
 TOF_SAMPLE_MASK, TOF_SAMPLE = TOF_IN_WINDOW | TOF_FIRST_ECHO | TOF_GATED, TOF_IN_WINDOW | TOF_FIRST_ECHO
+
+
+def tof_record(e: Any) -> tuple[int, int, int, int, int]:
+    """A ToF event (``fastfiring.ToFEvent``) as the fields of a :data:`TOF_DTYPE` record, as the
+    firmware packs it: tof, rx, seq, vs and the flags byte."""
+    flags = (TOF_IN_WINDOW * e.in_window | TOF_FIRST_ECHO * e.first_echo | TOF_WINDOW_EMPTY * e.window_empty
+             | TOF_INIT_PING * e.init_ping | TOF_GATED * e.gated)
+    return e.tof, e.rx, e.seq, e.sensor, int(flags)
 #: frame header flags: init ping, more ToF records than the device keeps, simulated device,
 #: event-FIFO words of the pulse lost (no geometry), closed before every window reported,
 #: a geometry frame (the records of a pulse whose ToF frame went before; no ToF records)

@@ -598,12 +598,10 @@ class SimDevice(UsbFunction):
         evs = op.events[:P.MAX_TOF_RECORDS]
         tof = np.zeros(len(evs) if self.params[P.Param.TOF_RECORDS] else 0, P.TOF_DTYPE)
         for i, e in enumerate(evs[:len(tof)]):
-            tof[i] = (e.tof, e.rx, e.seq, e.sensor, int(e.in_window) | int(e.first_echo) << 1
-                      | int(e.window_empty) << 2 | int(e.init_ping) << 3 | int(e.gated) << 4)
+            tof[i] = P.tof_record(e)
         fc = _FrameContent(op.close, p.t0, p.sensor, p.seq & 0xFF, p.init, tof, np.zeros(0, P.GEO_DTYPE),
                            len(op.events) > P.MAX_TOF_RECORDS)
-        fc.firsts = {e.rx: e.tof for e in op.events  # type: ignore[attr-defined]
-                     if e.first_echo and e.in_window and not e.gated}
+        fc.firsts = {e.rx: e.tof for e in op.events if e.sample}  # type: ignore[attr-defined]
         return fc
 
     def _batch_geometry(self, items: list[_FrameContent]) -> None:

@@ -216,7 +216,7 @@ def simulate_scene(scene: Any, sensors: list[Any], duration_s: float, *, t_offse
         issued.setdefault((p.sensor, p.seq % (1 << SEQ_W)), []).append((p.t0, p.seq))
     by_pulse: dict[tuple[int, int], dict[int, int]] = {}
     for e in events:
-        if e.first_echo and e.in_window and not e.gated:
+        if e.sample:
             cands = [seq for t0, seq in issued.get((e.sensor, e.seq), []) if t0 <= e.tick]
             if cands:
                 by_pulse.setdefault((e.sensor, cands[-1]), {})[e.rx] = e.tof

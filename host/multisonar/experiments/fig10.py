@@ -85,8 +85,7 @@ def chunk_task(scene_name: str, t_offset_s: float, duration_s: float, seed: int)
         ps = [p for p in run.pulses if p.sensor == r.id]
         counts.append({"sensor": r.name, "tx": list(map(int, r.tx)), "rx": list(map(int, r.rx)), "pulses": len(ps),
                        "init": sum(p.init for p in ps),
-                       "samples": sum(1 for e in run.events if e.sensor == r.id and e.first_echo and e.in_window
-                                      and not e.gated),
+                       "samples": sum(1 for e in run.events if e.sensor == r.id and e.sample),
                        "empty": sum(1 for e in run.events if e.sensor == r.id and e.window_empty and not e.init_ping)})
     return {"t_offset_s": t_offset_s, "duration_s": duration_s, "fixes": fixes, "loc": loc, "counts": counts,
             "wall_s": run.wall_s}

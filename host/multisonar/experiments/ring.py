@@ -159,7 +159,7 @@ def ring_metrics(words: list[int], start_tick: int, duration_ticks: int, n_senso
             last_t0 = t0
             t0_of[(rec.sensor, rec.pulse_id & 0xFF)] = (t0, rec.init_ping)
             pulses.setdefault(rec.sensor, []).append((t0, rec.init_ping))
-        elif isinstance(rec, ToFEvent) and rec.first_echo and rec.in_window and not rec.gated:
+        elif isinstance(rec, ToFEvent) and rec.sample:
             hit = t0_of.get((rec.sensor, rec.seq))
             if hit is not None:
                 raw.append((hit[0] + rec.tof, rec.rx, hit[0]))

@@ -30,37 +30,32 @@ BASELINE_MISS_GATE = 2400
 QUICK_TRIALS, DEFAULT_TRIALS = 12, 1000
 
 
-def trial_task(seed: int) -> dict[str, Any]:
+def trial_task(seed: int) -> tuple[Any, Any]:
+    """Crossing ``seed`` of the wide generator: (with the defaults, with the gate-only default)."""
     from ..safety import run_trial, wide_trial_params
 
     p = wide_trial_params(seed)
-    r = run_trial(seed, params=p)
-    base = run_trial(seed, params=p, miss_gate=BASELINE_MISS_GATE)
-    return asdict(r) | {"ok": r.ok, "requested_order": p["order"], "baseline_samples": base.samples,
-                        "baseline_outcome": base.outcome, "baseline_latency_pulses": base.latency_pulses}
+    return run_trial(seed, params=p), run_trial(seed, params=p, miss_gate=BASELINE_MISS_GATE)
 
 
-def _summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
-    counted = [r for r in rows if r["outcome"] != "no_onset"]
-    lat = [r for r in counted if r["latency_pulses"] >= 0]
-    samples, base = sum(r["samples"] for r in rows), sum(r["baseline_samples"] for r in rows)
-    fixes, false_fixes = sum(r["fixes"] for r in rows), sum(r["false_fixes"] for r in rows)
-    sonar_s = sum(r["duration_s"] for r in rows)
+def _summary(pairs: list[tuple[Any, Any]]) -> dict[str, Any]:
+    """The issue's figures of ``pairs`` (trial_task results), from :func:`multisonar.safety.summarise`."""
+    from ..safety import summarise
+
+    s, b = summarise(r for r, _ in pairs), summarise(base for _, base in pairs)
+    sonar_s = sum(r.duration_s for r, _ in pairs)
+    excess = [r.latency_pulses - r.bound_pulses for r, _ in pairs if r.outcome != "no_onset" and r.latency_pulses >= 0]
     return {
-        "trials": len(rows), "counted": len(counted), "no_onset": len(rows) - len(counted),
-        "within_bound": sum(r["outcome"] == "detected" for r in rows),
-        "late": sum(r["outcome"] == "late" for r in rows), "missed": sum(r["outcome"] == "missed" for r in rows),
-        "worst_pulses": max((r["latency_pulses"] for r in lat), default=-1),
-        "worst_excess_pulses": max((r["latency_pulses"] - r["bound_pulses"] for r in lat), default=0),
-        "worst_ms": max((r["latency_ms"] for r in lat), default=float("nan")),
-        "median_ms": float(np.median([r["latency_ms"] for r in lat])) if lat else float("nan"),
-        "samples": samples, "baseline_samples": base, "sample_fraction": samples / base if base else float("nan"),
-        "gated": sum(r["gated"] for r in rows), "alias_samples": sum(r["alias_samples"] for r in rows),
-        "false_samples": sum(r["false_samples"] for r in rows),
-        "fixes": fixes, "false_fixes": false_fixes, "false_fix_rate": false_fixes / fixes if fixes else 0.0,
-        "false_fixes_per_s": false_fixes / sonar_s if sonar_s else float("nan"), "sonar_s": sonar_s,
-        "baseline_within_bound": sum(r["baseline_outcome"] == "detected" for r in rows),
-        "baseline_late": sum(r["baseline_outcome"] in ("late", "missed") for r in rows),
+        "trials": s["trials"], "counted": s["counted"], "no_onset": s["no_onset"], "within_bound": s["detected"],
+        "late": s["late"], "missed": s["missed"], "worst_pulses": s["latency_pulses_max"],
+        "worst_excess_pulses": max(excess, default=0), "worst_ms": s["latency_ms_max"],
+        "median_ms": s["latency_ms_median"], "samples": s["samples"], "baseline_samples": b["samples"],
+        "sample_fraction": s["samples"] / b["samples"] if b["samples"] else float("nan"),
+        "gated": s["gated"], "alias_samples": s["alias_samples"], "false_samples": s["false_samples"],
+        "fixes": s["fixes"], "false_fixes": s["false_fixes"],
+        "false_fix_rate": s["false_fixes"] / s["fixes"] if s["fixes"] else 0.0,
+        "false_fixes_per_s": s["false_fixes"] / sonar_s if sonar_s else float("nan"), "sonar_s": sonar_s,
+        "baseline_within_bound": b["detected"], "baseline_late": b["late"] + b["missed"],
     }
 
 
@@ -70,13 +65,16 @@ def run(executor: Executor, *, quick: bool = False, progress: bool = True, trial
     first = 0 if seed is None else int(seed)
     if n < 1:
         raise ValueError(f"--trials must be >= 1, got {n}")
-    rows = run_sweep(executor, trial_task, [{"seed": s} for s in range(first, first + n)], label="safety",
-                     progress=progress)
-    summ = _summary(rows)
-    by_order = []
-    for order in sorted({r["order"] for r in rows}):
-        s = _summary([r for r in rows if r["order"] == order])
-        by_order.append({"order": order} | s)
+    from ..safety import wide_trial_params
+
+    pairs = run_sweep(executor, trial_task, [{"seed": s} for s in range(first, first + n)], label="safety",
+                      progress=progress)
+    rows = [asdict(r) | {"ok": r.ok, "requested_order": wide_trial_params(r.seed)["order"],
+                         "baseline_samples": base.samples, "baseline_outcome": base.outcome,
+                         "baseline_latency_pulses": base.latency_pulses} for r, base in pairs]
+    summ = _summary(pairs)
+    by_order = [{"order": order} | _summary([(r, b) for r, b in pairs if r.order == order])
+                for order in sorted({r.order for r, _ in pairs})]
     cols = [("order", "order"), ("trials", "trials"), ("counted", "person hid the wall"),
             ("within_bound", "within N+K+1"), ("late", "late"), ("missed", "missed"),
             ("worst_pulses", "worst pulses"), ("worst_ms", "worst ms"), ("sample_fraction", "samples vs gate-only"),

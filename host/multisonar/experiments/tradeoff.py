@@ -88,7 +88,7 @@ def config_task(order: int, window_ms: float, n_rx: int, duration_s: float, seed
     lay = scene.layout
     src = lay.positions[TX]
     track_events = [e for e in run.events if not e.init_ping]
-    samples = sum(1 for e in track_events if e.first_echo and e.in_window and not e.gated)
+    samples = sum(1 for e in track_events if e.sample)
     empty = sum(1 for e in track_events if e.window_empty)
     used = [p.order for p in run.pulses if not p.init]
     full = [pe for pe in run.echoes if len(pe.tofs) == n_rx and not pe.init]

@@ -17,6 +17,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from .. import protocol as P
 from ..constants import DEVICE_DECISION_LEAD, TICK_HZ
 
 LEAD = DEVICE_DECISION_LEAD  # the scheduler's decision lead (ticks), FastFiringModel(decision_lead=)
@@ -86,8 +87,7 @@ def compare_with_model(run: StreamRun, echo_source: Any, **model_kw: Any) -> dic
         t0_of.setdefault((p.sensor, p.seq & 0xFF), p.t0 & 0xFFFFFFFF)
     groups: dict[tuple[int, int], list[tuple[int, ...]]] = defaultdict(list)
     for e in res.events:
-        groups[(e.sensor, e.seq)].append((e.tof, e.rx, e.seq, e.sensor, int(e.in_window) | int(e.first_echo) << 1
-                                          | int(e.window_empty) << 2 | int(e.init_ping) << 3 | int(e.gated) << 4))
+        groups[(e.sensor, e.seq)].append(P.tof_record(e))
     n_frames = n_rec = 0
     seen = set()
     for f in run.frames:
