@@ -2,16 +2,10 @@
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version as _version
-
+from ._version import __version__
 from .constants import TICK_HZ, speed_of_sound
 from .layout import Layout, LayoutError, load_layout
 from .device import Device, DeviceDisconnected, DeviceNotFound, DeviceTimeout, read_recording
-
-try:
-    __version__ = _version("multisonar")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0.0.0+src"
 
 __all__ = ["TICK_HZ", "Layout", "LayoutError", "load_layout", "speed_of_sound", "__version__",
            "Device", "DeviceDisconnected", "DeviceNotFound", "DeviceTimeout", "read_recording"]

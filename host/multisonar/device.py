@@ -23,25 +23,14 @@ from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
-from urllib.parse import parse_qs, urlparse
 
 import numpy as np
 
 from .clock import DeviceClock
 from . import protocol as P
+from .errors import DeviceDisconnected, DeviceNotFound, DeviceTimeout
 from .schedule import Schedule, ScheduleError, VirtualSensor
-
-
-class DeviceNotFound(ConnectionError):
-    """No device at the URL (board not plugged / no permission / server not running)."""
-
-
-class DeviceDisconnected(ConnectionError):
-    """The device went away during use; Device.open() it again."""
-
-
-class DeviceTimeout(TimeoutError):
-    """The device did not answer (command reply or frames) in time."""
+from .urls import Connection, DeviceUrl, open_url, register_scheme
 
 
 #: host-side counters (Device.counters() adds them with a ``host_`` prefix)
@@ -100,80 +89,28 @@ class Device:
     # -- opening ----------------------------------------------------------------------------
     @classmethod
     def open(cls, url: str | None = None, *, timeout_s: float = 2.0, queue_frames: int = 4096) -> "Device":
-        """Open a device.
+        """Open the device at ``url``; its scheme picks the opener (:mod:`multisonar.urls`).
 
-        * ``None`` / ``"usb://"``: the first board on libusb (VID 0x1209, PID 0x0001);
-          ``usb://?serial=XYZ`` picks one by serial number.
+        * ``None`` / ``"usb://"`` (or ``libusb://``): the first board on libusb (VID 0x1209,
+          PID 0x0001); ``usb://?serial=XYZ`` picks one by serial number. The driver's own.
         * ``"usbip://HOST:PORT"``: a (simulated) device exported over USB/IP.
         * ``"sim://SCENE?rate=R&source=model|replay&queue=N&seed=S"``: the simulated device
           in this process (in-process pyusb backend; fastest, for tests and tools).
         * ``"twin://SCENE"``: the full-system twin in this process (the device's RTL in
           Verilator with the scene's echoes, multisonar.twin; ~100x slower than real time;
           timeouts of at least 120 s).
+
+        The last three are registered by the modules that implement them, found through the
+        ``multisonar.schemes`` entry points on first use; ``multisonar.urls.register_scheme``
+        adds more. An unknown scheme raises :class:`multisonar.urls.UnknownScheme` (a
+        ValueError) listing the known ones.
         """
         import usb.core
 
         url = url or "usb://"
-        u = urlparse(url)
-        q = {k: v[-1] for k, v in parse_qs(u.query).items()}
-        cleanup: Callable[[], None] | None = None
-        if u.scheme in ("usb", "libusb"):
-            try:
-                devs = list(usb.core.find(find_all=True, idVendor=P.USB_VID, idProduct=P.USB_PID))
-            except usb.core.NoBackendError as e:
-                raise DeviceNotFound(f"{url}: no libusb backend ({e}); install libusb-1.0") from None
-            if "serial" in q:
-                devs = [d for d in devs if _safe_serial(d) == q["serial"]]
-            if not devs:
-                raise DeviceNotFound(f"{url}: no Multisonar board (USB {P.USB_VID:04x}:{P.USB_PID:04x}) found; is it "
-                                     "plugged in and do you have access (udev rule host/udev/99-multisonar.rules)?")
-            dev = devs[0]
-        elif u.scheme == "usbip":
-            from .usb.usbip_client import UsbipBackend
-
-            host, port = u.hostname or "127.0.0.1", u.port or 3240
-            be = UsbipBackend(host, port, timeout=timeout_s)
-            try:
-                dev = usb.core.find(idVendor=P.USB_VID, idProduct=P.USB_PID, backend=be)
-            except usb.core.USBError as e:
-                raise DeviceNotFound(f"{url}: {e}") from None
-            if dev is None:
-                raise DeviceNotFound(f"{url}: no Multisonar exported at {host}:{port} (is the server running? "
-                                     "'multisonar serve --port PORT'), or it is attached by another client")
-            cleanup = be.close
-        elif u.scheme == "sim":
-            from .simdevice import SimDevice
-            from .usb.inproc import InProcessBackend
-
-            scene = (u.netloc + u.path).strip("/") or "corridor"
-            try:
-                sim = SimDevice(scene, rate=float(q["rate"]) if "rate" in q else None,
-                                queue_frames=int(q.get("queue", 256)), source=q.get("source", "model"),
-                                seed=int(q["seed"]) if "seed" in q else None)
-            except (KeyError, OSError) as e:
-                raise DeviceNotFound(f"{url}: cannot build the simulated device: {e}") from None
-            be = InProcessBackend(sim)
-            dev = usb.core.find(idVendor=P.USB_VID, idProduct=P.USB_PID, backend=be)
-            cleanup = sim.close
-        elif u.scheme == "twin":
-            from .fastfiring import SceneEchoSource
-            from .twin import BOOT_CLOCKS, TWIN_TIMEOUT_S, TwinError, TwinSim, TwinUsbFunction
-            from .usb.inproc import InProcessBackend
-
-            scene = (u.netloc + u.path).strip("/") or "corridor"
-            try:
-                tsim = TwinSim(SceneEchoSource(scene))
-                tsim.reset()
-                tsim.run(BOOT_CLOCKS)
-                fn = TwinUsbFunction(tsim)
-            except (TwinError, KeyError, OSError) as e:
-                raise DeviceNotFound(f"{url}: cannot build the twin: {e}") from None
-            be = InProcessBackend(fn)
-            dev = usb.core.find(idVendor=P.USB_VID, idProduct=P.USB_PID, backend=be)
-            cleanup = tsim.close
-            timeout_s = max(timeout_s, TWIN_TIMEOUT_S)
-        else:
-            raise ValueError(f"unknown device URL {url!r}: use usb://, usbip://HOST:PORT, sim://SCENE or twin://SCENE")
+        conn = open_url(url, timeout_s=timeout_s)
+        dev, cleanup = conn.device, conn.cleanup
+        timeout_s = max(timeout_s, conn.min_timeout_s)
         try:
             try:
                 cfg = dev.get_active_configuration()
@@ -543,6 +480,27 @@ def _safe_serial(d: Any) -> str | None:
         return d.serial_number
     except Exception:  # noqa: BLE001 - no permission to read strings
         return None
+
+
+def open_libusb(url: DeviceUrl, *, timeout_s: float = 2.0) -> Connection:
+    """usb://[?serial=S]: the first Multisonar board on libusb (VID 0x1209, PID 0x0001), or the one with serial S"""
+    import usb.core
+
+    try:
+        devs = list(usb.core.find(find_all=True, idVendor=P.USB_VID, idProduct=P.USB_PID))
+    except usb.core.NoBackendError as e:
+        raise DeviceNotFound(f"{url.url}: no libusb backend ({e}); install libusb-1.0") from None
+    if "serial" in url.query:
+        devs = [d for d in devs if _safe_serial(d) == url.query["serial"]]
+    if not devs:
+        raise DeviceNotFound(f"{url.url}: no Multisonar board (USB {P.USB_VID:04x}:{P.USB_PID:04x}) found; is it "
+                             "plugged in and do you have access (udev rule host/udev/99-multisonar.rules)?")
+    return Connection(devs[0])
+
+
+# the driver's own schemes; the others register themselves (multisonar.urls)
+register_scheme("usb", open_libusb, help=open_libusb.__doc__ or "")
+register_scheme("libusb", open_libusb, help="libusb://[?serial=S]: as usb://")
 
 
 # --------------------------------------------------------------------------------------------

@@ -19,9 +19,12 @@ DEFAULT_SENSORS = "demo"
 
 
 def add_url(p: argparse.ArgumentParser) -> None:
+    from .urls import scheme_names
+
     p.add_argument("--url", default=os.environ.get("MULTISONAR_URL"),
                    help="device: usb:// (board, default), usbip://HOST:PORT, sim://SCENE (model), twin://SCENE "
-                        "(the RTL twin) [$MULTISONAR_URL]")
+                        "(the RTL twin); schemes: " + ", ".join(f"{k}://" for k in scheme_names())
+                        + " (multisonar.urls) [$MULTISONAR_URL]")
     p.add_argument("--timeout", type=float, default=2.0, help="command timeout, s [%(default)s]")
 
 

@@ -46,6 +46,8 @@ import numpy as np
 from . import protocol as P
 from .constants import TICK_HZ, speed_of_sound, DEVICE_DECISION_LEAD
 from .usb.function import Disconnected, Identity, Stall, UsbFunction, UsbTimeout
+from .errors import DeviceNotFound
+from .urls import DeviceUrl, Model, register_scheme
 
 TIMESTAMP_MASK = 0xFFFFFFFF
 
@@ -243,7 +245,7 @@ class SimDevice(UsbFunction):
     def __init__(self, scene: str = "corridor", *, rate: float | None = None, queue_frames: int = 256,
                  source: str = "model", replay_s: float = 0.25, seed: int | None = None, serial: str | None = None,
                  build_id: int | None = None) -> None:
-        from . import __version__
+        from ._version import __version__
 
         if source not in ("model", "replay"):
             raise ValueError(f"source must be 'model' or 'replay', got {source!r}")
@@ -687,3 +689,19 @@ class SimDevice(UsbFunction):
             self._advance_model(min(target - self.now, TICK_HZ // 50))
             while self._ready:
                 self._enqueue(self._ready.pop(0))
+
+
+# -- the sim:// device URL scheme (multisonar.urls; found through the multisonar.schemes entry point)
+def sim_model(url: DeviceUrl) -> Model:
+    """sim://SCENE?rate=R&source=model|replay&queue=N&seed=S: the simulated device in this process"""
+    q = url.query
+    try:
+        sim = SimDevice(url.target or "corridor", rate=float(q["rate"]) if "rate" in q else None,
+                        queue_frames=int(q.get("queue", 256)), source=q.get("source", "model"),
+                        seed=int(q["seed"]) if "seed" in q else None)
+    except (KeyError, OSError) as e:
+        raise DeviceNotFound(f"{url.url}: cannot build the simulated device: {e}") from None
+    return Model(sim, close=sim.close)
+
+
+register_scheme("sim", model=sim_model, help=sim_model.__doc__ or "")

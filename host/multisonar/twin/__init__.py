@@ -22,6 +22,8 @@ from dataclasses import dataclass
 from typing import Any, Iterator
 
 from ..constants import TICK_HZ
+from ..errors import DeviceNotFound
+from ..urls import DeviceUrl, Model, register_scheme
 from .sim import TwinError, TwinSim, build, library_path
 from .usbhost import TwinUsbFunction
 
@@ -105,5 +107,25 @@ def open_twin(scene: Any = "corridor", *, usbip: bool = True, fst: str | os.Path
             server.close()
         sim.close()
 
+
+# -- the twin:// device URL scheme (multisonar.urls; found through the multisonar.schemes entry point)
+def twin_model(url: DeviceUrl) -> Model:
+    """twin://SCENE: the full-system twin in this process (the device's RTL in Verilator; ~100x slower than real time)"""
+    from ..fastfiring import SceneEchoSource
+
+    tsim = None
+    try:
+        tsim = TwinSim(SceneEchoSource(url.target or "corridor"))
+        tsim.reset()
+        tsim.run(BOOT_CLOCKS)
+        fn = TwinUsbFunction(tsim)
+    except (TwinError, KeyError, OSError) as e:
+        if tsim is not None:
+            tsim.close()
+        raise DeviceNotFound(f"{url.url}: cannot build the twin: {e}") from None
+    return Model(fn, close=tsim.close, min_timeout_s=TWIN_TIMEOUT_S)
+
+
+register_scheme("twin", model=twin_model, help=twin_model.__doc__ or "")
 
 __all__ = ["BOOT_CLOCKS", "Twin", "TwinError", "TwinSim", "TwinUsbFunction", "build", "library_path", "open_twin"]

@@ -22,10 +22,13 @@ from types import SimpleNamespace
 import usb.backend
 import usb.core
 
+from .. import protocol as P
+from ..errors import DeviceNotFound
+from ..urls import Connection, DeviceUrl, register_scheme
 from .function import ParsedConfig, parse_config_descriptor, parse_device_descriptor
-from .usbip_server import (CMD_SUBMIT, CMD_UNLINK, DIR_IN, DIR_OUT, OP_HDR, OP_REP_DEVLIST, OP_REP_IMPORT,
-                           OP_REQ_DEVLIST, OP_REQ_IMPORT, RET_SUBMIT, RET_SUBMIT_TAIL, RET_UNLINK, SUBMIT_HDR, UDEV,
-                           URB_HDR, USBIP_VERSION, recv_exact)
+from .usbip_proto import (CMD_SUBMIT, CMD_UNLINK, DIR_IN, DIR_OUT, OP_HDR, OP_REP_DEVLIST, OP_REP_IMPORT,
+                          OP_REQ_DEVLIST, OP_REQ_IMPORT, RET_SUBMIT, RET_SUBMIT_TAIL, RET_UNLINK, SUBMIT_HDR, UDEV,
+                          URB_HDR, USBIP_VERSION, recv_exact)
 
 
 def _nodev(msg: str) -> usb.core.USBError:
@@ -306,3 +309,23 @@ class UsbipBackend(usb.backend.IBackend):
         if status != 0:
             raise usb.core.USBError(f"control OUT failed (status {status})", errno.EPIPE, errno.EPIPE)
         return length
+
+
+# -- the usbip:// device URL scheme (multisonar.urls; found through the multisonar.schemes entry point)
+def open_usbip(url: DeviceUrl, *, timeout_s: float = 2.0) -> Connection:
+    """usbip://HOST:PORT: a device exported over USB/IP (our simulated one: multisonar serve)"""
+    host, port = url.hostname or "127.0.0.1", url.port or 3240
+    be = UsbipBackend(host, port, timeout=timeout_s)
+    try:
+        dev = usb.core.find(idVendor=P.USB_VID, idProduct=P.USB_PID, backend=be)
+    except usb.core.USBError as e:
+        be.close()
+        raise DeviceNotFound(f"{url.url}: {e}") from None
+    if dev is None:
+        be.close()
+        raise DeviceNotFound(f"{url.url}: no Multisonar exported at {host}:{port} (is the server running? "
+                             "'multisonar serve --port PORT'), or it is attached by another client")
+    return Connection(dev, cleanup=be.close)
+
+
+register_scheme("usbip", open_usbip, help=open_usbip.__doc__ or "")

@@ -28,27 +28,12 @@ from dataclasses import dataclass
 
 from .function import Disconnected, Stall, UsbFunction, UsbTimeout, parse_config_descriptor, parse_device_descriptor
 
-USBIP_VERSION = 0x0111
-OP_REQ_DEVLIST, OP_REP_DEVLIST = 0x8005, 0x0005
-OP_REQ_IMPORT, OP_REP_IMPORT = 0x8003, 0x0003
-CMD_SUBMIT, CMD_UNLINK, RET_SUBMIT, RET_UNLINK = 1, 2, 3, 4
-DIR_OUT, DIR_IN = 0, 1
-OP_HDR = struct.Struct(">HHI")
-URB_HDR = struct.Struct(">IIIII")  # command, seqnum, devid, direction, ep
-SUBMIT_HDR = struct.Struct(">IIIII8s")  # flags, buffer length, start frame, packets, interval, setup
-RET_SUBMIT_TAIL = struct.Struct(">iiiii8x")  # status, actual length, start frame, packets, errors
-UDEV = struct.Struct(">256s32sIIIHHHBBBBBB")
+# the wire format, shared with the client (multisonar.usb.usbip_proto)
+from .usbip_proto import (CMD_SUBMIT, CMD_UNLINK, DIR_IN, DIR_OUT, OP_HDR, OP_REP_DEVLIST,  # noqa: F401 - re-exported
+                          OP_REP_IMPORT, OP_REQ_DEVLIST, OP_REQ_IMPORT, RET_SUBMIT, RET_SUBMIT_TAIL, RET_UNLINK,
+                          SUBMIT_HDR, UDEV, URB_HDR, USBIP_VERSION, recv_exact)
+
 RELEASE_GRACE_S = 2.0  # longest wait for a closed importer's teardown (unlink the IN URB, reset)
-
-
-def recv_exact(sock: socket.socket, n: int) -> bytes:
-    buf = bytearray()
-    while len(buf) < n:
-        chunk = sock.recv(n - len(buf))
-        if not chunk:
-            raise ConnectionError("USB/IP peer closed the connection")
-        buf += chunk
-    return bytes(buf)
 
 
 def udev_record(fn: UsbFunction, busid: str, busnum: int, devnum: int) -> bytes:
@@ -302,8 +287,9 @@ def _peer_closed(conn: socket.socket) -> bool:
 def main(argv: list[str] | None = None) -> int:
     """``python -m multisonar.usb.usbip_server --scene corridor --port 3240``"""
     import argparse
+    from urllib.parse import quote, urlencode
 
-    from ..simdevice import SimDevice
+    from ..urls import make_model
 
     ap = argparse.ArgumentParser(description="Serve the simulated Multisonar over USB/IP on 127.0.0.1")
     ap.add_argument("--scene", default="corridor")
@@ -312,7 +298,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rate", type=float, default=None, help="x real time (default: lock-step with the host)")
     ap.add_argument("--source", default="model", choices=("model", "replay"))
     a = ap.parse_args(argv)
-    srv = UsbipServer(SimDevice(a.scene, rate=a.rate, source=a.source), a.host, a.port)
+    # the sim:// scheme's model (multisonar.urls), so that the server does not import the simulated device
+    query = urlencode({"source": a.source, **({"rate": a.rate} if a.rate is not None else {})})
+    srv = UsbipServer(make_model(f"sim://{quote(a.scene, safe='')}?{query}").function, a.host, a.port)
     print(f"serving simulated Multisonar ({a.scene}) at {srv.url}; Ctrl-C stops", flush=True)
     try:
         srv.serve_forever()
