@@ -30,6 +30,8 @@ rtl/core/ms_sched_workq.sv
 rtl/core/ms_sched_uc.sv
 rtl/ms_sonar_core.sv
 rtl/ms_system.sv
+$GEN/rtl/ms_protocol_pkg.sv
+$GEN/rtl/ms_usb_desc_pkg.sv
 rtl/usb/ms_usb_pkg.sv
 rtl/usb/ms_usb_rx.sv
 rtl/usb/ms_usb_tx.sv

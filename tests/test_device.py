@@ -46,7 +46,7 @@ def _cmd(sim: SimDevice, op: int, payload: bytes = b"", seq: int = 9) -> P.Packe
 # device-side command handling: every status
 # ------------------------------------------------------------------------------------------
 def test_every_error_status(replay_sim):
-    sim = replay_sim()
+    sim = replay_sim(power_up_table=None)  # no compiled-in table: START is refused
     good = P.encode_command(P.Opcode.DEVICE_INFO, seq=5)
     cases = {
         P.Status.BAD_LENGTH: [good[:10], good[:-1], good + b"\0",
@@ -63,7 +63,7 @@ def test_every_error_status(replay_sim):
                                P.encode_command(P.Opcode.WRITE_REGS, P.write_regs_payload([(R.ID_ADDR, 1)])),
                                P.encode_command(P.Opcode.WRITE_REGS, P.write_regs_payload([(0x102, 1)])),
                                P.encode_command(P.Opcode.READ_REGS, P.read_regs_payload([0x4, 0x0F0]))],
-        P.Status.CFG_REJECTED: [P.encode_command(P.Opcode.START)],  # empty table
+        P.Status.CFG_REJECTED: [P.encode_command(P.Opcode.START)],  # EMPTY_TABLE
         P.Status.BAD_PARAM: [P.encode_command(P.Opcode.SET_PARAM, P.set_param_payload(99, 0)),
                              P.encode_command(P.Opcode.SET_PARAM, P.set_param_payload(P.Param.GEOMETRY, 2)),
                              P.encode_command(P.Opcode.GET_PARAM, struct.pack("<H", 0))],
@@ -220,7 +220,8 @@ def test_open_info_configure_stream(replay_sim):
         info = dev.info()
         assert (info.protocol_version, info.tick_hz, info.channels, info.max_vs) == (1, 48_000_000, 24, 8)
         assert info.win_slots == 16  # CAPS of the full build (the simulated device's register file)
-        assert dev._dev.product == "Multisonar (simulated)" and dev._dev.idVendor == 0x1209
+        assert dev._dev.product == "Multisonar 24-element sonar" and dev._dev.idVendor == 0x1209
+        assert info.simulated  # the board's descriptors; DEVICE_INFO says it is simulated
         with pytest.raises(ScheduleError, match="'bad'.*not a run of adjacent"):
             dev.configure([VirtualSensor("bad", tx=[0, 2], rx=[1])])
         with pytest.raises(TypeError, match="sensor 0"):
@@ -395,11 +396,12 @@ def test_usbip_end_to_end(replay_sim):
             u = dev._dev
             # real descriptors, strings included (not DEVLIST-fabricated)
             assert (u.idVendor, u.idProduct, u.product, u.manufacturer, u.serial_number) == \
-                (0x1209, 0x0001, "Multisonar (simulated)", "Multisonar project", "SIM-corridor")
+                (0x1209, 0x0001, "Multisonar 24-element sonar", "Multisonar", "00000001")
             intf = u.get_active_configuration()[(0, 0)]
             assert intf.bInterfaceClass == 0xFF and [e.bEndpointAddress for e in intf] == [0x01, 0x81]
             with pytest.raises(DeviceNotFound, match="attached by another client|refused"):
                 Device.open(srv.url)  # one importer at a time
+            dev.write_regs([(R.REGISTERS["VS_MODE"].addr(vs), 0) for vs in range(8)])  # power-up table off
             with pytest.raises(P.CfgRejected, match="EMPTY_TABLE"):
                 dev.start()
             dev.configure(SENSORS)

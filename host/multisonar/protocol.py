@@ -91,6 +91,14 @@ class Param(IntEnum):
     GLITCH_MIN = 5  #: RX_FILTER.glitch_min, ticks (1..255)
 
 
+#: SET_PARAM's accepted range per parameter, inclusive (else BAD_PARAM)
+PARAM_RANGE: dict[Param, tuple[int, int]] = {Param.TEMPERATURE_CC: (-4000, 8000), Param.GEOMETRY: (0, 1),
+                                             Param.TOF_RECORDS: (0, 1), Param.MAX_ECHOES: (1, 15),
+                                             Param.GLITCH_MIN: (1, 255)}
+#: parameters SET_PARAM refuses with BUSY while a table runs (they change the echo path)
+PARAM_BUSY_WHILE_RUNNING: frozenset[Param] = frozenset({Param.MAX_ECHOES, Param.GLITCH_MIN})
+
+
 #: CFG_REJECTED detail: STATUS.cfg_error codes (docs/protocol.md section 5)
 class CfgError(IntEnum):
     OK = 0

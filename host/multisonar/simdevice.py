@@ -6,6 +6,12 @@ callbacks), so the same object is served in-process (``sim://SCENE``) or over US
 
 Behind the endpoints it does what the board does:
 
+* the board's USB descriptors byte for byte (:mod:`multisonar.usb.descriptors`: device, BOS,
+  MS OS 2.0 set, strings; ``serial`` is the board's serial number);
+* at power-up the registers hold the firmware's compiled-in table (``power_up_table``, default
+  the board image's ``"scene"``, :func:`multisonar.tools.fw_schedule.power_up_writes`) and its
+  temperature: START runs it unless WRITE_REGS replaced it (``power_up_table=None``: all
+  sensors off, START refused with EMPTY_TABLE);
 * a register file with the sonar core's map (``multisonar.generated.sonar_regs``): WRITE_REGS /
   READ_REGS work on it with the board's address checks;
 * START decodes the virtual-sensor table **from the registers** (VS_* registers and the DELAY
@@ -45,7 +51,8 @@ import numpy as np
 
 from . import protocol as P
 from .constants import TICK_HZ, speed_of_sound, DEVICE_DECISION_LEAD
-from .usb.function import Disconnected, Identity, Stall, UsbFunction, UsbTimeout
+from .usb.descriptors import DEFAULT_SERIAL, multisonar_descriptors
+from .usb.function import Disconnected, Stall, UsbFunction, UsbTimeout
 from .errors import DeviceNotFound
 from .urls import DeviceUrl, Model, register_scheme
 
@@ -243,8 +250,8 @@ class SimDevice(UsbFunction):
     """Simulated Multisonar on the golden model. See the module docstring."""
 
     def __init__(self, scene: str = "corridor", *, rate: float | None = None, queue_frames: int = 256,
-                 source: str = "model", replay_s: float = 0.25, seed: int | None = None, serial: str | None = None,
-                 build_id: int | None = None) -> None:
+                 source: str = "model", replay_s: float = 0.25, seed: int | None = None, serial: int = DEFAULT_SERIAL,
+                 build_id: int | None = None, power_up_table: str | None = "scene") -> None:
         from ._version import __version__
 
         if source not in ("model", "replay"):
@@ -253,8 +260,7 @@ class SimDevice(UsbFunction):
             raise ValueError(f"rate must be > 0 (x real time) or None (lock-step), got {rate!r}")
         if queue_frames < 1:
             raise ValueError(f"queue_frames must be >= 1, got {queue_frames}")
-        super().__init__(Identity(P.USB_VID, P.USB_PID, "Multisonar project", "Multisonar (simulated)",
-                                  serial or f"SIM-{scene}", "Multisonar protocol v1"))
+        super().__init__(multisonar_descriptors(serial))  # the board's, byte for byte
         from .scene import load_scene
 
         self.scene_name = scene
@@ -264,7 +270,15 @@ class SimDevice(UsbFunction):
         self.build_id = build_id if build_id is not None else zlib.crc32(f"sim {__version__}".encode()) & 0xFFFFFFFF
         self.lock = threading.RLock()
         self.regs = RegisterFile()
-        self.params = {P.Param.TEMPERATURE_CC: int(round(self.scene.temperature_c * 100)), P.Param.GEOMETRY: 1,
+        self.power_up_table = power_up_table
+        temperature_cc = int(round(self.scene.temperature_c * 100))
+        if power_up_table:  # as the firmware's boot: the compiled-in table into the registers
+            from .tools.fw_schedule import TEMPERATURE_C, power_up_writes
+
+            for a, v in power_up_writes(power_up_table, self.layout):
+                self.regs.values[a] = v & self.regs.writable_mask[a]
+            temperature_cc = int(round(TEMPERATURE_C * 100))
+        self.params = {P.Param.TEMPERATURE_CC: temperature_cc, P.Param.GEOMETRY: 1,
                        P.Param.TOF_RECORDS: 1, P.Param.MAX_ECHOES: 1,
                        P.Param.GLITCH_MIN: self.regs.field("RX_FILTER", "GLITCH_MIN")}
         self.replies: deque[bytes] = deque(maxlen=16)
@@ -471,9 +485,6 @@ class SimDevice(UsbFunction):
             return P.Status.BAD_LENGTH, b""
         return P.Status.OK, P.encode_fw_stats({"geo_fixes": self.geo_fixes})
 
-    _PARAM_RANGE = {P.Param.TEMPERATURE_CC: (-4000, 8000), P.Param.GEOMETRY: (0, 1), P.Param.TOF_RECORDS: (0, 1),
-                    P.Param.MAX_ECHOES: (1, 15), P.Param.GLITCH_MIN: (1, 255)}
-
     def _cmd_set_param(self, pl: bytes) -> tuple[P.Status, bytes]:
         if len(pl) != 8:
             return P.Status.BAD_LENGTH, b""
@@ -482,10 +493,10 @@ class SimDevice(UsbFunction):
             param = P.Param(pid)
         except ValueError:
             return P.Status.BAD_PARAM, pl
-        lo, hi = self._PARAM_RANGE[param]
+        lo, hi = P.PARAM_RANGE[param]
         if not lo <= value <= hi:
             return P.Status.BAD_PARAM, pl
-        if self.running and param in (P.Param.MAX_ECHOES, P.Param.GLITCH_MIN):
+        if self.running and param in P.PARAM_BUSY_WHILE_RUNNING:
             return P.Status.BUSY, pl
         self.params[param] = value
         if param is P.Param.GLITCH_MIN:

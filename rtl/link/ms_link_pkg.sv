@@ -5,8 +5,8 @@
 package ms_link_pkg;
   localparam logic [31:0] CRC32_INIT    = 32'hFFFF_FFFF;
   localparam logic [31:0] CRC32_RESIDUE = 32'hDEBB_20E3;
-  localparam int          HEADER_BYTES  = 12;
-  localparam int          MAX_PAYLOAD   = 1024;
+  localparam int          HEADER_BYTES  = ms_protocol_pkg::HEADER_SIZE;
+  localparam int          MAX_PAYLOAD   = ms_protocol_pkg::MAX_PAYLOAD;
 
   // one byte into the CRC register (8 shift steps, unrolled: ~3 LUT levels per bit)
   function automatic logic [31:0] crc32_byte(logic [31:0] crc, logic [7:0] data);

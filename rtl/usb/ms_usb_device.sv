@@ -23,11 +23,9 @@
 //   and endpoints are the same logic as on the wire; switch tl_en_i only while the bus is idle.
 //   tl_bus_reset_i (level) acts like SE0 on the wire for >= 2.5 us.
 module ms_usb_device #(
-  parameter int VID            = 'h1209,
-  parameter int PID            = 'h0001,
-  parameter int BCD_DEVICE     = 'h0100,  // bcdDevice: the command/frame protocol version
+  // the board's serial number; the rest of the identity (VID, PID, bcdDevice = the protocol
+  // version, strings, MS OS 2.0 vendor code) is the generated descriptor image (ms_usb_desc_pkg)
   parameter int SERIAL         = 'h00000001,
-  parameter int MS_VENDOR_CODE = 'h4D,
   parameter int OUT_DEPTH      = 128,
   parameter int IN_DEPTH       = 256
 ) (
@@ -150,9 +148,7 @@ module ms_usb_device #(
     .in_data_i(in_rdata), .in_ack_o(in_ack), .in_drop_o(in_drop)
   );
 
-  ms_usb_ep0 #(
-    .VID(VID), .PID(PID), .BCD_DEVICE(BCD_DEVICE), .SERIAL(SERIAL), .MS_VENDOR_CODE(MS_VENDOR_CODE)
-  ) u_ep0 (
+  ms_usb_ep0 #(.SERIAL(SERIAL)) u_ep0 (
     .clk_i(clk_i), .rst_i(rst_i), .bus_reset_i(bus_reset),
     .setup_begin_i(ep0_setup_begin), .setup_valid_i(ep0_setup_valid), .setup_byte_i(ep0_setup_byte),
     .setup_i(ep0_setup), .in_stall_o(ep0_in_stall), .in_len_o(ep0_in_len),

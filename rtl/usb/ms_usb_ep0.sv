@@ -15,11 +15,7 @@
 //   [1] (EP1 IN) pulse when the data toggle of that endpoint must restart at DATA0.
 // - bus_reset_i: address 0, unconfigured, halts cleared, idle.
 module ms_usb_ep0 #(
-  parameter int VID            = 'h1209,
-  parameter int PID            = 'h0001,
-  parameter int BCD_DEVICE     = 'h0100,
-  parameter int SERIAL         = 'h00000001,
-  parameter int MS_VENDOR_CODE = 'h4D
+  parameter int SERIAL = 'h00000001  // the board's serial number (ms_usb_desc_rom)
 ) (
   input  logic       clk_i,
   input  logic       rst_i,
@@ -43,6 +39,7 @@ module ms_usb_ep0 #(
   output logic [1:0] toggle_rst_o
 );
   import ms_usb_pkg::*;
+  import ms_usb_desc_pkg::*;
 
   typedef enum logic [2:0] {E_IDLE, E_DIN, E_SOUT, E_SIN, E_STALL} state_e;
 
@@ -132,7 +129,7 @@ module ms_usb_ep0 #(
       16'h810A: begin d_ok = configured_q && windex == 16'd0; d_data = 1'b1; d_imm = 1'b1; d_len = 8'd1; end
       16'h010B: begin d_ok = configured_q && windex == 16'd0 && wvalue == 16'd0; d_set_if = 1'b1; end
       default: begin
-        if (bm == 8'hC0 && breq == 8'(MS_VENDOR_CODE) && windex == 16'd7) begin  // MS OS 2.0 set
+        if (bm == 8'hC0 && breq == 8'(MS_VENDOR_CODE) && windex == 16'(MS_OS_20_INDEX)) begin  // MS OS 2.0 set
           d_ok = 1'b1; d_data = 1'b1; d_base = 9'(DESC_MSOS_OFF); d_len = 8'(DESC_MSOS_LEN);
         end
       end
@@ -238,9 +235,7 @@ module ms_usb_ep0 #(
     end
   end
 
-  ms_usb_desc_rom #(
-    .VID(VID), .PID(PID), .BCD_DEVICE(BCD_DEVICE), .SERIAL(SERIAL), .MS_VENDOR_CODE(MS_VENDOR_CODE)
-  ) u_rom (
+  ms_usb_desc_rom #(.SERIAL(SERIAL)) u_rom (
     .clk_i (clk_i),
     .addr_i(rom_addr_q),
     .data_o(rom_data)

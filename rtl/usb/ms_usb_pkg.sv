@@ -16,17 +16,6 @@ package ms_usb_pkg;
   localparam logic [3:0] PID_NAK   = 4'b1010;
   localparam logic [3:0] PID_STALL = 4'b1110;
 
-  // Descriptor ROM layout (ms_usb_desc_rom): byte offset and length of each descriptor.
-  localparam int DESC_DEV_OFF  = 0;    localparam int DESC_DEV_LEN  = 18;
-  localparam int DESC_CFG_OFF  = 18;   localparam int DESC_CFG_LEN  = 32;
-  localparam int DESC_STR0_OFF = 50;   localparam int DESC_STR0_LEN = 4;
-  localparam int DESC_STR1_OFF = 54;   localparam int DESC_STR1_LEN = 22;
-  localparam int DESC_STR2_OFF = 76;   localparam int DESC_STR2_LEN = 56;
-  localparam int DESC_STR3_OFF = 132;  localparam int DESC_STR3_LEN = 18;
-  localparam int DESC_STR4_OFF = 150;  localparam int DESC_STR4_LEN = 46;
-  localparam int DESC_BOS_OFF  = 196;  localparam int DESC_BOS_LEN  = 33;
-  localparam int DESC_MSOS_OFF = 229;  localparam int DESC_MSOS_LEN = 162;
-
   // Line symbols as {dp, dn}.
   localparam logic [1:0] SYM_SE0 = 2'b00;
   localparam logic [1:0] SYM_J   = 2'b10;

@@ -7,6 +7,7 @@ at 48 MHz. test_transaction_level repeats the checks through the wire-less port 
 
 from __future__ import annotations
 
+import os
 import random
 import struct
 import time
@@ -18,9 +19,15 @@ from cocotb.utils import get_sim_time
 from tbutil import reset, start_clock
 from usb_host import PID_ACK, PID_DATA0, PID_DATA1, PID_IN, PID_NAK, PID_STALL, StallError, UsbHost, token_bytes
 
-VID, PID, BCD = 0x1209, 0x0001, 0x0100
+from multisonar import protocol as P
+from multisonar.usb.descriptors import multisonar_descriptors
+
+# the expectations below are spelled out from USB 2.0 ch. 9 and MS OS 2.0; check_source() also
+# compares every byte with the one source the ROM image is generated from
+VID, PID, BCD = P.USB_VID, P.USB_PID, P.PROTOCOL_VERSION << 8
 MS_VENDOR_CODE = 0x4D
 ADDR = 5
+SERIAL = int(os.environ.get("MS_USB_SERIAL", "1"))
 GUID = "{8C6A1E2D-5B3F-4A7E-9D21-6F0B3C4E5A71}"
 
 
@@ -82,7 +89,7 @@ def check_descriptors(got: dict[str, bytes]) -> None:
     assert got["str0"] == bytes([4, 3, 0x09, 0x04])
     assert got["manufacturer"] == usb_string("Multisonar")
     assert got["product"] == usb_string("Multisonar 24-element sonar")
-    assert got["serial"] == usb_string("00000001")
+    assert got["serial"] == usb_string(f"{SERIAL:08X}")
     assert got["interface"] == usb_string(f"Multisonar protocol v{BCD >> 8}")
     bos = got["bos"]
     assert bos[1] == 0x0F and bos[4] == 1
@@ -90,6 +97,15 @@ def check_descriptors(got: dict[str, bytes]) -> None:
     assert cap[1] == 0x10 and cap[2] == 0x05
     assert cap[4:20] == bytes.fromhex("DF60DDD88945C74C9CD2659D9E648A9F"), "MS OS 2.0 platform UUID"
     assert cap[26] == MS_VENDOR_CODE
+
+
+def check_source(got: dict[str, bytes], ms: bytes) -> None:
+    """The device's answers equal multisonar.usb.descriptors with this board's serial."""
+    src = multisonar_descriptors(SERIAL)
+    assert got["device"] == src.device and got["config"] == src.config and got["bos"] == src.bos
+    names = ("str0", "manufacturer", "product", "serial", "interface")
+    assert [got[n] for n in names] == list(src.strings)
+    assert ms == src.ms_os_20
 
 
 async def ms_os_descriptor_set(host: UsbHost, bos: bytes) -> bytes:
@@ -129,6 +145,7 @@ async def test_enumeration(dut):
     assert int(dut.configured_o.value) == 1
     ms = await ms_os_descriptor_set(host, got["bos"])
     check_ms_os(ms)
+    check_source(got, ms)
     # wLength shorter than the descriptor: exactly wLength bytes, also at a packet boundary
     assert await host.control_read(ADDR, 0xC0, MS_VENDOR_CODE, 0, 7, 128) == ms[:128]
     assert await host.control_read(ADDR, 0x80, 6, 0x0100, 0, 8) == got["device"][:8]

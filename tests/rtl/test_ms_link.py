@@ -2,9 +2,9 @@
 
 import pytest
 
-from cocotb_run import ROOT, run_cocotb
+from cocotb_run import GEN, ROOT, run_cocotb
 
-LINK_RTL = [ROOT / "rtl/common/ms_ram_dp.sv"] + [ROOT / "rtl/link" / f for f in (
+LINK_RTL = [GEN / "rtl/ms_protocol_pkg.sv", ROOT / "rtl/common/ms_ram_dp.sv"] + [ROOT / "rtl/link" / f for f in (
     "ms_link_pkg.sv", "ms_link_cmd_rx.sv", "ms_link_txq.sv", "ms_link_packer.sv", "ms_link.sv")]
 
 

@@ -11,7 +11,8 @@
 module usb_device_tb #(
   parameter int NSYM   = 1024,
   parameter int LOGLEN = 512,
-  parameter int SRCLEN = 512
+  parameter int SRCLEN = 512,
+  parameter int SERIAL = 'h00000001
 ) (
   input  logic                clk_i,
   input  logic                hclk_i,
@@ -75,7 +76,7 @@ module usb_device_tb #(
     end
   end
 
-  ms_usb_device u_dev (
+  ms_usb_device #(.SERIAL(SERIAL)) u_dev (
     .clk_i(clk_i), .rst_i(rst_i), .usb_dp_i(bus_dp), .usb_dn_i(bus_dn),
     .usb_dp_o(dev_dp), .usb_dn_o(dev_dn), .usb_oe_o(dev_oe), .usb_pullup_o(pullup_o),
     .configured_o(configured_o), .bus_reset_o(bus_reset_o),

@@ -31,7 +31,8 @@ from typing import Any
 from cocotb.triggers import Timer
 from cocotb.utils import get_sim_time
 
-from multisonar.usb.function import Descriptors, Disconnected, Identity, Stall, UsbFunction, UsbTimeout
+from multisonar.usb.descriptors import DescriptorSet
+from multisonar.usb.function import Disconnected, Stall, UsbFunction, UsbTimeout
 from usb_host import PID_ACK, PID_DATA0, PID_DATA1, PID_NAK, PID_STALL, StallError, UsbHost, UsbProtocolError
 
 ADDR = 5  # the address the bridge gives the device
@@ -40,7 +41,7 @@ ADDR = 5  # the address the bridge gives the device
 class RtlUsbFunction(UsbFunction):
     def __init__(self, host: UsbHost, *, idle_ps: int = 20_000_000, nak_ps: int = 10_000_000,
                  call_timeout_s: float = 120.0) -> None:
-        super().__init__(Identity(0, 0, "", "", ""))
+        super().__init__(DescriptorSet(b"", b"", (), b"", b""))  # read from the ROM at enumeration
         self.host, self.idle_ps, self.nak_ps = host, idle_ps, nak_ps
         self.call_timeout_s = call_timeout_s
         self.requests: queue.Queue[tuple[str, tuple, Future]] = queue.Queue()
@@ -69,7 +70,7 @@ class RtlUsbFunction(UsbFunction):
         strings = {}
         for i in range(5):
             strings[i] = await h.control_read(ADDR, 0x80, 6, 0x0300 | i, 0x0409 if i else 0, 255)
-        self.descriptors = Descriptors(dev, cfg, strings)
+        self.descriptors = DescriptorSet(dev, cfg, tuple(strings.values()), b"", b"")
 
     async def serve(self) -> None:
         """Run requests until :meth:`stop`; simulated time runs meanwhile."""

@@ -19,6 +19,7 @@
 #include "ms_hw.h"
 #include "ms_geom.h"
 #include "ms_layout.h"
+#include "ms_protocol.h"
 #include "sonar_app_cfg.h"
 
 #if MS_GEOM_ARITH != MS_ARITH_Q
@@ -49,13 +50,6 @@
 #define SCAN_TICKS 48000u    /* timeout scan period, 1 ms (time-outs are a backstop) */
 #define GEO_JOBS 8           /* closed pulses waiting for their fix */
 
-/* frame header flags (docs/protocol.md section 6) */
-#define FRAME_INIT 1u      /* init ping */
-#define FRAME_TRUNC 2u     /* more ToF records than MAX_EV */
-#define FRAME_LOST 8u      /* event-FIFO words of this pulse were lost (overflow): no fix */
-#define FRAME_CUT 16u      /* closed before every window reported (re-initialisation, re-aim, stop) */
-#define FRAME_GEO 32u      /* a geometry frame: the records of a pulse whose ToF frame went before */
-
 /* event word, high half (docs/fast_firing.md section 6) */
 #define EVH_OVF (1u << 12)    /* words were dropped before this one */
 #define EVH_GATED (1u << 13)  /* a first echo the gated miss rule rejected (event bit 45) */
@@ -81,7 +75,7 @@ static inline uint32_t now32(void) { return MS_SOC(TIMER_LO); }
 
 /* ---------------------------------------------------------------- types */
 typedef struct {
-    uint8_t used, vs, seq, flags; /* flags: frame header flags (FRAME_*) */
+    uint8_t used, vs, seq, flags; /* flags: frame header flags (MS_FRAME_*) */
     uint8_t n_ev;
     uint8_t has_rec;   /* the pulse record was seen: t0 and n_win are the hardware's */
     uint8_t n_win;     /* windows the pulse opened (pulse record) */
@@ -108,13 +102,10 @@ typedef struct {
     uint8_t init_misses;     /* init pings in a row without a fix */
 } sensor_t;
 
-/* FW_STATS (docs/protocol.md section 3; protocol.FW_STATS_FIELDS, in this order), cleared by
- * CLEAR_COUNTERS: geometry jobs by outcome (geo_report's order), ToF frames cut / lost, ToF
- * latency; then the worst cycles of each bounded path (the firmware's cycle table) */
-enum { FW_GEO_FIXES, FW_GEO_SKIPPED, FW_GEO_DECLINED, FW_GEO_STALE, FW_CUT, FW_LOST, FW_LAT_MAX,
-       FW_LAT_OVER_1MS, FW_CYC_WORD, FW_CYC_FRAME, FW_CYC_GEO, FW_CYC_REAIM, FW_CYC_CMD,
-       FW_CYC_SLICE, FW_BUSY_WINDOW, FW_NSTATS };
-extern uint32_t fw_stats[FW_NSTATS];
+/* FW_STATS, indexed by MS_FW_STAT_* (ms_protocol.h, generated from protocol.FW_STATS_FIELDS),
+ * cleared by CLEAR_COUNTERS: geometry jobs by outcome, ToF frames cut / lost, ToF latency; then
+ * the worst cycles of each bounded path (the firmware's cycle table) */
+extern uint32_t fw_stats[MS_FW_STAT_COUNT];
 static inline void stat_max(int i, uint32_t v)
 {
     if (v > fw_stats[i])

@@ -6,11 +6,6 @@
 
 #include "app.h"
 
-enum { ST_OK = 0, ST_BAD_CRC = 1, ST_BAD_MAGIC = 2, ST_BAD_VERSION = 3, ST_BAD_LENGTH = 4,
-       ST_UNKNOWN_OPCODE = 5, ST_BAD_ADDRESS = 6, ST_CFG_REJECTED = 7, ST_BUSY = 8, ST_BAD_PARAM = 9,
-       ST_INTERNAL = 11 };
-enum { OP_DEVICE_INFO = 1, OP_WRITE_REGS, OP_READ_REGS, OP_START, OP_STOP, OP_READ_COUNTERS,
-       OP_CLEAR_COUNTERS, OP_SET_PARAM, OP_GET_PARAM, OP_ECHO, OP_FW_STATS, OP_COUNT };
 
 /* one buffer for the command and its reply: every handler reads payload word i before it
  * writes reply word i (same offset, 3), and the reply header is written last */
@@ -24,6 +19,6 @@ typedef struct {
     cmd_fn fn;
     uint8_t payload; /* 0: a payload is BAD_LENGTH */
 } cmd_handler_t;
-extern const cmd_handler_t cmd_handlers[OP_COUNT];
+extern const cmd_handler_t cmd_handlers[MS_OP_COUNT];
 
 #endif

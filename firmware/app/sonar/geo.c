@@ -1,6 +1,6 @@
 /* The geometry path (best effort, bounded): a closed pulse with >= 3 first echoes becomes a job
  * in this queue, run by the main loop when no event and no command waits; its record goes out
- * in a frame of its own (FRAME_GEO, no ToF records). Queue full: the fix is skipped and counted.
+ * in a frame of its own (MS_FRAME_GEO, no ToF records). Queue full: the fix is skipped and counted.
  * A job runs ms_fix_fast only (the closed-form 3-receiver path, a few thousand cycles): what it
  * declines (the general path would take millions of cycles) is counted, never solved here. */
 #include "app.h"
@@ -18,8 +18,8 @@ static uint32_t geo_head, geo_tail;
  * fast path does not solve it, 3 stale: the sensor was re-aimed since) << 24 | cycles */
 APP_HOT static void geo_report(uint32_t what, uint32_t cycles)
 {
-    fw_stats[FW_GEO_FIXES + what]++;
-    stat_max(FW_CYC_GEO, cycles);
+    fw_stats[MS_FW_STAT_GEO_FIXES + what]++;
+    stat_max(MS_FW_STAT_CYCLES_GEO_MAX, cycles);
     ms_report(0x60000000u | (what << 24) | (cycles > 0xFFFFFFu ? 0xFFFFFFu : cycles));
 }
 
@@ -36,10 +36,10 @@ APP_HOT void geo_enqueue(const group_t *g)
 {
     const int si = vs_index[g->vs];
     const app_sensor_t *c = &cfgs[si];
-    if (g->flags & FRAME_LOST) /* no fix from incomplete data, and no verdict either */
+    if (g->flags & MS_FRAME_LOST) /* no fix from incomplete data, and no verdict either */
         return;
     if (__builtin_popcount(g->firsts) < 3 || c->n_rx > APP_MAX_GROUP || c->n_tx > APP_MAX_GROUP) {
-        sensor_outcome(si, g->flags & FRAME_INIT, 0); /* < 3 first echoes: no fix */
+        sensor_outcome(si, g->flags & MS_FRAME_INIT_PING, 0); /* < 3 first echoes: no fix */
         return;
     }
     if (geo_tail - geo_head >= GEO_JOBS) {
@@ -49,7 +49,7 @@ APP_HOT void geo_enqueue(const group_t *g)
     geo_job_t *j = &geo_q[geo_tail % GEO_JOBS];
     j->vs = g->vs;
     j->seq = g->seq;
-    j->flags = g->flags & FRAME_INIT;
+    j->flags = g->flags & MS_FRAME_INIT_PING;
     j->firsts = g->firsts;
     j->t0 = g->t0;
     j->shift = sens[si].shift;
@@ -126,7 +126,7 @@ APP_HOT static void run_geo_job(const geo_job_t *j)
     uint32_t geo[4], brg;
     uint32_t cls = geo_record(&cl, nf, geo, &brg);
     if (par_geometry)
-        send_packet(FRAME_GEO | j->flags, j->t0, j->vs, j->seq, 0u, 0, 0u, 1u, geo);
+        send_packet(MS_FRAME_GEO | j->flags, j->t0, j->vs, j->seq, 0u, 0, 0u, 1u, geo);
     int fixed = cls == 1u || cls == 2u;
     geo_report(0u, now32() - t);
     if (s != &sens[si]) /* a pulse of the groups before a move: no input for the next one */
@@ -135,7 +135,7 @@ APP_HOT static void run_geo_job(const geo_job_t *j)
         sens[si].last_dev = (int32_t)(brg - s->axis);
         sens[si].last_side = sens[si].last_dev > 0 ? 1 : -1;
     }
-    sensor_outcome(si, j->flags & FRAME_INIT, fixed);
+    sensor_outcome(si, j->flags & MS_FRAME_INIT_PING, fixed);
 }
 
 APP_HOT int geo_step(void)

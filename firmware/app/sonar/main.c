@@ -18,7 +18,7 @@
  * starts only with a job's worth of credit (BUSY_RESERVE). So over any stretch of time the loop
  * is busy at most 7/16 of it plus BUSY_CREDIT_MAX (in a 10 ms window: 43.75 % + 3.3 %), unless
  * the ToF path alone needs more. Jobs wait in their queue meanwhile; a full queue skips
- * (geo_skipped). FW_BUSY_WINDOW: the busiest 10 ms window (fixed windows) since
+ * (geo_skipped). MS_FW_STAT_BUSY_WINDOW_MAX: the busiest 10 ms window (fixed windows) since
  * CLEAR_COUNTERS.
  *
  * Mailbox (SIM_OUT), tag in bits 31:28:
@@ -34,7 +34,7 @@
  *   0xE  START refused: cfg_error << 4 | cfg_error_vs */
 #include "app.h"
 
-uint32_t fw_stats[FW_NSTATS];
+uint32_t fw_stats[MS_FW_STAT_COUNT];
 uint32_t frame_seq, reaims, running, bad_commands, wdt_base, busy_acc;
 int32_t temperature_cc = APP_TEMPERATURE_CC;
 uint8_t par_geometry = 1, par_tof = 1, par_max_echoes = 1;
@@ -44,7 +44,7 @@ uint16_t last_pulse_id[8];
 
 #define BUSY_CREDIT_MAX 16000 /* cycles: a geometry job's worst (~12-15 k) plus margin */
 #define BUSY_RESERVE 13000    /* credit an optional slice needs before it starts */
-#define BUSY_WINDOW 480000u   /* 10 ms: the window of FW_BUSY_WINDOW */
+#define BUSY_WINDOW 480000u   /* 10 ms: the window of MS_FW_STAT_BUSY_WINDOW_MAX */
 static int32_t busy_credit = BUSY_CREDIT_MAX;
 static uint32_t credit_t, window_t, window_busy;
 
@@ -62,7 +62,7 @@ APP_HOT static void busy_account(uint32_t busy, uint32_t now)
         busy_credit = BUSY_CREDIT_MAX;
     window_busy += busy;
     if (now - window_t >= BUSY_WINDOW) {
-        stat_max(FW_BUSY_WINDOW, window_busy);
+        stat_max(MS_FW_STAT_BUSY_WINDOW_MAX, window_busy);
         window_busy = 0;
         window_t = now;
     }
@@ -74,7 +74,7 @@ static inline int command_waiting(void)
 }
 
 /* a slice away from the event FIFO: its cycles are the event path's worst wait */
-APP_HOT static void slice_done(uint32_t t) { stat_max(FW_CYC_SLICE, now32() - t); }
+APP_HOT static void slice_done(uint32_t t) { stat_max(MS_FW_STAT_CYCLES_SLICE_MAX, now32() - t); }
 
 APP_HOT int main(void)
 {

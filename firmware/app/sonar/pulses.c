@@ -23,9 +23,9 @@ APP_HOT void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq,
                  const uint32_t *tof, uint32_t gated, uint32_t n_geo, const uint32_t *geo)
 {
     uint32_t *w = fbuf;
-    uint32_t plen = 20u + 8u * n_tof + 16u * n_geo;
-    uint32_t nwords = (12u + plen) / 4u;
-    w[0] = 0x4Du | (0x46u << 8) | (1u << 16) | (0x40u << 24); /* "MF", version 1, type 0x40 */
+    uint32_t plen = MS_FRAME_HEAD_SIZE + MS_TOF_RECORD_SIZE * n_tof + MS_GEO_RECORD_SIZE * n_geo;
+    uint32_t nwords = (MS_HEADER_SIZE + plen) / 4u;
+    w[0] = MS_MAGIC_FRAME | (MS_PROTOCOL_VERSION << 16) | (MS_FRAME_TYPE << 24);
     w[1] = flags | (0u << 8) | (plen << 16);
     w[2] = frame_seq;
     w[3] = now32();              /* timestamp */
@@ -34,11 +34,11 @@ APP_HOT void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq,
     w[6] = MS_SOC(FRAMES_DROPPED);
     w[7] = (MS_SONAR(OVERFLOWS) & 0xFFFFu) | (((MS_SOC(WDT_RESETS) - wdt_base) & 0xFFFFu) << 16);
     uint32_t *p = &w[8];
-    uint32_t word1 = (seq << 8) | (vs << 16) | ((flags & FRAME_INIT) ? (8u << 24) : 0u);
+    uint32_t word1 = (seq << 8) | (vs << 16) | ((flags & MS_FRAME_INIT_PING) ? (MS_TOF_INIT_PING << 24) : 0u);
     for (uint32_t i = 0; i < n_tof; i++) { /* group_t.rec -> the wire's two words */
         uint32_t rx = (tof[i] >> 24) & 0x1Fu, fl = tof[i] >> 29;
-        if ((fl & 2u) && ((gated >> rx) & 1u)) /* the first echo of a receiver in `gated` */
-            fl |= 0x10u;
+        if ((fl & MS_TOF_FIRST_ECHO) && ((gated >> rx) & 1u)) /* the first echo of a receiver in `gated` */
+            fl |= MS_TOF_GATED;
         *p++ = tof[i] & 0xFFFFFFu;
         *p++ = word1 | rx | (fl << 24);
     }
@@ -59,13 +59,13 @@ APP_HOT static void close_group(group_t *g)
     geo_enqueue(g);
     /* mailbox 0x2: from the pulse's completion (the detection tick of its last window's
      * terminal event, or of the cancel that cut it; the pop when its record was lost) */
-    uint32_t from = (g->flags & FRAME_LOST) ? g->t_pop : g->t_done, now = now32(), lat = now - from;
+    uint32_t from = (g->flags & MS_FRAME_LOST) ? g->t_pop : g->t_done, now = now32(), lat = now - from;
     ms_report(0x20000000u | (lat & 0x0FFFFFFFu));
-    stat_max(FW_LAT_MAX, lat);
-    fw_stats[FW_LAT_OVER_1MS] += lat > MS_TICK_HZ / 1000u;
-    fw_stats[FW_CUT] += (g->flags & FRAME_CUT) != 0;
-    fw_stats[FW_LOST] += (g->flags & FRAME_LOST) != 0;
-    stat_max(FW_CYC_FRAME, now - t);
+    stat_max(MS_FW_STAT_LATENCY_MAX_TICKS, lat);
+    fw_stats[MS_FW_STAT_LATENCY_OVER_1MS] += lat > MS_TICK_HZ / 1000u;
+    fw_stats[MS_FW_STAT_FRAMES_CUT] += (g->flags & MS_FRAME_CUT) != 0;
+    fw_stats[MS_FW_STAT_FRAMES_LOST] += (g->flags & MS_FRAME_LOST) != 0;
+    stat_max(MS_FW_STAT_CYCLES_FRAME_MAX, now - t);
     word_aside += now - t;
     /* mailbox 0x4: the main loop's busy cycles since the previous ToF frame */
     ms_report(0x40000000u | (busy_acc & 0x0FFFFFFFu));
@@ -87,7 +87,7 @@ APP_HOT static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int in
         }
     }
     if (!free_g) { /* no room: the sensor's oldest pulse goes out as it is */
-        oldest->flags |= FRAME_CUT;
+        oldest->flags |= MS_FRAME_CUT;
         close_group(oldest);
         free_g = oldest;
     }
@@ -98,7 +98,7 @@ APP_HOT static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int in
     free_g->vs = (uint8_t)vs;
     free_g->seq = (uint8_t)seq;
     free_g->t0 = t0;
-    free_g->flags = init ? FRAME_INIT : 0u;
+    free_g->flags = init ? MS_FRAME_INIT_PING : 0u;
     return free_g;
 }
 
@@ -110,7 +110,7 @@ APP_HOT static int group_complete(const group_t *g)
     return (g->done & s->rx_mask) == s->rx_mask; /* no record (lost): every receiver reported */
 }
 
-/* The open pulses of sensor vs (vs < 0: of every sensor) go out, cut (FRAME_CUT): their
+/* The open pulses of sensor vs (vs < 0: of every sensor) go out, cut (MS_FRAME_CUT): their
  * windows ended at `tick` without reporting. A cancel record says so for one sensor (a
  * re-initialisation cancelled its pending windows); so does an init ping's record (a sensor
  * re-initialises only after its windows were cancelled or closed); an apply taken (the new
@@ -121,7 +121,7 @@ APP_HOT void cut_open(int vs, uint32_t tick)
     for (int i = from; i < to; i++) {
         group_t *o = &groups[i];
         if (o->used) {
-            o->flags |= FRAME_CUT;
+            o->flags |= MS_FRAME_CUT;
             o->t_done = tick;
             close_group(o);
         }
@@ -157,7 +157,7 @@ APP_HOT static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
     if (hi & EVH_OVF) /* words were lost just before this one: every open pulse may miss some */
         for (int i = 0; i < MAX_GROUPS; i++)
             if (groups[i].used)
-                groups[i].flags |= FRAME_LOST;
+                groups[i].flags |= MS_FRAME_LOST;
     if (hi & EVH_RECORD)
         return take_record(lo, hi, now);
     uint32_t tof = lo & 0xFFFFFFu, rx = (lo >> 24) & 0x1Fu;
@@ -169,7 +169,7 @@ APP_HOT static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
     uint32_t t0c = now - tof - ((fl & 4u) ? 0u : edge_lat);
     group_t *g = group_for(vs, seq, t0c, (fl & 8u) != 0);
     if (!g->has_rec) {
-        g->flags |= FRAME_LOST;
+        g->flags |= MS_FRAME_LOST;
         if ((int32_t)(t0c - g->t0) < 0)
             g->t0 = t0c;
     }
@@ -177,7 +177,7 @@ APP_HOT static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
     if (g->n_ev < MAX_EV) {
         g->rec[g->n_ev++] = tof | (rx << 24) | ((fl & 7u) << 29);
     } else {
-        g->flags |= FRAME_TRUNC;
+        g->flags |= MS_FRAME_TRUNCATED;
     }
     const sensor_t *s = &sens[vs_index[vs]];
     const app_sensor_t *c = &cfgs[vs_index[vs]];
@@ -230,7 +230,7 @@ APP_HOT void poll_events(uint32_t max_words)
         group_t *g = take_event(lo, hi, now);
         if (g)
             finish(g);
-        stat_max(FW_CYC_WORD, now32() - t - (word_aside - f0));
+        stat_max(MS_FW_STAT_CYCLES_WORD_MAX, now32() - t - (word_aside - f0));
         if (g && (MS_SOC(CMD_STATUS) & SOC_REGS__CMD_STATUS__AVAIL_bm))
             return;
     }
@@ -242,7 +242,7 @@ APP_HOT void scan_timeouts(uint32_t now)
     for (int i = 0; i < MAX_GROUPS; i++) {
         group_t *g = &groups[i];
         if (g->used && (int32_t)(now - g->t0) > (int32_t)(cfgs[vs_index[g->vs]].max_tof + CLOSE_MARGIN)) {
-            g->flags |= FRAME_CUT;
+            g->flags |= MS_FRAME_CUT;
             close_group(g);
         }
     }

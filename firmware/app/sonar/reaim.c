@@ -117,8 +117,8 @@ static void take_over(uint32_t now)
     uint32_t t = now32();
     sensor_prepare(&ra.nw, &cfgs[ra.si], &ra.nw.arr);
     t = now32() - t;
-    stat_max(FW_CYC_REAIM, t);
-    stat_max(FW_CYC_SLICE, t);
+    stat_max(MS_FW_STAT_CYCLES_REAIM_MAX, t);
+    stat_max(MS_FW_STAT_CYCLES_SLICE_MAX, t);
     word_aside += t;
     ra.nw.last_side = s->last_side;
     ra.nw.last_dev = 0;
@@ -187,7 +187,7 @@ APP_HOT int reaim_step(int idle)
     default:
         return 0;
     }
-    stat_max(FW_CYC_REAIM, now32() - t);
+    stat_max(MS_FW_STAT_CYCLES_REAIM_MAX, now32() - t);
     return 1;
 }
 

@@ -8,6 +8,7 @@
  */
 #include "sched_table.h"
 
+#include "ms_protocol.h"
 #include "ms_sched_layout.h"
 #include "sonar_regs.h"
 

@@ -82,6 +82,12 @@ def schedule_for(config: str = "scene", layout: Layout | None = None, rotations:
     return Schedule(layout, sensors, temperature_c=temperature_c)
 
 
+def power_up_writes(config: str = "scene", layout: Layout | None = None) -> list[tuple[int, int]]:
+    """The register writes the firmware built with ``config`` makes at power-up (its compiled-in
+    table, ``app_writes``): what START runs unless WRITE_REGS replaced it."""
+    return schedule_writes(schedule_for(config, layout))
+
+
 def _check_rotation_symmetric(layout: Layout) -> None:
     n = layout.n
     a = 2.0 * math.pi / n

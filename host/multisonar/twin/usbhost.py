@@ -17,7 +17,8 @@ import struct
 import threading
 import time
 
-from ..usb.function import Descriptors, Identity, Stall, UsbFunction, UsbTimeout
+from ..usb.descriptors import DescriptorSet, read_descriptor_set
+from ..usb.function import Stall, UsbFunction, UsbTimeout
 from ..usb.packets import (PID_ACK, PID_DATA0, PID_DATA1, PID_IN, PID_NAK, PID_OUT, PID_SETUP, PID_STALL,
                            MAX_PACKET, UsbProtocolError, bus_bits, data_bytes, parse_reply, pid_byte, token_bytes)
 from .sim import TwinSim
@@ -135,7 +136,7 @@ class TwinUsbHost:
 
 class TwinUsbFunction(UsbFunction):
     """The twin as a USB function: enumerated at construction (bus reset, SET_ADDRESS,
-    descriptors read from the device's ROM), then control / bulk transfers from any thread (one
+    descriptors read from the device's ROM, MS OS 2.0 set included), then control / bulk transfers from any thread (one
     at a time; the simulation belongs to whichever thread calls).
 
     A NAKed bulk IN is retried every ``poll_s`` of device time (the device runs meanwhile) until
@@ -143,7 +144,7 @@ class TwinUsbFunction(UsbFunction):
     USB/IP client unlinks the transfer then: answering later would lose the data)."""
 
     def __init__(self, sim: TwinSim, *, poll_s: float = 50e-6) -> None:
-        super().__init__(Identity(0, 0, "", "", ""))
+        super().__init__(DescriptorSet(b"", b"", (), b"", b""))  # read from the ROM below
         self.sim, self.host = sim, TwinUsbHost(sim)
         self.poll_clocks = int(poll_s * 48e6)
         self.lock = threading.RLock()
@@ -158,11 +159,7 @@ class TwinUsbFunction(UsbFunction):
             h.bus_reset()
             h.control_read(0, 0x80, 6, 0x0100, 0, 64)
             h.control_nodata(0, 0x00, 5, ADDR, 0)
-            dev = h.control_read(ADDR, 0x80, 6, 0x0100, 0, 18)
-            cfg = h.control_read(ADDR, 0x80, 6, 0x0200, 0, 9)
-            cfg = h.control_read(ADDR, 0x80, 6, 0x0200, 0, struct.unpack_from("<H", cfg, 2)[0])
-            strings = {i: h.control_read(ADDR, 0x80, 6, 0x0300 | i, 0x0409 if i else 0, 255) for i in range(5)}
-            self.descriptors = Descriptors(dev, cfg, strings)
+            self.descriptors = read_descriptor_set(lambda *req: h.control_read(ADDR, *req))
             self.out_toggle, self.in_toggle = False, None
 
     # ------------------------------------------------------------------ UsbFunction

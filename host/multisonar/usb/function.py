@@ -6,15 +6,19 @@
 :meth:`bulk_out` and :meth:`bulk_in` (the simulated Multisonar: :mod:`multisonar.simdevice`;
 an RTL twin can implement the same three methods at transaction level).
 
-Descriptors are bytes, built once; hosts read them with GET_DESCRIPTOR like from a real
-device, and :func:`parse_descriptors` turns them into the objects pyusb's backend API wants.
+Descriptors are bytes (:class:`~multisonar.usb.descriptors.DescriptorSet`); hosts read them with
+GET_DESCRIPTOR (and the MS OS 2.0 vendor request) like from a real device, and
+:func:`parse_device_descriptor` / :func:`parse_config_descriptor` turn them into the objects
+pyusb's backend API wants.
 """
 
 from __future__ import annotations
 
 import struct
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from types import SimpleNamespace
+
+from .descriptors import MS_OS_20_INDEX, DescriptorSet
 
 
 class Stall(Exception):
@@ -29,57 +33,13 @@ class Disconnected(Exception):
     """The device is gone (unplugged, server closed)."""
 
 
-@dataclass
-class Identity:
-    vid: int
-    pid: int
-    manufacturer: str
-    product: str
-    serial: str
-    interface: str = ""
-    bcd_device: int = 0x0100
-    interface_class: int = 0xFF
-    ep_out: int = 0x01
-    ep_in: int = 0x81
-    mps: int = 64
-    max_power_ma: int = 100
-
-
-def _string_desc(s: str) -> bytes:
-    b = s.encode("utf-16-le")
-    return bytes([2 + len(b), 3]) + b
-
-
-@dataclass
-class Descriptors:
-    device: bytes
-    config: bytes
-    strings: dict[int, bytes] = field(default_factory=dict)  # index -> descriptor (0 = langids)
-
-    @classmethod
-    def build(cls, ident: Identity) -> "Descriptors":
-        strs = [ident.manufacturer, ident.product, ident.serial, ident.interface]
-        dev = struct.pack("<BBHBBBBHHHBBBB", 18, 1, 0x0200, 0, 0, 0, 64, ident.vid, ident.pid, ident.bcd_device,
-                          1, 2, 3, 1)
-        intf = struct.pack("<BBBBBBBBB", 9, 4, 0, 0, 2, ident.interface_class, 0, 0, 4 if ident.interface else 0)
-        eps = b"".join(struct.pack("<BBBBHB", 7, 5, ep, 0x02, ident.mps, 0) for ep in (ident.ep_out, ident.ep_in))
-        total = 9 + len(intf) + len(eps)
-        cfg = struct.pack("<BBHBBBBB", 9, 2, total, 1, 1, 0, 0x80, ident.max_power_ma // 2) + intf + eps
-        strings = {0: bytes([4, 3, 0x09, 0x04])}
-        for i, s in enumerate(strs, start=1):
-            if s:
-                strings[i] = _string_desc(s)
-        return cls(dev, cfg, strings)
-
-
 class UsbFunction:
     """Endpoint-level device model. Standard control requests are handled here."""
 
     speed: int = 2  # usb.util.SPEED_FULL
 
-    def __init__(self, ident: Identity) -> None:
-        self.ident = ident
-        self.descriptors = Descriptors.build(ident)
+    def __init__(self, descriptors: DescriptorSet) -> None:
+        self.descriptors = descriptors
         self.configuration = 0
         self.halted: set[int] = set()
 
@@ -91,19 +51,15 @@ class UsbFunction:
             raise Stall(f"SETUP packet of {len(setup)} bytes")
         rt, req, value, index, length = struct.unpack("<BBHHH", setup)
         kind = (rt >> 5) & 3
+        d = self.descriptors
+        if (rt, req, index) == (0xC0, d.vendor_code, MS_OS_20_INDEX):  # MS OS 2.0 descriptor set
+            return d.ms_os_20[:length]
         if kind != 0:
             return self.vendor_control(rt, req, value, index, length, data)
-        d = self.descriptors
         if req == 6 and rt == 0x80:  # GET_DESCRIPTOR
-            dtype, didx = value >> 8, value & 0xFF
-            if dtype == 1:
-                out = d.device
-            elif dtype == 2 and didx == 0:
-                out = d.config
-            elif dtype == 3 and didx in d.strings:
-                out = d.strings[didx]
-            else:
-                raise Stall(f"no descriptor type {dtype} index {didx}")
+            out = d.get_descriptor(value >> 8, value & 0xFF)
+            if out is None:
+                raise Stall(f"no descriptor type {value >> 8} index {value & 0xFF}")
             return out[:length]
         if req == 9 and rt == 0x00:  # SET_CONFIGURATION
             if value not in (0, 1):

@@ -27,7 +27,7 @@ from ..errors import DeviceNotFound
 from ..urls import Connection, DeviceUrl, register_scheme
 from .function import ParsedConfig, parse_config_descriptor, parse_device_descriptor
 from .usbip_proto import (CMD_SUBMIT, CMD_UNLINK, DIR_IN, DIR_OUT, OP_HDR, OP_REP_DEVLIST, OP_REP_IMPORT,
-                          OP_REQ_DEVLIST, OP_REQ_IMPORT, RET_SUBMIT, RET_SUBMIT_TAIL, RET_UNLINK, SUBMIT_HDR, UDEV,
+                          OP_REQ_DEVLIST, OP_REQ_IMPORT, RET_SUBMIT, NOT_ISO, RET_SUBMIT_TAIL, RET_UNLINK, SUBMIT_HDR, UDEV,
                           URB_HDR, USBIP_VERSION, recv_exact)
 
 
@@ -41,6 +41,7 @@ class _Session:
     def __init__(self, host: str, port: int, busid: str, timeout: float) -> None:
         self.lock = threading.Lock()
         self.seq = 0
+        self.in_flight: dict[int, int] = {}  # seqnum -> direction of URBs without their RET_SUBMIT
         try:
             self.sock = socket.create_connection((host, port), timeout=timeout)
         except OSError as e:
@@ -72,7 +73,8 @@ class _Session:
     def _send_submit(self, ep: int, direction: int, length: int, setup: bytes = b"\0" * 8, data: bytes = b"") -> int:
         self.seq = (self.seq + 1) & 0xFFFFFFFF or 1
         hdr = URB_HDR.pack(CMD_SUBMIT, self.seq, self.devid, direction, ep & 0x7F)
-        self.sock.sendall(hdr + SUBMIT_HDR.pack(0, length, 0, 0, 0, setup) + (data if direction == DIR_OUT else b""))
+        self.in_flight[self.seq] = direction
+        self.sock.sendall(hdr + SUBMIT_HDR.pack(0, length, 0, NOT_ISO, 0, setup) + (data if direction == DIR_OUT else b""))
         return self.seq
 
     def _recv_ret(self, deadline: float | None) -> tuple[int, int, int, int, bytes]:
@@ -82,9 +84,12 @@ class _Session:
             if not ready:
                 raise socket.timeout("USB/IP: no answer yet")
         self.sock.settimeout(10.0)
-        cmd, seqnum, _devid, direction, _ep = URB_HDR.unpack(recv_exact(self.sock, URB_HDR.size))
+        # devid, direction and ep of a reply are 0 (usbip_protocol.rst): the direction is the
+        # submitted URB's, looked up by its sequence number as the kernel's vhci does
+        cmd, seqnum, _devid, _direction, _ep = URB_HDR.unpack(recv_exact(self.sock, URB_HDR.size))
         if cmd == RET_SUBMIT:
             status, actual, _sf, _np, _ec = RET_SUBMIT_TAIL.unpack(recv_exact(self.sock, RET_SUBMIT_TAIL.size))
+            direction = self.in_flight.pop(seqnum, DIR_OUT)
             data = recv_exact(self.sock, actual) if direction == DIR_IN and actual > 0 else b""
             return cmd, seqnum, status, actual, data
         if cmd == RET_UNLINK:
@@ -129,6 +134,7 @@ class _Session:
             if cmd == RET_SUBMIT and rseq == target:  # completed before the unlink: keep the data
                 return status, actual, rdata
             if cmd == RET_UNLINK and rseq == useq:
+                self.in_flight.pop(target, None)  # unlinked: no RET_SUBMIT follows
                 raise usb.core.USBTimeoutError("USB/IP transfer timed out", errno.ETIMEDOUT, errno.ETIMEDOUT)
 
 

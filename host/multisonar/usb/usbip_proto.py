@@ -17,8 +17,10 @@ CMD_SUBMIT, CMD_UNLINK, RET_SUBMIT, RET_UNLINK = 1, 2, 3, 4
 DIR_OUT, DIR_IN = 0, 1
 OP_HDR = struct.Struct(">HHI")
 URB_HDR = struct.Struct(">IIIII")  # command, seqnum, devid, direction, ep
-SUBMIT_HDR = struct.Struct(">IIIII8s")  # flags, buffer length, start frame, packets, interval, setup
+SUBMIT_HDR = struct.Struct(">IIIiI8s")  # flags, buffer length, start frame, packets, interval, setup
 RET_SUBMIT_TAIL = struct.Struct(">iiiii8x")  # status, actual length, start frame, packets, errors
+#: number_of_packets of a transfer that is not isochronous (CMD_SUBMIT and RET_SUBMIT: 0xffffffff)
+NOT_ISO = -1
 UDEV = struct.Struct(">256s32sIIIHHHBBBBBB")
 
 

@@ -31,7 +31,7 @@ from .function import Disconnected, Stall, UsbFunction, UsbTimeout, parse_config
 # the wire format, shared with the client (multisonar.usb.usbip_proto)
 from .usbip_proto import (CMD_SUBMIT, CMD_UNLINK, DIR_IN, DIR_OUT, OP_HDR, OP_REP_DEVLIST,  # noqa: F401 - re-exported
                           OP_REP_IMPORT, OP_REQ_DEVLIST, OP_REQ_IMPORT, RET_SUBMIT, RET_SUBMIT_TAIL, RET_UNLINK,
-                          SUBMIT_HDR, UDEV, URB_HDR, USBIP_VERSION, recv_exact)
+                          SUBMIT_HDR, UDEV, URB_HDR, USBIP_VERSION, NOT_ISO, recv_exact)
 
 RELEASE_GRACE_S = 2.0  # longest wait for a closed importer's teardown (unlink the IN URB, reset)
 
@@ -175,8 +175,10 @@ class UsbipServer:
                 conn.sendall(b)
 
         def ret_submit(seqnum: int, ep: int, direction: int, status: int, data: bytes = b"", actual: int = 0) -> None:
-            send(URB_HDR.pack(RET_SUBMIT, seqnum, 0, direction, ep)
-                 + RET_SUBMIT_TAIL.pack(status, actual if direction == DIR_OUT else len(data), 0, 0, 0) + data)
+            # devid, direction and ep "shall be set to 0" in a reply (usbip_protocol.rst); the
+            # URB's direction only decides actual_length (OUT: bytes taken; IN: bytes returned)
+            send(URB_HDR.pack(RET_SUBMIT, seqnum, 0, 0, 0)
+                 + RET_SUBMIT_TAIL.pack(status, actual if direction == DIR_OUT else len(data), 0, NOT_ISO, 0) + data)
 
         def ret_unlink(seqnum: int, status: int) -> None:
             send(URB_HDR.pack(RET_UNLINK, seqnum, 0, 0, 0) + struct.pack(">i24x", status))
