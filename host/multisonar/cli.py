@@ -119,6 +119,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mcap", required=True, metavar="OUT.mcap", help="ROS 2 bag in MCAP format to write")
     p.add_argument("--frame-id", default="base_link", help="robot frame of the messages [%(default)s]")
     p.add_argument("--temperature", type=float, default=20.0, help="air temperature for ToF -> range, degC [%(default)s]")
+    p.add_argument("--ros-distro", choices=("humble", "iron", "jazzy"), default="jazzy",
+                   help="ROS 2 distribution whose message layout to write (Range has 'variance' from iron on) "
+                        "[%(default)s]")
     p.set_defaults(func=_cmd_export)
     return ap
 
@@ -164,7 +167,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
     from .export import ExportError, export_mcap
 
     try:
-        stats = export_mcap(args.recording, args.mcap, frame_id=args.frame_id, temperature_c=args.temperature)
+        stats = export_mcap(args.recording, args.mcap, frame_id=args.frame_id, temperature_c=args.temperature,
+                            ros_distro=args.ros_distro)
     except ExportError as e:
         print(f"multisonar export: error: {e}", file=sys.stderr)
         return 1
