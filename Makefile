@@ -108,7 +108,7 @@ $(BUILD)/fw/%.elf: firmware/app/%.c $(wildcard firmware/app/*.h) $(STAMPS)/gen M
 GEOM_ARITH_f64 := MS_ARITH_F64
 GEOM_ARITH_f32 := MS_ARITH_F32
 GEOM_ARITH_q   := MS_ARITH_Q
-GEOM_SRC       := firmware/geometry/ms_geom.c
+GEOM_SRC       := firmware/geometry/ms_geom_q_fast.c
 # the benchmark images hold all three solvers (and the case table): 56 KiB image, 8 KiB data/stack
 GEOM_LDFLAGS   := -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0xE000 \
                   -Wl,--defsym=__ram=0xE000 -Wl,--defsym=__ram_size=0x2000 -Wl,--gc-sections
