@@ -102,13 +102,26 @@ $(BUILD)/fw/%.elf: firmware/app/%.c $(wildcard firmware/app/*.h) $(STAMPS)/gen M
 	@mkdir -p $(@D)
 	$(FW_CC) $(FW_CFLAGS) $< -o $@ $(FW_LDFLAGS)
 
-# Geometry benchmark, one image per arithmetic variant of firmware/geometry/ms_geom.c:
+# Geometry library (firmware/geometry, the files listed in firmware/README.md): one format's files,
+# ms_geom_q_*.c or ms_geom_f_*.c (f64 and f32 share theirs), plus those of every format.
+# GEOM_SRC is the Q library, the one the firmware images link (mk/*.mk). The order is the link
+# order where sections are not sorted (the benchmark images): the per-pulse code first, right
+# after the benchmark's loop, so that the calls round a fix do not evict it from VexRiscv's
+# direct-mapped 16 KiB instruction cache (tests/rtl/test_ms_soc_geometry.py, real-time budget).
+GEOM_COMMON    := $(addprefix firmware/geometry/,ms_geom_reasons.c ms_geom_setup.c ms_geom_fit.c \
+                  ms_geom_point.c ms_geom_wall.c ms_geom_classify.c ms_geom_cylinder.c)
+GEOM_SRC_q     := firmware/geometry/ms_geom_q_fast.c firmware/geometry/ms_geom_q_math.c $(GEOM_COMMON)
+GEOM_SRC_f64   := firmware/geometry/ms_geom_f_fast.c firmware/geometry/ms_geom_f_math.c $(GEOM_COMMON)
+GEOM_SRC_f32   := $(GEOM_SRC_f64)
+GEOM_SRC       := $(GEOM_SRC_q)
+GEOM_HDR       := $(wildcard firmware/geometry/ms_geom*.h)
+
+# Geometry benchmark, one image per arithmetic variant of the library:
 # build/fw/bench_geom_{f64,f32,q}.hex (scripts/bench_fw_cycles.py, tests/rtl/test_ms_soc_geometry.py).
 # The cases come from the golden model: multisonar.tools.geom_cases -> build/fw/bench_cases.h.
 GEOM_ARITH_f64 := MS_ARITH_F64
 GEOM_ARITH_f32 := MS_ARITH_F32
 GEOM_ARITH_q   := MS_ARITH_Q
-GEOM_SRC       := firmware/geometry/ms_geom_q_fast.c
 # the benchmark images hold all three solvers (and the case table): 56 KiB image, 8 KiB data/stack
 GEOM_LDFLAGS   := -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0xE000 \
                   -Wl,--defsym=__ram=0xE000 -Wl,--defsym=__ram_size=0x2000 -Wl,--gc-sections
@@ -118,12 +131,12 @@ $(BUILD)/fw/bench_cases.h: host/multisonar/tools/geom_cases.py host/multisonar/g
 	@mkdir -p $(@D)
 	$(VPY) -m multisonar.tools.geom_cases --header $@
 
-$(BUILD)/fw/bench_geom_%.elf: firmware/app/bench_geom.c $(GEOM_SRC) firmware/geometry/ms_geom.h \
+$(BUILD)/fw/bench_geom_%.elf: firmware/app/bench_geom.c $(sort $(GEOM_SRC_q) $(GEOM_SRC_f64)) $(GEOM_HDR) \
                               $(BUILD)/fw/bench_cases.h $(wildcard firmware/app/*.h) $(STAMPS)/gen Makefile
 	@[ -n "$(GEOM_ARITH_$*)" ] || { echo "make: no geometry variant '$*' (f64, f32, q)" >&2; exit 1; }
 	@mkdir -p $(@D)
 	$(FW_CC) $(FW_CFLAGS) -ffunction-sections -fdata-sections -Ifirmware/geometry -I$(BUILD)/fw \
-	    -DMS_GEOM_ARITH=$(GEOM_ARITH_$*) firmware/app/bench_geom.c $(GEOM_SRC) -o $@ $(GEOM_LDFLAGS) -lm
+	    -DMS_GEOM_ARITH=$(GEOM_ARITH_$*) firmware/app/bench_geom.c $(GEOM_SRC_$*) -o $@ $(GEOM_LDFLAGS) -lm
 
 $(BUILD)/fw/%.hex: $(BUILD)/fw/%.elf
 	riscv64-unknown-elf-objcopy -O binary $< $(@:.hex=.bin)

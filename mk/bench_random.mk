@@ -10,7 +10,7 @@
 # ms_prepare and the fast path only (--gc-sections drops the general path ms_fix_fast never
 # calls), ~28 KB, bss ~12 KB (mostly the histograms).
 BENCH_RANDOM_SRC  := firmware/app/bench_fix_random.c
-BENCH_RANDOM_DEPS := $(BENCH_RANDOM_SRC) $(GEOM_SRC) firmware/geometry/ms_geom.h $(wildcard firmware/app/*.h) \
+BENCH_RANDOM_DEPS := $(BENCH_RANDOM_SRC) $(GEOM_SRC) $(GEOM_HDR) $(wildcard firmware/app/*.h) \
                      $(STAMPS)/gen Makefile mk/bench_random.mk
 # bench_random_cc DEFINES: compile and link $@
 bench_random_cc = $(FW_CC) $(FW_CFLAGS) -ffunction-sections -fdata-sections -Ifirmware/geometry \

@@ -20,7 +20,7 @@ $(BUILD)/fw/sonar_app_cfg.h: host/multisonar/tools/fw_schedule.py host/multisona
 	@mkdir -p $(@D)
 	$(VPY) -m multisonar.tools.fw_schedule --header $@ --config $(SONAR_APP_CFG)
 
-$(BUILD)/fw/sonar_app.elf: $(SONAR_APP_SRC) $(GEOM_SRC) firmware/geometry/ms_geom.h \
+$(BUILD)/fw/sonar_app.elf: $(SONAR_APP_SRC) $(GEOM_SRC) $(GEOM_HDR) \
                            $(BUILD)/fw/sonar_app_cfg.h $(SONAR_APP_HDR) $(STAMPS)/gen Makefile \
                            mk/firmware_app.mk
 	@mkdir -p $(@D)

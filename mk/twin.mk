@@ -15,7 +15,7 @@ $(TWIN_DIR)/fw/sonar_app_cfg.h: host/multisonar/tools/fw_schedule.py host/multis
 	@mkdir -p $(@D)
 	$(VPY) -m multisonar.tools.fw_schedule --header $@ --config demo
 
-$(TWIN_DIR)/fw/sonar_app.elf: $(SONAR_APP_SRC) $(GEOM_SRC) firmware/geometry/ms_geom.h \
+$(TWIN_DIR)/fw/sonar_app.elf: $(SONAR_APP_SRC) $(GEOM_SRC) $(GEOM_HDR) \
                               $(TWIN_DIR)/fw/sonar_app_cfg.h $(SONAR_APP_HDR) $(STAMPS)/gen Makefile mk/twin.mk
 	@mkdir -p $(@D)
 	$(FW_CC) $(FW_CFLAGS) -ffunction-sections -fdata-sections -Ifirmware/geometry -Ifirmware/app -I$(TWIN_DIR)/fw \

@@ -2,8 +2,8 @@
 """Geometry firmware on the soft-core, measured in RTL simulation (issue #5).
 
 For each arithmetic variant (f64, f32, Q32.32 fixed point with its 32-bit fast 3-receiver
-path) this builds build/fw/bench_geom_<v>.hex (firmware/app/bench_geom.c +
-firmware/geometry/ms_geom.c, -Os, the Q fast path -O2), runs it on the SoC
+path) this builds build/fw/bench_geom_<v>.hex (firmware/app/bench_geom.c + the geometry
+library of that variant, firmware/geometry, -Os, the Q fast path -O2), runs it on the SoC
 (rtl/soc/ms_soc.sv, 48 MHz) with the CPU of --cpu (CPU_INFO below; default: ms_soc's default)
 in Verilator through cocotb (tests/rtl/tb_ms_soc_geometry.py), and reads back through the
 mailbox every result, the cycle count (SoC cycle timer) and the retired-instruction count

@@ -1,4 +1,4 @@
-"""The firmware geometry library (firmware/geometry/ms_geom.c) against multisonar.geometry.
+"""The firmware geometry library (firmware/geometry, ms_geom.h) against multisonar.geometry.
 
 `make -C firmware host-libs` builds one shared library per arithmetic variant (f64, f32,
 Q32.32 fixed point); each is driven through its double-precision batch shim

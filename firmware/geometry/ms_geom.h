@@ -11,9 +11,10 @@
  * Python (physical -> misfit <= tol -> axis within fov -> gdop <= max_gdop).
  * Nothing is allocated, no result is ever NaN/Inf: invalid answers are zeros + a reason.
  *
- * Arithmetic variant, chosen at build time with -DMS_GEOM_ARITH=...; stated bounds are
- * against multisonar.geometry (float64) on the same inputs and are what
- * tests/test_fw_geometry.py checks (>= 1e5 cases per solver):
+ * Arithmetic variant, chosen at build time with -DMS_GEOM_ARITH=... (the build compiles the
+ * library's common files plus that format's, ms_geom_q_*.c or ms_geom_f_*.c: the list in
+ * firmware/README.md); stated bounds are against multisonar.geometry (float64) on the same
+ * inputs and are what tests/test_fw_geometry.py checks (>= 1e5 cases per solver):
  *
  *   MS_ARITH_F64  double, the reference. Step for step the Python algorithm (same pair
  *                 choice, damped Gauss-Newton, stopping rule, thresholds). Noise-free:
@@ -48,8 +49,8 @@
  *                 differ in <= 0.5%. Rounding the inputs to 1 um adds <= 0.5 um * gdop
  *                 (the 48 MHz tick is 7.1 um of path, far coarser).
  *                 Fast 3-receiver path (the per-pulse calls of a prepared array with N = 3;
- *                 ms_geom.c "fast 3-receiver path": closed-form start, one Gauss-Newton
- *                 step, 32-bit integers with 64-bit products, no division): it answers
+ *                 ms_geom_q_fast.c: closed-form start, one Gauss-Newton step, 32-bit
+ *                 integers with 64-bit products, no division): it answers
  *                 only where Python's decision reduces to its polished start, else the
  *                 general path above answers. Stated bound on typical geometry (3 adjacent
  *                 ring receivers, source at the middle element or the ring centre, edge or
@@ -196,7 +197,7 @@ typedef struct {
 
 /* A virtual sensor's receiver array with its options, prepared once (when the sensor is
  * configured) for the per-pulse calls ms_fix / ms_point_prepared / ms_wall_prepared.
- * MS_ARITH_Q with N = 3: the closed-form path below (ms_geom.c "fast 3-receiver path"):
+ * MS_ARITH_Q with N = 3: the closed-form path below (ms_geom_q_fast.c, the fast 3-receiver path):
  * per pulse a fix (point + wall + classification) costs a few thousand cycles on the
  * soft-core; the general N-receiver path (any variant, any N, and every case the closed form
  * declines) is the step-by-step port of the Python algorithm. Fields are private. */
@@ -209,12 +210,12 @@ typedef struct {
     ms_num_t thr[3];  /* classify: chi-square thresholds (edge, wall, cylinder) */
     uint8_t bad;      /* n out of range or sigma <= 0: every call answers MS_BADIN */
     uint8_t fast;     /* the closed-form 3-receiver path applies (Q only) */
-#if MS_GEOM_ARITH == MS_ARITH_Q
+#if MS_GEOM_ARITH == MS_ARITH_Q /* the fast path's fields (ms_geom_q_fast.c): the struct is per format */
     int32_t cx[3], cy[3];  /* receivers - source, internal unit 2^-2 um */
-    int64_t cc[3];         /* |c|^2 */
+    int64_t cc[3];         /* |c|^2, internal units squared */
     uint8_t pi, pj;        /* receiver pair of the closed-form starts */
     int32_t ex, ey;        /* unit vector c_pj - c_pi, Q30 */
-    int32_t dd;            /* |c_pj - c_pi| */
+    int32_t dd;            /* |c_pj - c_pi|, internal units */
     uint32_t dinv;         /* 1/dd = dinv * 2^-dsh */
     int32_t dsh;
     int32_t ax, ay;        /* unit axis, Q30 */

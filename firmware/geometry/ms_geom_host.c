@@ -1,5 +1,6 @@
 /*
- * ms_geom_host.c - host-only batch shim over ms_geom.c for tests and benchmarks (ctypes).
+ * ms_geom_host.c - host-only batch shim over the geometry library (ms_geom.h) for tests and
+ * benchmarks (ctypes); linked with the library's files of one format (firmware/Makefile).
  * Everything crosses the boundary as double (metres, radians); the shim converts to the
  * variant's interface types (Q: micrometres rounded to nearest, binary angles) and back.
  * Not part of the firmware image.

@@ -1,810 +1,6 @@
 /*
- * ms_geom.c - reflector geometry (point, wall, cylinder, edge/wall classification) for the RV32IM
- * soft-core; the algorithm of host/multisonar/geometry.py step by step (see ms_geom.h).
- * One source for all arithmetic variants: `real` is double, float or Q32.32 int64 and
- * every product / quotient / root goes through MUL / DIV / SQRT.
- */
-#include "ms_geom.h"
-
-#include <stddef.h>
-
-/* The per-pulse code (ms_fix and the Q fast path it runs) goes into one section of its own, so
- * it lies contiguous in the image (~11 KB) and does not evict itself from a direct-mapped
- * instruction cache (VexRiscv_Full with the 16 KiB cache of scripts/gen_vex_icache.py:
- * firmware/README.md). Only the placement changes, not the code. */
-#if defined(__riscv) && defined(__GNUC__)
-#define MS_HOT __attribute__((section(".text.ms_hot")))
-#else
-#define MS_HOT
-#endif
-
-const char *const ms_reason_names[MS_NREASONS] = {
-    "",
-    "path shorter than baseline",
-    "no intersection",
-    "degenerate receiver geometry",
-    "ambiguous",
-    "ill-conditioned",
-    "not physical",
-    "inconsistent data",
-    "invalid input",
-    "no convergence",
-};
-/* C99 static assert: the table has exactly MS_NREASONS entries */
-typedef char ms_reason_table_check[(sizeof ms_reason_names / sizeof ms_reason_names[0]) == MS_NREASONS ? 1 : -1];
-
-/* ======================================================================================
- * arithmetic variants
- * ====================================================================================== */
-#if MS_GEOM_ARITH == MS_ARITH_F64 || MS_GEOM_ARITH == MS_ARITH_F32
-#include <math.h>
-#if MS_GEOM_ARITH == MS_ARITH_F64
-typedef double real;
-#define SQRT(a) sqrt(a)
-#define ATAN2(y, x) atan2((y), (x))
-#define BIGNUM 1e30
-#else
-typedef float real;
-#define SQRT(a) sqrtf(a)
-#define ATAN2(y, x) atan2f((y), (x))
-#define BIGNUM 1e30f
-#endif
-#define BIGV BIGNUM
-#if MS_GEOM_ARITH == MS_ARITH_F64
-#define ACCEPT(tc, c) ((tc) <= (c)) /* geometry._gauss_newton */
-#else
-/* float: a step is also taken when the cost is equal within rounding, else the fit stops
- * up to gdop*sqrt(eps)*misfit short of the minimum on the flat bottom of the cost */
-#define ACCEPT(tc, c) ((tc) <= (c) + (c) * K(5e-7))
-#endif
-#define ANG_LE(a, b) ((a) <= (b))
-typedef real ang;
-#define K(x) ((real)(x))
-#define MUL(a, b) ((a) * (b))
-#define DIV(a, b) ((a) / (b))
-#define HALF(a) (K(0.5) * (a))
-#define ISFIN(a) ((a) - (a) == 0)
-#define PI_R K(3.14159265358979323846)
-#define TWO_PI_R K(6.28318530717958647692)
-
-static real wrap(real a)
-{ /* numpy (a + pi) % (2 pi) - pi */
-    real t = a + PI_R;
-    real q = t / TWO_PI_R;
-    real fl, r;
-    if (!(q < K(1e15) && q > K(-1e15))) return K(0.0);
-    fl = (real)(long long)q;
-    if (fl > q) fl -= K(1.0);
-    r = t - fl * TWO_PI_R;
-    if (r < 0) r += TWO_PI_R;
-    if (r >= TWO_PI_R) r -= TWO_PI_R;
-    return r - PI_R;
-}
-static ang ang_absdiff(ang a, ang b)
-{
-    real d = wrap(a - b);
-    return d < 0 ? -d : d;
-}
-static real hyp(real x, real y) { return SQRT(x * x + y * y); }
-static real cost_of(const real *f, int n)
-{
-    real s = 0;
-    int i;
-    for (i = 0; i < n; i++) s += f[i] * f[i];
-    return s;
-}
-static real rms_of(real cost, int n) { return SQRT(cost / (real)n); }
-#define SETTLED(moved, c_old, c_new, scale) \
-    ((moved) <= K(1e-13) * (scale) || (c_old) - (c_new) <= K(1e-8) * (c_old) + K(1e-32) * (scale) * (scale))
-/* interface conversions */
-#define LEN_IN(v) ((real)(v))
-#define LEN_OUT(v) ((ms_len_t)(v))
-#define NUM_IN(v) ((real)(v))
-#define NUM_OUT(v) ((ms_num_t)((v) > BIGNUM ? BIGNUM : (v)))
-
-#else /* ---------------------------------------------------------------- Q32.32 */
-typedef int64_t real;
-typedef int32_t ang; /* binary angle */
-#define QONE ((int64_t)1 << 32)
-#define QSAT ((int64_t)1 << 59)
-#define K(x) ((int64_t)((x) * 4294967296.0 + ((x) >= 0 ? 0.5 : -0.5)))
-#define MUL(a, b) q_mul((a), (b))
-#define DIV(a, b) q_div((a), (b))
-#define SQRT(a) q_sqrt(a)
-#define ATAN2(y, x) q_atan2((y), (x))
-#define HALF(a) ((a) / 2)
-#define ISFIN(a) ((a) < QSAT && (a) > -QSAT)
-#define BIGV QSAT
-/* cost is |f| here; accept steps equal within rounding (see the float variant) */
-#define ACCEPT(tc, c) ((tc) <= (c) + ((c) >> 22) + 8)
-#define ANG_LE(a, b) ((uint32_t)(a) <= (uint32_t)(b))
-
-static int clz64(uint64_t v)
-{
-    int n = 0;
-    if (!(v >> 32)) { n += 32; v <<= 32; }
-    if (!(v >> 48)) { n += 16; v <<= 16; }
-    if (!(v >> 56)) { n += 8; v <<= 8; }
-    if (!(v >> 60)) { n += 4; v <<= 4; }
-    if (!(v >> 62)) { n += 2; v <<= 2; }
-    if (!(v >> 63)) { n += 1; }
-    return n;
-}
-static uint64_t uabs64(int64_t a) { return a < 0 ? (uint64_t)0 - (uint64_t)a : (uint64_t)a; }
-static int64_t sgn(int neg, uint64_t u) { return neg ? -(int64_t)u : (int64_t)u; }
-
-/* a*b >> 32, rounded, saturating at +-QSAT */
-static int64_t q_mul(int64_t a, int64_t b)
-{
-    int neg = (a < 0) != (b < 0);
-    uint64_t ua = uabs64(a), ub = uabs64(b), ah, al, bh, bl, hh, r;
-    if (ua > (uint64_t)QSAT) ua = QSAT;
-    if (ub > (uint64_t)QSAT) ub = QSAT;
-    ah = ua >> 32; al = ua & 0xffffffffu; bh = ub >> 32; bl = ub & 0xffffffffu;
-    hh = ah * bh;
-    if (hh >= ((uint64_t)QSAT >> 32)) return sgn(neg, QSAT);
-    r = (hh << 32) + ah * bl + al * bh + ((al * bl + 0x80000000u) >> 32);
-    if (r > (uint64_t)QSAT) r = QSAT;
-    return sgn(neg, r);
-}
-/* (a << 32) / b, rounded, saturating */
-static int64_t q_div(int64_t a, int64_t b)
-{
-    int neg = (a < 0) != (b < 0);
-    uint64_t ua = uabs64(a), ub = uabs64(b), qi, r, qf, res;
-    if (ub == 0) return ua == 0 ? 0 : sgn(neg, QSAT);
-    qi = ua / ub;
-    if (qi >= ((uint64_t)QSAT >> 32)) return sgn(neg, QSAT);
-    r = ua - qi * ub;
-    while (ub >= ((uint64_t)1 << 32)) { ub >>= 1; r >>= 1; }
-    qf = ((r << 32) + (ub >> 1)) / ub;
-    res = (qi << 32) + qf;
-    if (res > (uint64_t)QSAT) res = QSAT;
-    return sgn(neg, res);
-}
-/* floor(sqrt(v)) rounded to nearest */
-static uint64_t isqrt64(uint64_t v)
-{
-    uint64_t r = 0, b = (uint64_t)1 << 62, v0 = v;
-    while (b > v) b >>= 2;
-    while (b) {
-        if (v >= r + b) { v -= r + b; r = (r >> 1) + b; }
-        else r >>= 1;
-        b >>= 2;
-    }
-    if (v0 - r * r > r) r++;
-    return r;
-}
-static int64_t q_sqrt(int64_t a)
-{
-    int k;
-    uint64_t r;
-    if (a <= 0) return 0;
-    k = clz64((uint64_t)a) / 2;
-    r = isqrt64((uint64_t)a << (2 * k));
-    if (k >= 16) return (int64_t)((k > 16) ? (r + ((uint64_t)1 << (k - 17))) >> (k - 16) : r);
-    return (int64_t)(r << (16 - k));
-}
-/* Euclidean norm of n values, normalised so the squares never overflow (~30 bits kept) */
-static int64_t q_vnorm(const int64_t *v, int n, int stride)
-{
-    uint64_t m = 0, s = 0, a, r;
-    int i, tb = n <= 2 ? 30 : n <= 8 ? 29 : 28, sh;
-    for (i = 0; i < n; i++) {
-        a = uabs64(v[i * stride]);
-        if (a > m) m = a;
-    }
-    if (m == 0) return 0;
-    sh = (63 - clz64(m)) - tb;
-    for (i = 0; i < n; i++) {
-        a = uabs64(v[i * stride]);
-        a = sh > 0 ? (a + ((uint64_t)1 << (sh - 1))) >> sh : a << -sh;
-        s += a * a;
-    }
-    r = isqrt64(s);
-    if (sh >= 0) {
-        r <<= sh;
-        if (r > (uint64_t)QSAT) r = QSAT;
-        return (int64_t)r;
-    }
-    return (int64_t)((r + ((uint64_t)1 << (-sh - 1))) >> -sh);
-}
-static real hyp(real x, real y)
-{
-    int64_t v[2];
-    v[0] = x; v[1] = y;
-    return q_vnorm(v, 2, 1);
-}
-/* atan(2^-i) in 2^-48 turns */
-static const int64_t cordic_tab[40] = {
-    35184372088832LL, 20770547670515LL, 10974586953444LL, 5570871696862LL,
-    2796246208089LL, 1399486241028LL, 699913886760LL, 349978300884LL,
-    174991820497LL, 87496244017LL, 43748163730LL, 21874087080LL,
-    10937044192LL, 5468522177LL, 2734261099LL, 1367130551LL,
-    683565276LL, 341782638LL, 170891319LL, 85445659LL,
-    42722830LL, 21361415LL, 10680707LL, 5340354LL,
-    2670177LL, 1335088LL, 667544LL, 333772LL,
-    166886LL, 83443LL, 41722LL, 20861LL,
-    10430LL, 5215LL, 2608LL, 1304LL,
-    652LL, 326LL, 163LL, 81LL};
-static ang q_atan2(int64_t y, int64_t x)
-{
-    uint64_t ax = uabs64(x), ay = uabs64(y), m = ax > ay ? ax : ay;
-    int64_t acc = 0, t, xs;
-    int sh, i;
-    if (m == 0) return 0;
-    sh = (63 - clz64(m)) - 40;
-    if (sh > 0) { x >>= sh; y >>= sh; }
-    else { x = (int64_t)((uint64_t)x << -sh); y = (int64_t)((uint64_t)y << -sh); }
-    if (x < 0) {
-        if (y >= 0) { acc = (int64_t)1 << 46; t = x; x = y; y = -t; }
-        else { acc = -((int64_t)1 << 46); t = x; x = -y; y = t; }
-    }
-    for (i = 0; i < 40; i++) {
-        xs = x >> i;
-        if (y > 0) { x += y >> i; y -= xs; acc += cordic_tab[i]; }
-        else { x -= y >> i; y += xs; acc -= cordic_tab[i]; }
-    }
-    return (ang)(uint32_t)(uint64_t)((acc + (1 << 15)) >> 16);
-}
-static ang ang_absdiff(ang a, ang b)
-{
-    int32_t d = (int32_t)((uint32_t)a - (uint32_t)b);
-    return d < 0 ? (ang)((uint32_t)0 - (uint32_t)d) : d; /* INT32_MIN stays: compared unsigned */
-}
-static real cost_of(const real *f, int n) { return q_vnorm(f, n, 1); } /* |f|, not |f|^2 */
-static const int64_t sqrt_n_tab[MS_MAX_RX + 1] = {
-    K(1.0), K(1.0), K(1.4142135623730951), K(1.7320508075688772), K(2.0),
-    K(2.23606797749979), K(2.449489742783178), K(2.6457513110645907), K(2.8284271247461903)};
-static real rms_of(real cost, int n) { return DIV(cost, sqrt_n_tab[n]); }
-#define SETTLED(moved, c_old, c_new, scale) ((moved) <= 0 || (c_old) - (c_new) <= ((c_old) >> 27))
-static real um_to_q(int32_t v)
-{ /* v * 2^32 / 1e6 = (v << 26) / 15625, rounded */
-    int64_t n = (int64_t)v * ((int64_t)1 << 26);
-    return (n >= 0 ? n + 7812 : n - 7812) / 15625;
-}
-static int32_t q_to_um(real v)
-{
-    int64_t u;
-    if (v > ((int64_t)1 << 49)) v = (int64_t)1 << 49;
-    if (v < -((int64_t)1 << 49)) v = -((int64_t)1 << 49);
-    u = v * 15625;
-    u = (u >= 0 ? u + ((int64_t)1 << 25) : u - ((int64_t)1 << 25)) / ((int64_t)1 << 26);
-    if (u > INT32_MAX) u = INT32_MAX;
-    if (u < -INT32_MAX) u = -INT32_MAX;
-    return (int32_t)u;
-}
-static ms_num_t q_to_num(real v)
-{
-    v >>= 16;
-    return (ms_num_t)(v > INT32_MAX ? INT32_MAX : v < -INT32_MAX ? -INT32_MAX : v);
-}
-#define LEN_IN(v) um_to_q(v)
-#define LEN_OUT(v) q_to_um(v)
-#define NUM_IN(v) ((real)(v) * 65536)
-#define NUM_OUT(v) q_to_num(v)
-#endif
-
-#define ABS(a) ((a) < 0 ? -(a) : (a))
-
-/* ======================================================================================
- * problem set-up
- * ====================================================================================== */
-typedef struct {
-    real x, y;
-} v2;
-
-typedef struct {
-    int n;
-    v2 c[MS_MAX_RX]; /* receivers relative to the source */
-    real r[MS_MAX_RX];
-    real scale; /* max R */
-    int has_axis;
-    ang axis, fov;
-    real tol, max_gdop;
-    int no_tol, no_gdop;
-} prob;
-
-typedef struct {
-    real p[2];
-    real rms, gd;
-    int gd_inf, ok;
-} cand;
-
-enum { MODEL_POINT = 0, MODEL_WALL = 1 };
-
-/* returns MS_OK or MS_BADIN; fills P (without opts) */
-static int setup(prob *P, const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src, int min_n)
-{
-    int i;
-    real sx, sy;
-    if (n < min_n || n > MS_MAX_RX || !rx || !path) return MS_BADIN;
-    sx = LEN_IN(src.x);
-    sy = LEN_IN(src.y);
-    P->n = n;
-    P->scale = 0;
-    if (!ISFIN(sx) || !ISFIN(sy)) return MS_BADIN;
-    for (i = 0; i < n; i++) {
-        real cx = LEN_IN(rx[i].x), cy = LEN_IN(rx[i].y), r = LEN_IN(path[i]);
-        if (!ISFIN(cx) || !ISFIN(cy) || !ISFIN(r) || !(r > 0)) return MS_BADIN;
-        P->c[i].x = cx - sx;
-        P->c[i].y = cy - sy;
-        P->r[i] = r;
-        if (r > P->scale) P->scale = r;
-    }
-    return MS_OK;
-}
-
-static void set_axis(prob *P, const ms_vec2 *rx, int mode, ms_ang_t axis)
-{
-    int i, cnt = 0;
-    real mx = 0, my = 0;
-    P->has_axis = 0;
-    P->axis = 0;
-    if (mode == MS_AXIS_SET) {
-#if MS_GEOM_ARITH != MS_ARITH_Q
-        if (!ISFIN(axis)) return;
-#endif
-        P->has_axis = 1;
-        P->axis = axis;
-        return;
-    }
-    if (mode != MS_AXIS_AUTO) return;
-    for (i = 0; i < P->n; i++) {
-        real cx = LEN_IN(rx[i].x), cy = LEN_IN(rx[i].y), nr = hyp(cx, cy);
-        if (nr > K(1e-9)) {
-            mx += DIV(cx, nr);
-            my += DIV(cy, nr);
-            cnt++;
-        }
-    }
-    if (cnt == 0) cnt = 1;
-    mx /= cnt;
-    my /= cnt;
-    if (hyp(mx, my) >= K(0.3)) {
-        P->has_axis = 1;
-        P->axis = ATAN2(my, mx);
-    }
-}
-
-static void apply_opts(prob *P, const ms_vec2 *rx, const ms_opts *o)
-{
-    ms_opts d;
-    if (!o) {
-        ms_opts_default(&d);
-        o = &d;
-    }
-    P->tol = LEN_IN(o->tol);
-    P->max_gdop = NUM_IN(o->max_gdop);
-    P->no_tol = o->no_tol;
-    P->no_gdop = o->no_gdop;
-    P->fov = o->fov;
-    set_axis(P, rx, o->axis_mode, o->axis);
-}
-
-/* ======================================================================================
- * models and Gauss-Newton
- * ====================================================================================== */
-static int model_eval(int kind, const prob *P, const real p[2], real *f, real (*J)[2])
-{
-    int i;
-    real x = p[0], y = p[1], r0 = hyp(x, y), u0x = 0, u0y = 0;
-    if (kind == MODEL_POINT && r0 > 0) {
-        u0x = DIV(x, r0);
-        u0y = DIV(y, r0);
-    }
-    for (i = 0; i < P->n; i++) {
-        real dx = x - P->c[i].x, dy = y - P->c[i].y, r1 = hyp(dx, dy), ux = 0, uy = 0;
-        if (r1 > 0) {
-            ux = DIV(dx, r1);
-            uy = DIV(dy, r1);
-        }
-        if (kind == MODEL_POINT) {
-            f[i] = r0 + r1 - P->r[i];
-            J[i][0] = u0x + ux;
-            J[i][1] = u0y + uy;
-        } else {
-            f[i] = r1 - P->r[i];
-            J[i][0] = ux;
-            J[i][1] = uy;
-        }
-    }
-    return r0 > 0;
-}
-
-/* Gauss-Newton step minimising |J d + f| (column-scaled normal equations) and
- * gdop = sqrt(trace((J^T J)^-1)); *gd_inf when J^T J is singular. */
-static void ls_step(real (*J)[2], const real *f, int n, real step[2], real *gd, int *gd_inf)
-{
-    real s0 = 0, s1 = 0, a = 0, b = 0, d = 0, g0 = 0, g1 = 0, j0, j1, x0, x1;
-    int i;
-    for (i = 0; i < n; i++) {
-        s0 += MUL(J[i][0], J[i][0]);
-        s1 += MUL(J[i][1], J[i][1]);
-    }
-    s0 = SQRT(s0);
-    s1 = SQRT(s1);
-    if (!(s0 > 0)) s0 = K(1.0);
-    if (!(s1 > 0)) s1 = K(1.0);
-    for (i = 0; i < n; i++) {
-        j0 = DIV(J[i][0], s0);
-        j1 = DIV(J[i][1], s1);
-        a += MUL(j0, j0);
-        b += MUL(j0, j1);
-        d += MUL(j1, j1);
-        g0 -= MUL(j0, f[i]);
-        g1 -= MUL(j1, f[i]);
-    }
-#if MS_GEOM_ARITH != MS_ARITH_Q
-    {
-        real det = a * d - b * b, idet, tr;
-        if (det > K(1e-28)) {
-            idet = K(1.0) / det;
-            x0 = (d * g0 - b * g1) * idet;
-            x1 = (a * g1 - b * g0) * idet;
-            tr = (d / (s0 * s0) + a / (s1 * s1)) * idet;
-            step[0] = x0 / s0;
-            step[1] = x1 / s1;
-            *gd = SQRT(tr > 0 ? tr : K(0.0));
-            *gd_inf = 0;
-        } else {
-            step[0] = step[1] = 0;
-            *gd = 0;
-            *gd_inf = 1;
-        }
-    }
-#else
-    {
-        /* det(J^T J) by Cauchy-Binet: sum of squared 2x2 minors (no cancellation);
-         * the scaled determinant is m^2 with m = |minors| / (s0 s1) */
-        int64_t minors[MS_MAX_RX * (MS_MAX_RX - 1) / 2];
-        int j, k = 0;
-        real mn, m, st;
-        for (i = 0; i < n; i++)
-            for (j = i + 1; j < n; j++) minors[k++] = MUL(J[i][0], J[j][1]) - MUL(J[i][1], J[j][0]);
-        mn = q_vnorm(minors, k, 1);
-        m = DIV(mn, MUL(s0, s1));
-        if (m > 0) {
-            x0 = DIV(DIV(MUL(d, g0) - MUL(b, g1), m), m);
-            x1 = DIV(DIV(MUL(a, g1) - MUL(b, g0), m), m);
-            step[0] = DIV(x0, s0);
-            step[1] = DIV(x1, s1);
-            st = hyp(s0, s1); /* sqrt(sum J^2) */
-            *gd = DIV(st, mn);
-            *gd_inf = *gd >= QSAT;
-        } else {
-            step[0] = step[1] = 0;
-            *gd = 0;
-            *gd_inf = 1;
-        }
-    }
-#endif
-}
-
-typedef struct {
-    real p[2];
-    real f[MS_MAX_RX];
-    real J[MS_MAX_RX][2];
-    real cost;
-    int ok;
-} gstate;
-
-static void gauss_newton(int kind, const prob *P, const real p0[2], int iters, cand *out)
-{
-    gstate cur, trial;
-    int it, h, n = P->n;
-    real step[2], gd;
-    int gd_inf;
-    cur.p[0] = p0[0];
-    cur.p[1] = p0[1];
-    cur.ok = model_eval(kind, P, cur.p, cur.f, cur.J);
-    cur.cost = cost_of(cur.f, n);
-    for (it = 0; it < iters; it++) {
-        real po0 = cur.p[0], po1 = cur.p[1], c_old = cur.cost, t0, t1, moved;
-        int done = 0;
-        ls_step(cur.J, cur.f, n, step, &gd, &gd_inf);
-        t0 = step[0];
-        t1 = step[1];
-        for (h = 0; h < 5; h++) {
-            trial.p[0] = cur.p[0] + t0;
-            trial.p[1] = cur.p[1] + t1;
-            trial.ok = model_eval(kind, P, trial.p, trial.f, trial.J);
-            trial.cost = cost_of(trial.f, n);
-            if (ACCEPT(trial.cost, cur.cost) && trial.ok && ISFIN(trial.p[0]) && ISFIN(trial.p[1])) {
-                cur = trial;
-                done = 1;
-                break;
-            }
-            t0 = HALF(t0);
-            t1 = HALF(t1);
-        }
-        moved = hyp(cur.p[0] - po0, cur.p[1] - po1);
-        if (!done || SETTLED(moved, c_old, cur.cost, P->scale)) break;
-    }
-    ls_step(cur.J, cur.f, n, step, &gd, &gd_inf);
-    out->p[0] = cur.p[0];
-    out->p[1] = cur.p[1];
-    out->ok = cur.ok;
-    out->rms = rms_of(cur.cost, n);
-    out->gd = gd;
-    out->gd_inf = gd_inf;
-}
-
-/* misfit at a point without iterating (for candidates that are not physical anyway) */
-static void no_fit(int kind, const prob *P, const real p0[2], cand *out)
-{
-    gstate s;
-    s.p[0] = p0[0];
-    s.p[1] = p0[1];
-    model_eval(kind, P, s.p, s.f, s.J);
-    out->p[0] = p0[0];
-    out->p[1] = p0[1];
-    out->ok = 0;
-    out->rms = rms_of(cost_of(s.f, P->n), P->n);
-    out->gd = 0;
-    out->gd_inf = 1;
-}
-
-/* ======================================================================================
- * candidate pairs
- * ====================================================================================== */
-static void cross3(const real *a, const real *b, real *o)
-{
-    o[0] = MUL(a[1], b[2]) - MUL(a[2], b[1]);
-    o[1] = MUL(a[2], b[0]) - MUL(a[0], b[2]);
-    o[2] = MUL(a[0], b[1]) - MUL(a[1], b[0]);
-}
-static real dot3(const real *a, const real *b) { return MUL(a[0], b[0]) + MUL(a[1], b[1]) + MUL(a[2], b[2]); }
-static real lor(const real *a, const real *b) { return MUL(a[0], b[0]) + MUL(a[1], b[1]) - MUL(a[2], b[2]); }
-
-/* Two candidate points from two ellipses sharing the focus at the origin */
-static int point_pair(v2 c1, v2 c2, real R1, real R2, real cand[2][2], int ok[2])
-{
-    real n1 = hyp(c1.x, c1.y), n2 = hyp(c2.x, c2.y);
-    real r1[3], r2[3], n[3], nh[3], w[3], z0[3], a1, a2, nn, scale, nns, A, B, Cq, disc, sq, q, t1, t2;
-    real z1r, z2r;
-    int deg, okq, okA, i;
-#if MS_GEOM_ARITH == MS_ARITH_Q
-    int far1, far2;
-#endif
-    r1[0] = -c1.x; r1[1] = -c1.y; r1[2] = R1;
-    r2[0] = -c2.x; r2[1] = -c2.y; r2[2] = R2;
-    a1 = HALF(MUL(R1 - n1, R1 + n1));
-    a2 = HALF(MUL(R2 - n2, R2 + n2));
-    cross3(r1, r2, n);
-    nn = SQRT(dot3(n, n));
-    scale = SQRT(MUL(dot3(r1, r1), dot3(r2, r2)));
-    deg = nn <= MUL(K(1e-12), scale);
-    nns = deg ? K(1.0) : nn;
-    for (i = 0; i < 3; i++) {
-        nh[i] = DIV(n[i], nns);
-        w[i] = MUL(a1, r2[i]) - MUL(a2, r1[i]);
-    }
-    cross3(w, nh, z0);
-    for (i = 0; i < 3; i++) z0[i] = DIV(z0[i], nns);
-    A = lor(nh, nh);
-    B = lor(z0, nh);
-    Cq = lor(z0, z0);
-    disc = MUL(B, B) - MUL(A, Cq);
-    if (disc < 0) disc = 0;
-    sq = SQRT(disc);
-    q = -(B + (B >= 0 ? sq : -sq));
-    okq = q != 0;
-    okA = ABS(A) > K(1e-15);
-#if MS_GEOM_ARITH == MS_ARITH_Q
-    /* a root beyond 1000 m is outside the fixed-point range: not a candidate */
-    far1 = okA && ABS(q) >= MUL(ABS(A), K(1000.0));
-    far2 = okq && ABS(Cq) >= MUL(ABS(q), K(1000.0));
-    t1 = okA && !far1 ? DIV(q, A) : 0;
-    t2 = okq && !far2 ? DIV(Cq, q) : 0;
-#else
-    t1 = okA ? DIV(q, A) : 0;
-    t2 = okq ? DIV(Cq, q) : 0;
-#endif
-    cand[0][0] = z0[0] + MUL(t1, nh[0]);
-    cand[0][1] = z0[1] + MUL(t1, nh[1]);
-    z1r = z0[2] + MUL(t1, nh[2]);
-    cand[1][0] = z0[0] + MUL(t2, nh[0]);
-    cand[1][1] = z0[1] + MUL(t2, nh[1]);
-    z2r = z0[2] + MUL(t2, nh[2]);
-    ok[0] = z1r > 0 && (okA || !okq) && !deg;
-    ok[1] = z2r > 0 && !deg;
-#if MS_GEOM_ARITH == MS_ARITH_Q
-    if (far1) ok[0] = 0;
-    if (far2) ok[1] = 0;
-#endif
-    return deg;
-}
-
-/* Intersections of circles (c1, R1), (c2, R2) */
-static int circle_pair(v2 c1, v2 c2, real R1, real R2, real cand[2][2])
-{
-    real ex = c2.x - c1.x, ey = c2.y - c1.y, D = hyp(ex, ey), Ds, ehx, ehy, a, h2, h, bx, by;
-    int deg = D <= MUL(K(1e-12), K(1.0) + hyp(c1.x, c1.y) + hyp(c2.x, c2.y));
-    Ds = deg ? K(1.0) : D;
-    ehx = DIV(ex, Ds);
-    ehy = DIV(ey, Ds);
-    a = DIV(MUL(R1 - R2, R1 + R2), 2 * Ds) + HALF(Ds);
-#if MS_GEOM_ARITH == MS_ARITH_Q
-    /* h = sqrt(p1 p2) / (2 D) with the two factor pairs rooted separately (no overflow) */
-    {
-        real p1 = MUL(Ds + R1 - R2, Ds - R1 + R2), p2 = MUL(R1 + R2 - Ds, R1 + R2 + Ds);
-        h = (p1 > 0 && p2 > 0) ? DIV(MUL(SQRT(p1), SQRT(p2)), 2 * Ds) : 0;
-        (void)h2;
-    }
-#else
-    h2 = (Ds + R1 - R2) * (Ds - R1 + R2) * (R1 + R2 - Ds) * (R1 + R2 + Ds) / (4 * Ds * Ds);
-    h = SQRT(h2 > 0 ? h2 : K(0.0));
-#endif
-    bx = c1.x + MUL(a, ehx);
-    by = c1.y + MUL(a, ehy);
-    cand[0][0] = bx - MUL(h, ehy);
-    cand[0][1] = by + MUL(h, ehx);
-    cand[1][0] = bx + MUL(h, ehy);
-    cand[1][1] = by - MUL(h, ehx);
-    return deg;
-}
-
-static void pick_pair_far(const prob *P, int *pi, int *pj)
-{
-    int k, i = 0, j = 0, n = P->n;
-    real mx = 0, my = 0, best = -1, dx, dy, d2;
-    for (k = 0; k < n; k++) {
-        mx += P->c[k].x;
-        my += P->c[k].y;
-    }
-    mx /= n;
-    my /= n;
-    for (k = 0; k < n; k++) {
-        dx = P->c[k].x - mx;
-        dy = P->c[k].y - my;
-        d2 = MUL(dx, dx) + MUL(dy, dy);
-        if (d2 > best) { best = d2; i = k; }
-    }
-    best = -1;
-    for (k = 0; k < n; k++) {
-        dx = P->c[k].x - P->c[i].x;
-        dy = P->c[k].y - P->c[i].y;
-        d2 = MUL(dx, dx) + MUL(dy, dy);
-        if (d2 > best) { best = d2; j = k; }
-    }
-    *pi = i;
-    *pj = j;
-}
-
-static void pick_pair_point(const prob *P, int *pi, int *pj)
-{
-    real rows[MS_MAX_RX][3], mu[3] = {0, 0, 0}, best = -1, d2, nr, cr[3];
-    int k, i = 0, j = 0, n = P->n, t;
-    for (k = 0; k < n; k++) {
-        rows[k][0] = -P->c[k].x;
-        rows[k][1] = -P->c[k].y;
-        rows[k][2] = P->r[k];
-        nr = SQRT(dot3(rows[k], rows[k]));
-        for (t = 0; t < 3; t++) {
-            rows[k][t] = DIV(rows[k][t], nr);
-            mu[t] += rows[k][t];
-        }
-    }
-    for (t = 0; t < 3; t++) mu[t] /= n;
-    for (k = 0; k < n; k++) {
-        real d[3];
-        for (t = 0; t < 3; t++) d[t] = rows[k][t] - mu[t];
-        d2 = dot3(d, d);
-        if (d2 > best) { best = d2; i = k; }
-    }
-    best = -1;
-    for (k = 0; k < n; k++) {
-        cross3(rows[i], rows[k], cr);
-        d2 = dot3(cr, cr);
-        if (d2 > best) { best = d2; j = k; }
-    }
-    *pi = i;
-    *pj = j;
-}
-
-/* ======================================================================================
- * candidate selection shared by point and wall (geometry._select)
- * ====================================================================================== */
-static int select_cand(const prob *P, const cand *k, int pre, int *idx_out)
-{
-    int acc[2], nacc, best, idx, reason = MS_OK, i;
-    for (i = 0; i < 2; i++) acc[i] = k[i].ok && (P->no_tol || k[i].rms <= P->tol);
-    nacc = acc[0] + acc[1];
-    if (k[0].ok && k[1].ok) best = k[1].rms < k[0].rms ? 1 : 0;
-    else best = (!k[0].ok && k[1].ok) ? 1 : 0;
-    idx = best;
-    if (!k[0].ok && !k[1].ok) reason = MS_UNPHYS;
-    else if (nacc == 0) reason = P->n == 2 ? MS_NOINT : MS_INCONS;
-    else if (nacc == 1) idx = acc[0] ? 0 : 1;
-    else {
-        real dist = hyp(k[0].p[0] - k[1].p[0], k[0].p[1] - k[1].p[1]);
-#if MS_GEOM_ARITH == MS_ARITH_F32
-        /* two float fits of one minimum differ by ~eps * scale * gdop: widen 'same' by that */
-        real gmin = k[0].gd_inf ? k[1].gd : k[1].gd_inf ? k[0].gd : k[0].gd < k[1].gd ? k[0].gd : k[1].gd;
-        real lim = K(1e-6) * P->scale + K(3e-7) * P->scale * gmin;
-#else
-        real lim = MUL(K(1e-6), P->scale);
-#endif
-        if (dist > lim) {
-            int inside[2];
-            for (i = 0; i < 2; i++)
-                inside[i] = P->has_axis && ANG_LE(ang_absdiff(ATAN2(k[i].p[1], k[i].p[0]), P->axis), P->fov);
-            if (inside[0] + inside[1] == 1) idx = inside[0] ? 0 : 1;
-            else reason = MS_AMBIG;
-        }
-    }
-    if (reason == MS_OK && !P->no_gdop && (k[idx].gd_inf || !(k[idx].gd <= P->max_gdop))) reason = MS_ILLCOND;
-    if (pre != MS_OK) reason = pre;
-    *idx_out = idx;
-    return reason;
-}
-
-static int short_check(const prob *P)
-{
-    int i;
-    for (i = 0; i < P->n; i++) {
-        real cn = hyp(P->c[i].x, P->c[i].y);
-        if (P->r[i] <= MUL(cn, K(1.0 + 1e-15))) return MS_SHORT;
-    }
-    return MS_OK;
-}
-
-/* returns the reason; *best gets the chosen candidate */
-static int point_core(const prob *P, cand *best)
-{
-    int pre = short_check(P), i = 0, j = 1, deg, ok0[2], k, idx, reason;
-    real c0[2][2];
-    cand kk[2];
-    if (P->n > 2) pick_pair_point(P, &i, &j);
-    deg = point_pair(P->c[i], P->c[j], P->r[i], P->r[j], c0, ok0);
-    for (k = 0; k < 2; k++) {
-        if (ok0[k]) {
-            gauss_newton(MODEL_POINT, P, c0[k], P->n == 2 ? 6 : 12, &kk[k]);
-            kk[k].ok = kk[k].ok && hyp(kk[k].p[0], kk[k].p[1]) > 0;
-        } else {
-            no_fit(MODEL_POINT, P, c0[k], &kk[k]);
-        }
-    }
-    if (pre == MS_OK && deg) pre = MS_DEGEN;
-    reason = select_cand(P, kk, pre, &idx);
-    *best = kk[idx];
-    return reason;
-}
-
-static int wall_core(const prob *P, cand *best)
-{
-    int pre = short_check(P), i = 0, j = 1, deg, k, idx, reason, t;
-    real c0[2][2];
-    cand kk[2];
-    if (P->n > 2) pick_pair_far(P, &i, &j);
-    deg = circle_pair(P->c[i], P->c[j], P->r[i], P->r[j], c0);
-    for (k = 0; k < 2; k++) {
-        if (!deg) {
-            real d, nhx, nhy, mm;
-            gauss_newton(MODEL_WALL, P, c0[k], P->n == 2 ? 6 : 12, &kk[k]);
-            mm = hyp(kk[k].p[0], kk[k].p[1]);
-            d = HALF(mm);
-            if (kk[k].ok && d > 0) {
-                nhx = DIV(kk[k].p[0], mm);
-                nhy = DIV(kk[k].p[1], mm);
-                for (t = 0; t < P->n; t++)
-                    if (!(MUL(nhx, P->c[t].x) + MUL(nhy, P->c[t].y) < d)) kk[k].ok = 0;
-            } else {
-                kk[k].ok = 0;
-            }
-        } else {
-            no_fit(MODEL_WALL, P, c0[k], &kk[k]);
-        }
-    }
-    if (pre == MS_OK && deg) pre = MS_DEGEN;
-    reason = select_cand(P, kk, pre, &idx);
-    *best = kk[idx];
-    return reason;
-}
-
-/* ======================================================================================
- * fast 3-receiver path (MS_ARITH_Q only)
+ * ms_geom_q_fast.c - the fast 3-receiver path and the per-pulse fix of the Q format
+ * (MS_ARITH_Q only; the build lists this file for the Q format).
  *
  * Per pulse, for N = 3 and a prepared array: a closed-form start on the far receiver pair,
  * one Gauss-Newton step on the true residuals with all three receivers, and the residuals
@@ -835,8 +31,25 @@ static int wall_core(const prob *P, cand *best)
  * the step-by-step port of the Python algorithm. On typical pulses (3 ring receivers, 0.5..4
  * m, +-20 deg, 1 us noise) the fast path answers > 99.9% of the calls
  * (tests/test_fw_geometry.py::test_q_fast_path_typical).
- * ====================================================================================== */
-#if MS_GEOM_ARITH == MS_ARITH_Q
+ *
+ * The end of the file connects the fast path to the public calls: its part of ms_prepare
+ * (msg_fast_prepare), its answers to ms_point_prepared / ms_wall_prepared, and ms_fix's fast
+ * half (msg_fix_fast, ms_fix_fast). The per-pulse code (fq_*, msg_fix_fast, ms_fix_fast) is one
+ * translation unit on purpose: its helpers are inlined, or called knowing which registers they
+ * leave alone, and it lies in one section, .text.ms_hot (MS_HOT, ms_geom_internal.h).
+ *
+ * Units (the fixed-point formats of the functions below): lengths int32 in the internal unit
+ * 2^-2 um ("units"; FQ_SH), path lengths at the interface int32 um; unit vectors Q30 (int32,
+ * 2^30 = 1); Jacobians Q29; products int64 with the sum of the operands' fraction bits;
+ * angles binary (int32, 2^32 per turn); gdop^2 Q16 (int64); chi-squares and numbers at the
+ * interface Q16.16.
+ */
+#include "ms_geom_internal.h"
+
+#if MS_GEOM_ARITH != MS_ARITH_Q
+#error "ms_geom_q_fast.c is the Q format's: the float builds list ms_geom_f_fast.c instead"
+#endif
+
 /* the per-pulse path is compiled for speed even in a -Os image (inlined 64-bit shifts, no calls) */
 #pragma GCC push_options
 #pragma GCC optimize("O2")
@@ -892,6 +105,7 @@ static const uint32_t fq_rsq_tab[193] = {
     1086550331u, 1084383727u, 1082230034u, 1080089122u, 1077960865u, 1075845140u,
     1073741824u,
 };
+/* leading zero bits of a byte */
 static const uint8_t fq_clz8[256] = {
     8, 7, 6, 6, 5, 5, 5, 5, 4, 4, 4, 4, 4, 4, 4, 4,
     3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3,
@@ -911,7 +125,9 @@ static const uint8_t fq_clz8[256] = {
     0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
 };
 
-/* 32 x 32 -> 64-bit products: MUL + MULH (GCC otherwise widens some to 64 x 64, 3-4 MULs) */
+/* a * b exact, int32 x int32 -> int64 (fq_sumul: int32 x uint32); the product's fraction bits are
+ * the sum of the operands' (Q30 x Q30 -> Q60). MUL + MULH (GCC otherwise widens some to 64 x 64,
+ * 3-4 MULs) */
 #if defined(__riscv) && __riscv_xlen == 32
 FQ_INLINE int64_t fq_smul(int32_t a, int32_t b)
 {
@@ -930,22 +146,24 @@ FQ_INLINE int64_t fq_smul(int32_t a, int32_t b) { return (int64_t)a * b; }
 FQ_INLINE int64_t fq_sumul(int32_t a, uint32_t b) { return (int64_t)a * (int64_t)b; }
 #endif
 
-FQ_INLINE int fq_clz32(uint32_t v) /* v != 0 */
+/* leading zero bits of v (v != 0) */
+FQ_INLINE int fq_clz32(uint32_t v)
 {
     int n = 0;
     if (!(v >> 16)) { n = 16; v <<= 16; }
     if (!(v >> 24)) { n += 8; v <<= 8; }
     return n + fq_clz8[v >> 24];
 }
-/* bits to drop so that |v| < 2^30 */
+/* m: a magnitude (int64 of any unit) -> the right shift that brings it below 2^30 (0 if it is) */
 FQ_INLINE int fq_drop30(uint64_t m)
 {
     uint32_t h = (uint32_t)(m >> 32), l = (uint32_t)m;
     if (h) return 34 - fq_clz32(h);
     return (l >> 30) ? 2 - fq_clz32(l) : 0;
 }
-/* 1/sqrt(s) for 0 < s < 2^64: y in [2^30, 2^31] with 1/sqrt(s) = y * 2^(k2 - 62) (relative
- * error < 2^-28); *hi = the top 32 bits of s normalised by an even shift (for the root) */
+/* 1/sqrt(s) for 0 < s < 2^64 (s: the square of a length, any unit): y in [2^30, 2^31] with
+ * 1/sqrt(s) = y * 2^(k2 - 62) (relative error < 2^-28); *hi = the top 32 bits of s normalised by
+ * an even shift (for the root: fq_root) */
 FQ_INLINE uint32_t fq_rsqrt_body(uint64_t s, int *k2, uint32_t *hio)
 {
     uint32_t h = (uint32_t)(s >> 32), l = (uint32_t)s, hi, y0, y1, i, y, y2, xy2;
@@ -971,13 +189,14 @@ FQ_INLINE uint32_t fq_rsqrt_body(uint64_t s, int *k2, uint32_t *hio)
 /* one copy (not inlined at its ~18 uses per fix): the per-pulse code stays small enough to
  * share a 16 KiB instruction cache with the application's loop (firmware/README.md) */
 FQ_NOINLINE uint32_t fq_rsqrt(uint64_t s, int *k2, uint32_t *hio) { return fq_rsqrt_body(s, k2, hio); }
-/* round(sqrt(s)) from fq_rsqrt's results */
+/* round(sqrt(s)) from fq_rsqrt's results (hi, y, k2 of s) -> int32 in the root's unit */
 FQ_INLINE int32_t fq_root(uint32_t hi, uint32_t y, int k2)
 {
     uint32_t p = (uint32_t)(((uint64_t)hi * y) >> 32); /* sqrt(s) * 2^(k2 - 2) */
     if (k2 >= 3) return (int32_t)((p + (1u << (k2 - 3))) >> (k2 - 2));
     return (int32_t)(p << (2 - k2));
 }
+/* round(sqrt(s)): s the square of a length (any unit) -> int32 in that unit; 0 for s = 0 */
 FQ_INLINE int32_t fq_sqrt(uint64_t s)
 {
     int k2;
@@ -986,21 +205,21 @@ FQ_INLINE int32_t fq_sqrt(uint64_t s)
     y = fq_rsqrt(s, &k2, &hi);
     return fq_root(hi, y, k2);
 }
-/* (p >> sh) as int32, 0 < sh < 32 */
+/* (p >> sh) as int32 (any unit; the result must fit), 0 < sh < 32 */
 FQ_INLINE int32_t fq_sr(int64_t p, int sh)
 {
     return (int32_t)(((uint32_t)p >> sh) | ((uint32_t)(p >> 32) << (32 - sh)));
 }
-/* v / sqrt(s) in Q30 (|v| <= sqrt(s)), from fq_rsqrt */
+/* v / sqrt(s) in Q30 (|v| <= sqrt(s), v in the unit of sqrt(s)), from fq_rsqrt's y, k2 of s */
 FQ_INLINE int32_t fq_unit(int32_t v, uint32_t y, int k2) { return fq_sr(fq_sumul(v, y), 32 - k2); }
-/* (x * r) >> sh for |x| < 2^62, r < 2^32, 32 <= sh < 96 */
+/* (x * r) >> sh, floor, for |x| < 2^62, r < 2^32, 32 <= sh < 96 (the caller tracks the units) */
 FQ_INLINE int64_t fq_mulr(int64_t x, uint32_t r, int sh)
 {
     int64_t t = fq_sumul((int32_t)(x >> 32), r) + (int64_t)(((uint64_t)(uint32_t)x * r) >> 32);
     sh -= 32;
     return sh < 63 ? t >> sh : (t < 0 ? -1 : 0);
 }
-/* 1/s = r * 2^-e, r in [2^29, 2^31] */
+/* 1/s = r * 2^-e, r in [2^29, 2^31] (s an unsigned integer, 0 < s < 2^64) */
 FQ_INLINE uint32_t fq_recip(uint64_t s, int *e)
 {
     int k2;
@@ -1008,6 +227,8 @@ FQ_INLINE uint32_t fq_recip(uint64_t s, int *e)
     *e = 93 - 2 * k2;
     return (uint32_t)(((uint64_t)y * y) >> 31);
 }
+/* fq_in: int32 um -> units (2^-2 um); fq_out: units -> int32 um, rounded; fq_sq: x^2 + y^2
+ * (int64, the square of x's unit); fq_dot30: x ux + y uy with u Q30 -> x's unit (floor) */
 FQ_INLINE int32_t fq_in(int32_t um) { return um * (1 << FQ_SH); }
 FQ_INLINE int32_t fq_out(int32_t v) { return (v + (1 << (FQ_SH - 1))) >> FQ_SH; }
 FQ_INLINE int64_t fq_sq(int32_t x, int32_t y) { return fq_smul(x, x) + fq_smul(y, y); }
@@ -1039,7 +260,8 @@ FQ_INLINE uint32_t fq_recip_q30(uint32_t d)
 /* atan(t)/t = sum c_k t^2k, Q30, |t| <= tan(pi/8): truncation < 2e-8 rad */
 static const int32_t fq_atan_c[8] = {1073741824, -357913941, 214748365, -153391689,
                                      119304647,  -97612893,  82595525,  -71582788};
-/* atan2 as a binary angle (2^32 per turn), error < 3e-8 rad */
+/* atan2(y, x): y, x int32 in one common unit -> binary angle (2^32 per turn; 0 for (0, 0)),
+ * error < 3e-8 rad */
 MS_HOT static ms_ang_t fq_atan2(int32_t y, int32_t x)
 {
     uint32_t ax = x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x;
@@ -1069,13 +291,15 @@ MS_HOT static ms_ang_t fq_atan2(int32_t y, int32_t x)
     return (ms_ang_t)(uint32_t)(int32_t)((ang * 683565276LL + ((int64_t)1 << 29)) >> 30);
 }
 
-/* distances from p to the receivers, their unit vectors (Q30) and 1/sqrt factors */
+/* distances L from p to the receivers (units), their unit vectors (Q30) and 1/sqrt factors
+ * (fq_rsqrt's y, k2 of L^2) */
 typedef struct {
     int32_t L[3], ux[3], uy[3];
     uint32_t y[3];
     int8_t k2[3];
 } fqd;
 
+/* p (units) -> *d; 0 (general path) when p lies on a receiver */
 FQ_INLINE int fq_dist(const ms_array *a, int32_t px, int32_t py, fqd *d)
 {
     int k;
@@ -1093,7 +317,8 @@ FQ_INLINE int fq_dist(const ms_array *a, int32_t px, int32_t py, fqd *d)
     }
     return 1;
 }
-/* |d + step| from |d| = L, unit u, 1/L = y 2^(k2-62): second order in the step, |step| <= L/128 */
+/* |d + step| (units) from |d| = L (units), unit u (Q30), 1/L = y 2^(k2-62), the step (sx, sy)
+ * (units) and s2 = |step|^2 (units^2): second order in the step, |step| <= L/128 */
 FQ_INLINE int32_t fq_moved(int32_t L, int32_t ux, int32_t uy, uint32_t y, int k2, int32_t sx, int32_t sy,
                            int64_t s2)
 {
@@ -1105,9 +330,10 @@ FQ_INLINE int32_t fq_moved(int32_t L, int32_t ux, int32_t uy, uint32_t y, int k2
     return L + al + corr - (int32_t)(fq_smul(corr, aL) >> 30);
 }
 
-/* One Gauss-Newton step for three residuals f and J (Q29). Returns 0 when singular or
- * beyond the fast path's range; else step and gdop^2 (Q16). Normal equations through the
- * three 2x2 minors m_kl of J (Cauchy-Binet): det = sum m^2, adj(J^T J) J^T f = sum m_kl e_kl. */
+/* One Gauss-Newton step for three residuals f (units) and J (Q29). Returns 0 when singular or
+ * beyond the fast path's range; else step (units) and gdop^2 (*gd2, Q16). Normal equations
+ * through the three 2x2 minors m_kl of J (Cauchy-Binet): det = sum m^2,
+ * adj(J^T J) J^T f = sum m_kl e_kl. */
 #define FQ_MINOR(a0, a1, b0, b1) ((int32_t)((fq_smul(a0, b1) - fq_smul(a1, b0)) >> 30)) /* Q28 */
 #define FQ_E(ja, fb, jb, fa) ((int32_t)((fq_smul(ja, fb) - fq_smul(jb, fa)) >> 20))    /* Q9 */
 FQ_INLINE int fq_gn3(int32_t J[3][2], const int32_t f[3], int32_t step[2], int64_t *gd2)
@@ -1137,15 +363,16 @@ FQ_INLINE int fq_gn3(int32_t J[3][2], const int32_t f[3], int32_t step[2], int64
 }
 
 typedef struct {
-    int32_t x, y;  /* polished point / mirror image (internal units) */
-    int32_t rho;   /* |x| */
-    int32_t rms;
+    int32_t x, y;  /* polished point / mirror image (units) */
+    int32_t rho;   /* |x| (units) */
+    int32_t rms;   /* RMS residual (units) */
     int64_t gd2;   /* gdop^2 Q16 (point: of x; wall: of m, i.e. 4x the distance gdop^2) */
     int ok;        /* physical */
     int inside;    /* inside the fov round the axis */
 } fqfit;
 
-/* polish the start p0 = (px, py) with |p0| = rho0 and unit (ux, uy), fill out; 0 -> general path.
+/* polish the start p0 = (px, py) with |p0| = rho0 (units) and unit (ux, uy) (Q30), 1/rho0 =
+ * y0 2^(k20 - 62), against the path lengths r (units); fill out; 0 -> general path.
  * One Gauss-Newton step; up to two more (full re-evaluations) while the step is longer than
  * rho/128 (the wrong model's fit, e.g. a wall through an edge's echoes, starts further off). */
 MS_HOT static int fq_polish(int wall, const ms_array *a, const int32_t *r, int32_t px, int32_t py, int32_t rho0,
@@ -1209,14 +436,16 @@ MS_HOT static int fq_polish(int wall, const ms_array *a, const int32_t *r, int32
     return 1;
 }
 
-/* point start: fills x0, rho0, unit u0 (the candidate nearer the axis; mirror[] the other's
- * data for a second polish when asked); 0 -> general path */
+/* a start for fq_polish: x, y and rho = |(x, y)| in units, (ux, uy) = (x, y) / rho Q30,
+ * 1/rho = yr 2^(k2 - 62) */
 typedef struct {
     int32_t x, y, rho, ux, uy;
     uint32_t yr;
     int k2;
 } fqstart;
 
+/* point start from the path lengths r (units): st[0] the candidate nearer the axis, st[1] (with
+ * want_mirror) the other, for a second polish; 0 -> general path */
 MS_HOT static int fq_point_start(const ms_array *a, const int32_t *r, int want_mirror, fqstart st[2])
 {
     int i = a->pi, j = a->pj, ka, kv, k2, q;
@@ -1270,7 +499,7 @@ MS_HOT static int fq_point_start(const ms_array *a, const int32_t *r, int want_m
     return 1;
 }
 
-/* is the direction (x, y) more than fov + 20 deg off the axis? */
+/* is the direction (x, y) (int64, any one unit) more than fov + 20 deg off the axis? */
 MS_HOT static int fq_far_off(const ms_array *a, int64_t x, int64_t y)
 {
     int64_t d, n2;
@@ -1287,6 +516,8 @@ MS_HOT static int fq_far_off(const ms_array *a, int64_t x, int64_t y)
     return (d * d) > ((n2 >> 30) * (((int64_t)a->cos_mir * a->cos_mir) >> 30));
 }
 
+/* wall start from the path lengths r (units): the mirror image candidates of the circle pair,
+ * st[0] nearer the axis, st[1] (with want_mirror) the other; 0 -> general path */
 MS_HOT static int fq_wall_start(const ms_array *a, const int32_t *r, int want_mirror, fqstart st[2])
 {
     int i = a->pi, q, k2;
@@ -1321,7 +552,9 @@ MS_HOT static int fq_wall_start(const ms_array *a, const int32_t *r, int want_mi
     return 1;
 }
 
-/* The fast solve: returns 0 -> general path; else *reason and the chosen fit */
+/* The fast solve of the point (wall = 0) or wall model from the path lengths (int32 um), with
+ * a->opts.tol (um) and max_gdop (Q16.16) unless no_tol / no_gdop: returns 0 -> general path;
+ * else *reason and the chosen fit (units) */
 MS_HOT static int fq_solve(int wall, const ms_array *a, const ms_len_t *path, int no_tol, int no_gdop,
                            fqfit *best, int *reason)
 {
@@ -1360,6 +593,7 @@ MS_HOT static int fq_solve(int wall, const ms_array *a, const ms_len_t *path, in
     return 1;
 }
 
+/* a fit (units, gd2 Q16) -> the interface: um, binary angles, gdop Q16.16 */
 MS_HOT static void fq_out_point(const ms_array *a, int reason, const fqfit *k, ms_point_fit *out)
 {
     out->reason = (uint8_t)reason;
@@ -1378,6 +612,8 @@ MS_HOT static void fq_out_point(const ms_array *a, int reason, const fqfit *k, m
     out->gdop = fq_sqrt((uint64_t)(k->gd2 << 16)); /* Q16.16 */
 }
 
+/* the same for a wall (k: the mirror image): the foot is half the image, the gdop of the
+ * distance half the image's */
 MS_HOT static void fq_out_wall(const ms_array *a, int reason, const fqfit *k, ms_wall_fit *out)
 {
     out->reason = (uint8_t)reason;
@@ -1396,145 +632,27 @@ MS_HOT static void fq_out_wall(const ms_array *a, int reason, const fqfit *k, ms
     out->gdop = fq_sqrt((uint64_t)((k->gd2 >> 2) << 16));
 }
 
-/* chi-square (Q16.16, unsaturated) of an rms misfit: rms^2 * 3 / sigma^2 */
+/* chi-square of an rms misfit (units): rms^2 * 3 / sigma^2, Q16.16 in int64 (unsaturated) */
 MS_HOT static int64_t fq_chi2(const ms_array *a, int32_t rms)
 {
     return fq_mulr(fq_smul(rms, rms) * 3, a->sinv, a->ssh - 16);
 }
 #pragma GCC pop_options
-#endif /* MS_ARITH_Q fast path */
 
 /* ======================================================================================
- * public API
+ * the fast path's part of the public calls
  * ====================================================================================== */
-void ms_opts_default(ms_opts *o)
+/* ms_prepare's last step (ms_geom_setup.c), from the receivers, source (int32 um) and options
+ * it stored in a: a->fast and the fields the fast path reads (ms_geom.h: receivers - source in
+ * units, the closed-form pair, its chord unit vector (Q30) and 1/D, the axis and cos(fov) Q30,
+ * 1/sigma^2); returns a->fast */
+int msg_fast_prepare(ms_array *a)
 {
-#if MS_GEOM_ARITH == MS_ARITH_Q
-    o->tol = 1000;
-    o->max_gdop = MS_Q_NUM(1e4);
-    o->fov = MS_Q_ANG_FROM_DEG(60.0);
-#else
-    o->tol = (ms_len_t)1e-3;
-    o->max_gdop = (ms_num_t)1e4;
-    o->fov = (ms_ang_t)(60.0 * 3.14159265358979323846 / 180.0);
-#endif
-    o->axis_mode = MS_AXIS_AUTO;
-    o->no_tol = 0;
-    o->no_gdop = 0;
-    o->axis = 0;
-}
-
-void ms_class_opts_default(ms_class_opts *o)
-{
-    ms_opts d;
-    ms_opts_default(&d);
-    o->fov = d.fov;
-    o->axis_mode = MS_AXIS_AUTO;
-    o->axis = 0;
-#if MS_GEOM_ARITH == MS_ARITH_Q
-    o->z = MS_Q_NUM(3.090232306167813);
-#else
-    o->z = (ms_num_t)3.090232306167813;
-#endif
-}
-
-static void finish_point(const prob *P, ms_vec2 src, int reason, const cand *c, ms_point_fit *out)
-{
-    real x = c->p[0], y = c->p[1];
-    if (reason == MS_OK && !(ISFIN(x) && ISFIN(y) && ISFIN(c->rms))) reason = MS_NOCONV;
-    out->reason = (uint8_t)reason;
-    out->valid = reason == MS_OK;
-    if (!out->valid) {
-        out->x = out->y = out->range = out->residual = 0;
-        out->bearing = 0;
-        out->gdop = 0;
-        return;
-    }
-    (void)P;
-    out->x = LEN_OUT(x + LEN_IN(src.x));
-    out->y = LEN_OUT(y + LEN_IN(src.y));
-    out->range = LEN_OUT(hyp(x, y));
-    out->bearing = ATAN2(y, x);
-    out->residual = LEN_OUT(c->rms);
-    out->gdop = c->gd_inf ? NUM_OUT(BIGV) : NUM_OUT(c->gd);
-}
-
-static void finish_wall(const prob *P, ms_vec2 src, int reason, const cand *c, ms_wall_fit *out)
-{
-    real mx = c->p[0], my = c->p[1];
-    if (reason == MS_OK && !(ISFIN(mx) && ISFIN(my) && ISFIN(c->rms))) reason = MS_NOCONV;
-    out->reason = (uint8_t)reason;
-    out->valid = reason == MS_OK;
-    if (!out->valid) {
-        out->distance = out->foot_x = out->foot_y = out->residual = 0;
-        out->normal_angle = 0;
-        out->gdop = 0;
-        return;
-    }
-    (void)P;
-    out->distance = LEN_OUT(HALF(hyp(mx, my)));
-    out->normal_angle = ATAN2(my, mx);
-    out->foot_x = LEN_OUT(HALF(mx) + LEN_IN(src.x));
-    out->foot_y = LEN_OUT(HALF(my) + LEN_IN(src.y));
-    out->residual = LEN_OUT(c->rms);
-    out->gdop = c->gd_inf ? NUM_OUT(BIGV) : NUM_OUT(HALF(c->gd));
-}
-
-/* Wilson-Hilferty chi-square quantile for k degrees of freedom at normal quantile z */
-static real chi2_quantile(real z, int k)
-{
-    real ks, h, t;
-    if (k <= 0) return 0;
-    ks = K(1.0) * k;
-    h = DIV(K(2.0), 9 * ks);
-    t = K(1.0) - h + MUL(z, SQRT(h));
-    return MUL(MUL(MUL(t, t), t), ks);
-}
-
-#if MS_GEOM_ARITH == MS_ARITH_Q
-/* cos and sin of a binary angle, Q30 (CORDIC rotation, 40 steps; prepare only) */
-static void q_cossin(ang th, int32_t *c, int32_t *s)
-{
-    int64_t z = (int64_t)th * 65536, x = 652032874LL, y = 0, t; /* z in 2^-48 turns; x = K * 2^30 */
-    int i, flip = 0;
-    if (z > ((int64_t)1 << 46)) { z -= (int64_t)1 << 47; flip = 1; }
-    else if (z < -((int64_t)1 << 46)) { z += (int64_t)1 << 47; flip = 1; }
-    for (i = 0; i < 40; i++) {
-        if (z >= 0) { t = x - (y >> i); y += x >> i; x = t; z -= cordic_tab[i]; }
-        else { t = x + (y >> i); y -= x >> i; x = t; z += cordic_tab[i]; }
-    }
-    if (flip) { x = -x; y = -y; }
-    *c = (int32_t)(x > (1 << 30) ? (1 << 30) : x < -(1 << 30) ? -(1 << 30) : x);
-    *s = (int32_t)(y > (1 << 30) ? (1 << 30) : y < -(1 << 30) ? -(1 << 30) : y);
-}
-#endif
-
-int ms_prepare(ms_array *a, const ms_vec2 *rx, int n, ms_vec2 src, const ms_opts *opts,
-               const ms_class_opts *copts, ms_len_t noise_sigma)
-{
-    ms_class_opts dc;
-    real z, sig = LEN_IN(noise_sigma);
-    int i;
-    if (!copts) {
-        ms_class_opts_default(&dc);
-        copts = &dc;
-    }
-    if (opts) a->opts = *opts;
-    else ms_opts_default(&a->opts);
-    a->n = n;
-    a->src = src;
-    a->sigma = noise_sigma;
-    a->fast = 0;
-    a->bad = n < 2 || n > MS_MAX_RX || !rx;
-    for (i = 0; i < MS_MAX_RX; i++) {
-        a->rx[i].x = (!a->bad && i < n) ? rx[i].x : 0;
-        a->rx[i].y = (!a->bad && i < n) ? rx[i].y : 0;
-    }
-    z = NUM_IN(copts->z);
-    a->thr[0] = a->thr[1] = NUM_OUT(chi2_quantile(z, n - 2));
-    a->thr[2] = NUM_OUT(n == 3 ? K(1e-6) : chi2_quantile(z, n - 3));
-#if MS_GEOM_ARITH == MS_ARITH_Q
-    if (!a->bad && n == 3 && a->opts.axis_mode != MS_AXIS_NONE && sig > 0) {
+    const ms_vec2 *rx = a->rx;
+    ms_vec2 src = a->src;
+    ms_len_t noise_sigma = a->sigma;
+    int i, n = a->n;
+    if (!a->bad && n == 3 && a->opts.axis_mode != MS_AXIS_NONE && noise_sigma > 0) {
         prob P;
         int32_t cf, sf;
         int j, ok = 1;
@@ -1569,7 +687,7 @@ int ms_prepare(ms_array *a, const ms_vec2 *rx, int n, ms_vec2 src, const ms_opts
         } else {
             ok = 0;
         }
-        set_axis(&P, rx, a->opts.axis_mode, a->opts.axis);
+        msg_set_axis(&P, rx, a->opts.axis_mode, a->opts.axis);
         if (!P.has_axis) ok = 0;
         q_cossin(P.axis, &a->ax, &a->ay);
         q_cossin(a->opts.fov, &cf, &sf);
@@ -1588,136 +706,42 @@ int ms_prepare(ms_array *a, const ms_vec2 *rx, int n, ms_vec2 src, const ms_opts
         }
         a->fast = (uint8_t)ok;
     }
-#else
-    (void)sig;
-#endif
     return a->fast;
 }
 
-/* the general path's problem for a prepared array */
-static int prepared_setup(const ms_array *a, const ms_len_t *path, int min_n, prob *P)
+/* ms_point_prepared / ms_wall_prepared by the fast path (path: int32 um): 1 when it answered
+ * (out at the interface), 0 -> the general path answers */
+int msg_fast_point(const ms_array *a, const ms_len_t *path, ms_point_fit *out)
 {
-    int reason = a->bad ? MS_BADIN : setup(P, a->rx, path, a->n, a->src, min_n);
-    if (reason == MS_OK) apply_opts(P, a->rx, &a->opts);
-    return reason;
-}
-
-int ms_point_prepared(const ms_array *a, const ms_len_t *path, ms_point_fit *out)
-{
-    prob P;
-    cand c = {{0, 0}, 0, 0, 1, 0};
-    int reason;
-#if MS_GEOM_ARITH == MS_ARITH_Q
     fqfit k;
+    int reason;
     if (path && fq_solve(0, a, path, a->opts.no_tol, a->opts.no_gdop, &k, &reason)) {
         FQ_STAT(ms_geom_stat_fast);
         fq_out_point(a, reason, &k, out);
-        return out->valid;
+        return 1;
     }
     FQ_STAT(ms_geom_stat_general);
-#endif
-    reason = prepared_setup(a, path, 2, &P);
-    if (reason == MS_OK) reason = point_core(&P, &c);
-    finish_point(&P, a->src, reason, &c, out);
-    return out->valid;
+    return 0;
 }
 
-int ms_wall_prepared(const ms_array *a, const ms_len_t *path, ms_wall_fit *out)
+int msg_fast_wall(const ms_array *a, const ms_len_t *path, ms_wall_fit *out)
 {
-    prob P;
-    cand c = {{0, 0}, 0, 0, 1, 0};
-    int reason;
-#if MS_GEOM_ARITH == MS_ARITH_Q
     fqfit k;
+    int reason;
     if (path && fq_solve(1, a, path, a->opts.no_tol, a->opts.no_gdop, &k, &reason)) {
         FQ_STAT(ms_geom_stat_fast);
         fq_out_wall(a, reason, &k, out);
-        return out->valid;
+        return 1;
     }
     FQ_STAT(ms_geom_stat_general);
-#endif
-    reason = prepared_setup(a, path, 2, &P);
-    /* the wall's max_gdop applies to the mirror image (2x the distance gdop), as Python */
-    if (reason == MS_OK) reason = wall_core(&P, &c);
-    finish_wall(&P, a->src, reason, &c, out);
-    return out->valid;
+    return 0;
 }
 
-int ms_solve_point(const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src, const ms_opts *opts,
-                   ms_point_fit *out)
+/* ms_fix's fast path alone (path: int32 um): both fits, their chi-squares (Q16.16, saturated at
+ * INT32_MAX) and the decision, or MS_FIX_DECLINED with *reason_out for the general path */
+MS_HOT int msg_fix_fast(const ms_array *a, const ms_len_t *path, ms_class *out, int *reason_out)
 {
-    ms_array a;
-    ms_prepare(&a, rx, n, src, opts, NULL, 1);
-    return ms_point_prepared(&a, path, out);
-}
-
-int ms_solve_wall(const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src, const ms_opts *opts,
-                  ms_wall_fit *out)
-{
-    ms_array a;
-    ms_prepare(&a, rx, n, src, opts, NULL, 1);
-    return ms_wall_prepared(&a, path, out);
-}
-
-/* the edge / wall / uncertain rule of geometry.classify on two chi-squares */
-MS_HOT static void decide(ms_class *out, int sp, int sw, real x2p, real x2w, real tp, real tw, real gap_lim)
-{
-    int e = (sp == MS_OK || sp == MS_AMBIG) && x2p <= tp;
-    int w = (sw == MS_OK || sw == MS_AMBIG) && x2w <= tw;
-    out->accepted = (uint8_t)(e | (w << 1));
-    if (e && !w) out->kind = MS_KIND_EDGE;
-    else if (w && !e) out->kind = MS_KIND_WALL;
-    else if (e && w) {
-        real gap = x2p - x2w;
-        if (gap < -gap_lim) out->kind = MS_KIND_EDGE;
-        else if (gap > gap_lim) out->kind = MS_KIND_WALL;
-    }
-}
-
-/* ms_fix's general path (the step-by-step port): out of the per-pulse section */
-static __attribute__((noinline)) int fix_general(const ms_array *a, const ms_len_t *path, int reason, ms_class *out)
-{
-    prob P;
-    cand cp = {{0, 0}, 0, 0, 1, 0}, cw = {{0, 0}, 0, 0, 1, 0};
-    int sp = MS_BADIN, sw = MS_BADIN, i, n = a->n;
-    real sig = LEN_IN(a->sigma), x2[2], thr[2];
-    if (reason == MS_OK && !(sig > 0 && ISFIN(sig))) reason = MS_BADIN;
-    if (reason == MS_OK) reason = setup(&P, a->rx, path, n, a->src, 3);
-    out->reason = (uint8_t)reason;
-    if (reason == MS_OK) {
-        P.no_tol = P.no_gdop = 1;
-        P.tol = P.max_gdop = 0;
-        P.fov = a->opts.fov;
-        set_axis(&P, a->rx, a->opts.axis_mode, a->opts.axis);
-        sp = point_core(&P, &cp);
-        sw = wall_core(&P, &cw);
-        for (i = 0; i < 2; i++) {
-            real q = DIV(i == 0 ? cp.rms : cw.rms, sig);
-            x2[i] = MUL(q, q) * n;
-            if (!ISFIN(x2[i]) || x2[i] > BIGV) x2[i] = BIGV;
-            out->chi2[i] = NUM_OUT(x2[i]);
-            thr[i] = NUM_IN(a->thr[i]);
-        }
-        decide(out, sp, sw, x2[0], x2[1], thr[0], thr[1], K(9.21));
-    }
-    finish_point(&P, a->src, sp, &cp, &out->point);
-    finish_wall(&P, a->src, sw, &cw, &out->wall);
-    return out->kind;
-}
-
-/* ms_fix's fast path alone: the kind, or MS_FIX_DECLINED (out's fields then unspecified) */
-static MS_HOT int fix_fast(const ms_array *a, const ms_len_t *path, ms_class *out, int *reason_out)
-{
-    int reason, i;
-    out->kind = MS_KIND_UNCERTAIN;
-    out->accepted = 0;
-    for (i = 0; i < 3; i++) {
-        out->chi2[i] = 0;
-        out->thr[i] = a->thr[i];
-    }
-    /* sigma > 0 <=> LEN_IN(sigma) > 0; LEN_IN (a 64-bit division in Q) only on the general path */
-    reason = (a->bad || a->n < 3 || !path || a->sigma <= 0) ? MS_BADIN : MS_OK;
-#if MS_GEOM_ARITH == MS_ARITH_Q
+    int reason = fix_begin(a, path, out);
     if (reason == MS_OK) {
         fqfit kp, kw;
         int sp, sw;
@@ -1734,7 +758,6 @@ static MS_HOT int fix_fast(const ms_array *a, const ms_len_t *path, ms_class *ou
         }
         FQ_STAT(ms_geom_stat_general);
     }
-#endif
     *reason_out = reason;
     return MS_FIX_DECLINED;
 }
@@ -1742,348 +765,5 @@ static MS_HOT int fix_fast(const ms_array *a, const ms_len_t *path, ms_class *ou
 MS_HOT int ms_fix_fast(const ms_array *a, const ms_len_t *path, ms_class *out)
 {
     int reason;
-    return fix_fast(a, path, out, &reason);
-}
-
-int ms_fix(const ms_array *a, const ms_len_t *path, ms_class *out)
-{
-    int reason, kind = fix_fast(a, path, out, &reason);
-    return kind != MS_FIX_DECLINED ? kind : fix_general(a, path, reason, out);
-}
-
-int ms_classify(const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src, ms_len_t noise_sigma,
-                const ms_class_opts *opts, ms_class *out)
-{
-    ms_array a;
-    ms_opts o;
-    ms_class_opts d;
-    if (!opts) {
-        ms_class_opts_default(&d);
-        opts = &d;
-    }
-    ms_opts_default(&o);
-    o.fov = opts->fov;
-    o.axis_mode = opts->axis_mode;
-    o.axis = opts->axis;
-    ms_prepare(&a, rx, n, src, &o, opts, noise_sigma);
-    return ms_fix(&a, path, out);
-}
-
-/* ======================================================================================
- * cylinder: geometry._specular, _cyl_model, _gauss_newton (3 parameters), _cylinder_core.
- * The general path only (any variant, N >= 3): Gauss-Newton over (bearing, r0, radius) from
- * the point and the wall fit, Newton on the reflection angle inside the model.
- * ====================================================================================== */
-#if MS_GEOM_ARITH == MS_ARITH_Q
-#define CYL_TINY ((real)1)
-static real rad_of_ang(ang a) { return q_mul((int64_t)a, K(6.283185307179586)); }
-static ang ang_of_rad(real th) { return (ang)(uint32_t)(uint64_t)q_mul(th, K(0.15915494309189535)); }
-static void cyl_cossin(real th, real *c, real *s)
-{
-    int32_t ci, si;
-    q_cossin(ang_of_rad(th), &ci, &si);
-    *c = (int64_t)ci * 4;
-    *s = (int64_t)si * 4;
-}
-static real hyp3(real x, real y, real z)
-{
-    int64_t v[3];
-    v[0] = x; v[1] = y; v[2] = z;
-    return q_vnorm(v, 3, 1);
-}
-#define CYL_ATAN2(y, x) rad_of_ang(q_atan2((y), (x)))
-#define CYL_DET_MIN 0
-#else
-#if MS_GEOM_ARITH == MS_ARITH_F64
-#define CYL_TINY 1e-300
-#define COS(a) cos(a)
-#define SIN(a) sin(a)
-#define CYL_DET_MIN 1e-30
-#else
-#define CYL_TINY 1e-30f
-#define COS(a) cosf(a)
-#define SIN(a) sinf(a)
-#define CYL_DET_MIN 1e-30f
-#endif
-static void cyl_cossin(real th, real *c, real *s)
-{
-    *c = COS(th);
-    *s = SIN(th);
-}
-static real hyp3(real x, real y, real z) { return SQRT(x * x + y * y + z * z); }
-#define CYL_ATAN2(y, x) ATAN2((y), (x))
-#endif
-#define CYL_A_MAX K(1000.0)
-#ifndef CYL_SAME_K
-#define CYL_SAME_K 1e-6
-#endif
-/* two fits are one solution when closer than this (Python: 1e-6 * scale); the reduced-precision
- * variants stop their fits ~ precision * gdop * scale apart */
-#if MS_GEOM_ARITH == MS_ARITH_F64
-#define CYL_SAME(scale, gd) MUL(K(1e-6), (scale))
-#elif MS_GEOM_ARITH == MS_ARITH_F32
-#define CYL_SAME(scale, gd) (K(1e-6) * (scale) + K(CYL_SAME_K) * (scale) * ((gd) < K(1e6) ? (gd) : K(1e6)))
-#else
-#define CYL_SAME(scale, gd) (MUL(K(1e-6), (scale)) + MUL(MUL(K(CYL_SAME_K), (scale)), (gd) < K(100) ? (gd) : K(100)))
-#endif
-
-/* specular reflection off the circle (centre p, radius a) from the origin to c */
-static int cyl_specular(real px, real py, real a, real cx, real cy, int iters, real *L, real *nxo, real *nyo,
-                        real *cio)
-{
-    real ds = hyp(px, py), dc = hyp(cx - px, cy - py), usx = 0, usy = 0, ucx = 0, ucy = 0, bx, by, bn;
-    real phi0, half, dphi = 0, nx, ny, qx, qy, l1, l2, ci;
-    int it, s, ok = ds > a && dc > a;
-    if (ds > 0) { usx = DIV(-px, ds); usy = DIV(-py, ds); }
-    if (dc > 0) { ucx = DIV(cx - px, dc); ucy = DIV(cy - py, dc); }
-    bx = usx + ucx;
-    by = usy + ucy;
-    bn = hyp(bx, by);
-    if (bn > K(1e-12)) { bx = DIV(bx, bn); by = DIV(by, bn); }
-    else { bx = -usy; by = usx; }
-    phi0 = CYL_ATAN2(by, bx);
-    half = HALF(CYL_ATAN2(ABS(MUL(usx, ucy) - MUL(usy, ucx)), MUL(usx, ucx) + MUL(usy, ucy)));
-    for (it = 0; it < iters; it++) {
-        real g = 0, gp = 0, tx, ty, step;
-        cyl_cossin(phi0 + dphi, &nx, &ny);
-        qx = px + MUL(a, nx);
-        qy = py + MUL(a, ny);
-        tx = -MUL(a, ny);
-        ty = MUL(a, nx);
-        for (s = 0; s < 2; s++) {
-            real ex = qx - (s ? cx : 0), ey = qy - (s ? cy : 0), le = hyp(ex, ey), te;
-            if (!(le > CYL_TINY)) le = CYL_TINY;
-            ex = DIV(ex, le);
-            ey = DIV(ey, le);
-            te = MUL(tx, ex) + MUL(ty, ey);
-            g += te;
-            gp += DIV(MUL(a, a) - MUL(te, te), le) - MUL(a, MUL(nx, ex) + MUL(ny, ey));
-        }
-        step = gp > 0 ? -DIV(g, gp) : 0;
-        dphi += step;
-        if (dphi > half) dphi = half;
-        if (dphi < -half) dphi = -half;
-    }
-    cyl_cossin(phi0 + dphi, &nx, &ny);
-    qx = px + MUL(a, nx);
-    qy = py + MUL(a, ny);
-    l1 = hyp(qx, qy);
-    l2 = hyp(qx - cx, qy - cy);
-    ci = -DIV(MUL(nx, qx) + MUL(ny, qy), l1 > CYL_TINY ? l1 : CYL_TINY);
-    *L = l1 + l2;
-    *nxo = nx;
-    *nyo = ny;
-    *cio = ci;
-    return ok && ci > 0;
-}
-
-typedef struct {
-    real th[3];
-    real f[MS_MAX_RX];
-    real J[MS_MAX_RX][3];
-    real cost;
-    int ok;
-} cstate;
-
-static void cyl_project(real th[3])
-{
-    if (th[1] < K(1e-6)) th[1] = K(1e-6);
-    if (th[2] < 0) th[2] = 0;
-    if (th[2] > CYL_A_MAX) th[2] = CYL_A_MAX;
-}
-
-static int cyl_model(const prob *P, const real th[3], real *f, real (*J)[3])
-{
-    real ux, uy, d = th[1] + th[2], px, py;
-    int k, ok = 1;
-    cyl_cossin(th[0], &ux, &uy);
-    px = MUL(d, ux);
-    py = MUL(d, uy);
-    for (k = 0; k < P->n; k++) {
-        real L, nx, ny, ci, g, nu, np;
-        if (!cyl_specular(px, py, th[2], P->c[k].x, P->c[k].y, 4, &L, &nx, &ny, &ci)) ok = 0;
-        f[k] = L - P->r[k];
-        g = -2 * ci;
-        nu = MUL(nx, ux) + MUL(ny, uy);
-        np = MUL(ny, ux) - MUL(nx, uy);
-        J[k][0] = MUL(MUL(g, d), np);
-        J[k][1] = MUL(g, nu);
-        J[k][2] = MUL(g, nu + K(1.0));
-    }
-    return ok;
-}
-
-/* Gauss-Newton step for three parameters (column-scaled normal equations, cofactors) */
-static void ls_step3(real (*J)[3], const real *f, int n, real step[3], real *gd, int *gd_inf)
-{
-    real s[3], A[3][3], g[3], C00, C01, C02, C11, C12, C22, det, tr;
-    int i, j, k;
-    for (j = 0; j < 3; j++) {
-        real t = 0;
-        for (k = 0; k < n; k++) t += MUL(J[k][j], J[k][j]);
-        t = SQRT(t);
-        s[j] = t > 0 ? t : K(1.0);
-    }
-    for (i = 0; i < 3; i++) {
-        g[i] = 0;
-        for (j = 0; j < 3; j++) A[i][j] = 0;
-    }
-    for (k = 0; k < n; k++) {
-        real js[3];
-        for (j = 0; j < 3; j++) js[j] = DIV(J[k][j], s[j]);
-        for (i = 0; i < 3; i++) {
-            g[i] -= MUL(js[i], f[k]);
-            for (j = i; j < 3; j++) A[i][j] += MUL(js[i], js[j]);
-        }
-    }
-    C00 = MUL(A[1][1], A[2][2]) - MUL(A[1][2], A[1][2]);
-    C01 = -(MUL(A[0][1], A[2][2]) - MUL(A[0][2], A[1][2]));
-    C02 = MUL(A[0][1], A[1][2]) - MUL(A[0][2], A[1][1]);
-    C11 = MUL(A[0][0], A[2][2]) - MUL(A[0][2], A[0][2]);
-    C12 = -(MUL(A[0][0], A[1][2]) - MUL(A[0][1], A[0][2]));
-    C22 = MUL(A[0][0], A[1][1]) - MUL(A[0][1], A[0][1]);
-    det = MUL(A[0][0], C00) + MUL(A[0][1], C01) + MUL(A[0][2], C02);
-    if (det > CYL_DET_MIN) {
-        real x0 = DIV(MUL(C00, g[0]) + MUL(C01, g[1]) + MUL(C02, g[2]), det);
-        real x1 = DIV(MUL(C01, g[0]) + MUL(C11, g[1]) + MUL(C12, g[2]), det);
-        real x2 = DIV(MUL(C02, g[0]) + MUL(C12, g[1]) + MUL(C22, g[2]), det);
-        step[0] = DIV(x0, s[0]);
-        step[1] = DIV(x1, s[1]);
-        step[2] = DIV(x2, s[2]);
-        tr = DIV(DIV(DIV(C00, s[0]), s[0]) + DIV(DIV(C11, s[1]), s[1]) + DIV(DIV(C22, s[2]), s[2]), det);
-        *gd = SQRT(tr > 0 ? tr : 0);
-        *gd_inf = !ISFIN(*gd);
-    } else {
-        step[0] = step[1] = step[2] = 0;
-        *gd = 0;
-        *gd_inf = 1;
-    }
-}
-
-static void cyl_gn(const prob *P, const real th0[3], int iters, real th[3], real *rms, int *ok)
-{
-    static cstate cur, trial; /* large: kept off the small stack */
-    int it, h, j, n = P->n;
-    real step[3], gd;
-    int gd_inf;
-    for (j = 0; j < 3; j++) cur.th[j] = th0[j];
-    cyl_project(cur.th);
-    cur.ok = cyl_model(P, cur.th, cur.f, cur.J);
-    cur.cost = cost_of(cur.f, n);
-    for (it = 0; it < iters; it++) {
-        real po[3], c_old = cur.cost, t[3], moved;
-        int done = 0;
-        for (j = 0; j < 3; j++) po[j] = cur.th[j];
-        ls_step3(cur.J, cur.f, n, step, &gd, &gd_inf);
-        for (j = 0; j < 3; j++) t[j] = step[j];
-        for (h = 0; h < 5; h++) {
-            for (j = 0; j < 3; j++) trial.th[j] = cur.th[j] + t[j];
-            cyl_project(trial.th);
-            trial.ok = cyl_model(P, trial.th, trial.f, trial.J);
-            trial.cost = cost_of(trial.f, n);
-            if (ACCEPT(trial.cost, cur.cost) && trial.ok && ISFIN(trial.th[0]) && ISFIN(trial.th[1]) &&
-                ISFIN(trial.th[2])) {
-                cur = trial;
-                done = 1;
-                break;
-            }
-            for (j = 0; j < 3; j++) t[j] = HALF(t[j]);
-        }
-        moved = hyp3(cur.th[0] - po[0], cur.th[1] - po[1], cur.th[2] - po[2]);
-        if (!done || SETTLED(moved, c_old, cur.cost, P->scale)) break;
-    }
-    for (j = 0; j < 3; j++) th[j] = cur.th[j];
-    *rms = rms_of(cur.cost, n);
-    *ok = cur.ok;
-}
-
-/* returns the reason; th (bearing, r0, radius), rms, gdop */
-static int cylinder_core(const prob *P, real th_b[3], real *rms_b, real *gd_b, int *gd_inf)
-{
-    prob P2 = *P;
-    cand cp, cw;
-    real starts[2][3], th[2][3], rms[2], cen[2][2], rp, dw, f[MS_MAX_RX], J[MS_MAX_RX][3], step[3], d;
-    int ok[2], k, b, pre = short_check(P), reason = MS_OK, n_distinct = 0, i;
-    P2.no_tol = P2.no_gdop = 1;
-    point_core(&P2, &cp);
-    wall_core(&P2, &cw);
-    rp = hyp(cp.p[0], cp.p[1]);
-    dw = HALF(hyp(cw.p[0], cw.p[1]));
-    if (!(rp > 0)) rp = HALF(P->scale);
-    if (!(dw > 0)) dw = HALF(P->scale);
-    starts[0][0] = CYL_ATAN2(cp.p[1], cp.p[0]);
-    starts[0][1] = rp;
-    starts[0][2] = MUL(K(0.1), rp);
-    starts[1][0] = CYL_ATAN2(cw.p[1], cw.p[0]);
-    starts[1][1] = dw;
-    starts[1][2] = 3 * dw;
-    for (k = 0; k < 2; k++) {
-        cyl_gn(P, starts[k], 30, th[k], &rms[k], &ok[k]);
-        d = th[k][1] + th[k][2];
-        cyl_cossin(th[k][0], &cen[k][0], &cen[k][1]);
-        cen[k][0] = MUL(d, cen[k][0]);
-        cen[k][1] = MUL(d, cen[k][1]);
-    }
-    b = (ok[1] && (!ok[0] || rms[1] < rms[0])) ? 1 : 0;
-    for (i = 0; i < 3; i++) th_b[i] = th[b][i];
-    *rms_b = rms[b];
-    cyl_model(P, th_b, f, J);
-    d = th_b[1] + th_b[2];
-    for (k = 0; k < P->n; k++) J[k][0] = d > 0 ? DIV(J[k][0], d) : J[k][0];
-    ls_step3(J, f, P->n, step, gd_b, gd_inf);
-    for (k = 0; k < 2; k++) {
-        real dist = hyp(cen[k][0] - cen[b][0], cen[k][1] - cen[b][1]), da = ABS(th[k][2] - th[b][2]);
-        if (da > dist) dist = da;
-        if (ok[k] && (P->no_tol || rms[k] <= P->tol) && dist > CYL_SAME(P->scale, *gd_inf ? BIGV : *gd_b))
-            n_distinct++;
-    }
-    if (!ok[b]) reason = MS_UNPHYS;
-    else if (!(P->no_tol || rms[b] <= P->tol)) reason = P->n > 3 ? MS_INCONS : MS_NOINT;
-    else if (n_distinct > 0) reason = MS_AMBIG;
-    else if (!P->no_gdop && (*gd_inf || !(*gd_b <= P->max_gdop))) reason = MS_ILLCOND;
-    else if (P->has_axis) {
-#if MS_GEOM_ARITH == MS_ARITH_Q
-        uint32_t lim = (uint32_t)P->fov + 0x40000000u;
-        if (lim < 0x80000000u && !ANG_LE(ang_absdiff(ang_of_rad(th_b[0]), P->axis), (ang)lim)) reason = MS_UNPHYS;
-#else
-        if (!(ang_absdiff(th_b[0], P->axis) <= P->fov + K(1.5707963267948966))) reason = MS_UNPHYS;
-#endif
-    }
-    if (pre != MS_OK) reason = pre;
-    return reason;
-}
-
-int ms_solve_cylinder(const ms_vec2 *rx, const ms_len_t *path, int n, ms_vec2 src, const ms_opts *opts,
-                      ms_cyl_fit *out)
-{
-    prob P;
-    real th[3] = {0, 0, 0}, rms = 0, gd = 0, d, cx, cy;
-    int gd_inf = 1, reason = setup(&P, rx, path, n, src, 3);
-    if (reason == MS_OK) {
-        apply_opts(&P, rx, opts);
-        reason = cylinder_core(&P, th, &rms, &gd, &gd_inf);
-    }
-    if (reason == MS_OK && !(ISFIN(th[0]) && ISFIN(th[1]) && ISFIN(th[2]) && ISFIN(rms))) reason = MS_NOCONV;
-    out->reason = (uint8_t)reason;
-    out->valid = reason == MS_OK;
-    if (!out->valid) {
-        out->cx = out->cy = out->radius = out->range = out->residual = 0;
-        out->bearing = 0;
-        out->gdop = 0;
-        return 0;
-    }
-    d = th[1] + th[2];
-    cyl_cossin(th[0], &cx, &cy);
-    out->cx = LEN_OUT(MUL(d, cx) + LEN_IN(src.x));
-    out->cy = LEN_OUT(MUL(d, cy) + LEN_IN(src.y));
-    out->radius = LEN_OUT(th[2]);
-    out->range = LEN_OUT(th[1]);
-#if MS_GEOM_ARITH == MS_ARITH_Q
-    out->bearing = ang_of_rad(th[0]);
-#else
-    out->bearing = th[0];
-#endif
-    out->residual = LEN_OUT(rms);
-    out->gdop = gd_inf ? NUM_OUT(BIGV) : NUM_OUT(gd);
-    return 1;
+    return msg_fix_fast(a, path, out, &reason);
 }

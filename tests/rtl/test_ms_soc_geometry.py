@@ -1,4 +1,4 @@
-"""The geometry library (firmware/geometry/ms_geom.c) runs on the soft-core SoC and agrees with
+"""The geometry library (firmware/geometry, ms_geom.h) runs on the soft-core SoC and agrees with
 the Python golden model (multisonar.geometry, float64) on the embedded cases.
 
 firmware/app/bench_geom.c solves the fixed cases of multisonar.tools.geom_cases (typical

@@ -46,7 +46,7 @@ RPT_MAGIC, RPT_DONE = 0x52460002, 0x52464E44
 DEFAULT_CALLS, DEFAULT_SENSORS, DEFAULT_SEED = 100_000, 1000, 1  # build/fw/bench_fix_random.hex
 
 SMALL_CALLS, SMALL_SENSORS, SMALL_SEED = 2000, 20, 7
-# The fast path is bounded by construction (ms_geom.c fq_polish: a closed-form start and at most
+# The fast path is bounded by construction (ms_geom_q_fast.c fq_polish: a closed-form start and at most
 # three Gauss-Newton passes per fit, nothing else loops on the data). Measured on VexRiscv
 # (scripts/bench_fw_random.py): ~6.8 k cycles with one pass per fit, ~1.2 k per further pass;
 # the worst of 1e5 random fixes 12,055 (three passes in both fits); with the instruction cache
