@@ -54,13 +54,14 @@ PY_REGS      := host/multisonar/generated/sonar_regs.py
 GEN_OUTPUTS  := $(GEN)/rtl/ms_layout_pkg.sv $(GEN)/rtl/ms_ucode_pkg.sv $(GEN)/rtl/ms_sched_io_pkg.sv \
                 $(GEN)/rtl/ms_sched_ucode.hex $(GEN)/sv/sonar_regs.sv $(GEN)/sv/sonar_regs_pkg.sv \
                 $(GEN)/firmware/sonar_regs.h $(GEN)/firmware/ms_layout.h $(GEN)/firmware/ms_sched_layout.h \
-                $(GEN)/firmware/ms_protocol.h $(GEN)/rtl/ms_protocol_pkg.sv $(GEN)/rtl/ms_usb_desc.hex \
+                $(GEN)/firmware/ms_protocol.h $(GEN)/firmware/ms_geom_reasons.h $(GEN)/rtl/ms_protocol_pkg.sv $(GEN)/rtl/ms_usb_desc.hex \
                 $(GEN)/rtl/ms_usb_desc_pkg.sv $(PY_REGS)
 
 $(STAMPS)/gen: $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl $(LAYOUT_FILE) host/multisonar/tools/gen_layout.py \
                host/multisonar/tools/peakrdl_pyconst.py host/multisonar/layout.py scripts/gen_vex_icache.py \
                host/multisonar/tools/sched_ucode.py $(wildcard host/multisonar/tools/sched_program/*.py) \
                host/multisonar/tools/gen_contracts.py host/multisonar/protocol.py host/multisonar/usb/descriptors.py \
+               host/multisonar/geometry.py \
                $(STAMPS)/venv \
                Makefile
 	@echo "gen: layout parameters and register map ($(RDL)) -> $(GEN)/, $(PY_REGS)"

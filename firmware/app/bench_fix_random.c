@@ -75,7 +75,7 @@
 #define PREP_NCOARSE 128
 #define FIX_NBINS (FIX_NFINE + FIX_NCOARSE)
 #define PREP_NBINS (PREP_NFINE + PREP_NCOARSE)
-#define LEN_LIMIT (1 << 25)      /* fast path length limit (ms_geom.c FQ_LIM >> FQ_SH), um */
+#define LEN_LIMIT (1 << 25)      /* fast path length limit (ms_geom_q_fast.c FQ_LIM >> FQ_SH), um */
 
 enum { OUT_EDGE, OUT_WALL, OUT_UNCERTAIN, OUT_DECLINED, NOUT };
 enum { CLS_POINT, CLS_WALL, CLS_GARBAGE, CLS_EXTREME, NCLS };

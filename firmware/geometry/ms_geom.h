@@ -112,20 +112,9 @@ typedef int32_t ms_num_t; /* Q16.16 */
 #error "MS_GEOM_ARITH must be MS_ARITH_F64, MS_ARITH_F32 or MS_ARITH_Q"
 #endif
 
-/* reason codes: index = geometry.REASONS index */
-enum ms_reason {
-    MS_OK = 0,      /* "" */
-    MS_SHORT = 1,   /* "path shorter than baseline" */
-    MS_NOINT = 2,   /* "no intersection" */
-    MS_DEGEN = 3,   /* "degenerate receiver geometry" */
-    MS_AMBIG = 4,   /* "ambiguous" */
-    MS_ILLCOND = 5, /* "ill-conditioned" */
-    MS_UNPHYS = 6,  /* "not physical" */
-    MS_INCONS = 7,  /* "inconsistent data" */
-    MS_BADIN = 8,   /* "invalid input" */
-    MS_NOCONV = 9,  /* "no convergence" */
-    MS_NREASONS = 10
-};
+/* reason codes (enum ms_reason, MS_NREASONS): index = geometry.REASONS index; generated from
+ * multisonar.geometry by the gen step (build/gen/firmware, multisonar.tools.gen_contracts) */
+#include "ms_geom_reasons.h"
 extern const char *const ms_reason_names[MS_NREASONS];
 
 enum ms_kind { MS_KIND_EDGE = 0, MS_KIND_WALL = 1, MS_KIND_CYLINDER = 2, MS_KIND_UNCERTAIN = 3 };

@@ -80,7 +80,12 @@ REASONS: tuple[str, ...] = (
     "invalid input",                  # 8 non-finite or non-positive path length
     "no convergence",                 # 9 iterative fit did not settle
 )
-OK, SHORT, NOINT, DEGEN, AMBIG, ILLCOND, UNPHYS, INCONS, BADIN, NOCONV = range(10)
+#: the codes' symbols, in the same order (the firmware's enum ms_reason: MS_<symbol>, generated
+#: by multisonar.tools.gen_contracts into ms_geom_reasons.h with the texts above)
+REASON_SYMBOLS: tuple[str, ...] = ("OK", "SHORT", "NOINT", "DEGEN", "AMBIG", "ILLCOND", "UNPHYS", "INCONS", "BADIN",
+                                   "NOCONV")
+OK, SHORT, NOINT, DEGEN, AMBIG, ILLCOND, UNPHYS, INCONS, BADIN, NOCONV = range(len(REASON_SYMBOLS))
+assert len(REASONS) == len(REASON_SYMBOLS)
 
 DEFAULT_TOL = 1e-3
 DEFAULT_MAX_GDOP = 1e4

@@ -67,9 +67,9 @@
 
 static inline uint32_t now32(void) { return MS_SOC(TIMER_LO); }
 
-/* Per-pulse code shares the output section of the geometry fast path (ms_geom.c MS_HOT) and the
- * link sorts sections by name (mk/firmware_app.mk), so the loop, the ToF path and the fix are
- * one contiguous run of ~16 KB: in VexRiscv's direct-mapped 16 KiB instruction cache they do
+/* Per-pulse code shares the output section of the geometry fast path (ms_geom_q_fast.c MS_HOT)
+ * and the link sorts sections by name (mk/firmware_app.mk), so the loop, the ToF path and the fix
+ * are one contiguous run of ~16 KB: in VexRiscv's direct-mapped 16 KiB instruction cache they do
  * not evict each other (firmware/README.md, "Cycles per path"). */
 #define APP_HOT __attribute__((section(".text.ms_hot")))
 

@@ -5,6 +5,7 @@
 writes, from :mod:`multisonar.protocol` (commands, statuses, parameters, configuration errors,
 flags, frame layouts) and :mod:`multisonar.usb.descriptors` (the USB descriptors):
 
+* ``firmware/ms_geom_reasons.h`` from :mod:`multisonar.geometry`: the reason codes and texts;
 * ``firmware/ms_protocol.h``: the protocol constants for the firmware (``MS_OP_*``, ``MS_ST_*``,
   ``MS_PARAM_*`` with their ranges, ``MS_CFG_ERROR_*``, ToF-record and frame flags, reply and
   statistics field indices);
@@ -24,6 +25,7 @@ import argparse
 from enum import IntEnum
 from pathlib import Path
 
+from .. import geometry as G
 from .. import protocol as P
 from ..usb import descriptors as D
 
@@ -105,6 +107,19 @@ def c_header() -> str:
     return "\n".join(out)
 
 
+def geom_reasons_header() -> str:
+    """firmware/ms_geom_reasons.h"""
+    names = ", ".join(f'"{t}"' for t in G.REASONS)
+    return "\n".join([
+        "/* " + BANNER.format(src="multisonar.geometry") + " */",
+        "/* The geometry's reason codes (why a solve gives no valid answer): the index into",
+        " * geometry.REASONS, whose texts MS_REASON_TEXTS holds in the same order. */",
+        "#ifndef MS_GEOM_REASONS_H", "#define MS_GEOM_REASONS_H", "",
+        *_c_enum("ms_reason", "MS_", list(zip(G.REASON_SYMBOLS, range(len(G.REASONS))))),
+        f"#define MS_NREASONS {len(G.REASONS)}",
+        f"#define MS_REASON_TEXTS {{{names}}}", "", "#endif", ""])
+
+
 def sv_package() -> str:
     """rtl/ms_protocol_pkg.sv"""
     return "\n".join([
@@ -151,6 +166,7 @@ def generate(out: Path) -> list[Path]:
     ds = D.multisonar_descriptors()
     hex_path = out / "rtl" / "ms_usb_desc.hex"
     files = {out / "firmware" / "ms_protocol.h": c_header(),
+             out / "firmware" / "ms_geom_reasons.h": geom_reasons_header(),
              out / "rtl" / "ms_protocol_pkg.sv": sv_package(),
              hex_path: desc_hex(ds),
              out / "rtl" / "ms_usb_desc_pkg.sv": desc_package(ds, hex_path)}
