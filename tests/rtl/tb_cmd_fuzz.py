@@ -10,7 +10,7 @@ of multisonar.protocol and ~65 % mutations (bit flips, truncation, extension, wr
 version / length / CRC, unknown opcodes, wrong payload size for the opcode, random bytes,
 oversize > 1088 bytes), fed in batches. Reference: a model of docs/protocol.md sections 3/4
 built from multisonar.simdevice (RegisterFile for the address checks and the write masks,
-decode_vs_table for START's verdict, SimDevice's parameter ranges). Checked: exactly one reply
+decode_vs_table for START's verdict, protocol.PARAM_RANGE). Checked: exactly one reply
 per transfer, in order, each with the model's type, status and seq (payloads where they are
 determined: ECHO, WRITE_REGS count, BAD_ADDRESS, BAD_VERSION, SET/GET_PARAM, DEVICE_INFO,
 READ_REGS of the table, bad_commands of READ_COUNTERS); each reply within HANG_CYCLES of its
@@ -53,7 +53,7 @@ from multisonar.generated import sonar_regs as R
 from multisonar.layout import load_layout
 from multisonar.regmap import schedule_writes
 from multisonar.schedule import Schedule, VirtualSensor
-from multisonar.simdevice import RegisterFile, SimDevice, _CfgErr, decode_vs_table
+from multisonar.simdevice import RegisterFile, _CfgErr, decode_vs_table
 from tbutil import CLK_PERIOD_PS, reset, start_clock
 
 OUT_DIR = Path(os.environ.get("CMD_FUZZ_DIR", "."))
@@ -274,10 +274,10 @@ class Model:
         pid, value = P.parse_set_param(pl)
         if pid not in self.params:
             return P.Status.BAD_PARAM, pl
-        lo, hi = SimDevice._PARAM_RANGE[P.Param(pid)]
+        lo, hi = P.PARAM_RANGE[P.Param(pid)]
         if not lo <= value <= hi:
             return P.Status.BAD_PARAM, pl
-        if self.running and pid in (P.Param.MAX_ECHOES, P.Param.GLITCH_MIN):
+        if self.running and pid in P.PARAM_BUSY_WHILE_RUNNING:
             return P.Status.BUSY, pl
         self.params[pid] = value
         if pid == P.Param.GLITCH_MIN:
@@ -353,7 +353,7 @@ class Fuzzer:
             pl = r.randbytes(n)
         elif op == P.Opcode.SET_PARAM:
             pid = r.choice([1, 1, 2, 3, 4, 5, 5, 0, 6, r.getrandbits(16)])
-            lo, hi = SimDevice._PARAM_RANGE.get(pid, (0, 10)) if pid in P.Param._value2member_map_ else (0, 10)
+            lo, hi = P.PARAM_RANGE.get(pid, (0, 10)) if pid in P.Param._value2member_map_ else (0, 10)
             v = r.randint(lo, hi) if r.random() < 0.7 else r.choice([lo - 1, hi + 1, -2**31, 2**31 - 1,
                                                                      r.randint(-2**31, 2**31 - 1)])
             pl = P.set_param_payload(pid, v)
