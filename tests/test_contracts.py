@@ -41,7 +41,8 @@ def test_generated_files_are_current(tmp_path):
     """build/gen holds exactly what the generator writes from today's sources (make's gen step
     ran after the last change); only the ROM path inside the package differs."""
     gen_contracts.generate(tmp_path)
-    for rel in ("firmware/ms_protocol.h", "firmware/ms_geom_reasons.h", "rtl/ms_protocol_pkg.sv", "rtl/ms_usb_desc.hex"):
+    for rel in ("firmware/ms_protocol.h", "firmware/ms_geom_reasons.h", "rtl/ms_protocol_pkg.sv",
+                "rtl/ms_usb_desc.hex"):
         assert (tmp_path / rel).read_text() == (GEN / rel).read_text(), rel
     strip = re.compile(r'DESC_HEX = "[^"]*"')
     assert strip.sub("", (tmp_path / "rtl/ms_usb_desc_pkg.sv").read_text()) == \

@@ -24,7 +24,8 @@ static void reply(uint32_t type, uint32_t status, uint32_t seq, uint32_t len)
 /* the header's verdict (section 4 order); MS_ST_OK: the handler runs */
 static uint32_t check(uint32_t n, uint32_t cs, uint32_t op, uint32_t len)
 {
-    if (len > MS_MAX_PAYLOAD || n != MS_HEADER_SIZE + MS_CRC_SIZE + len || (cs & SOC_REGS__CMD_STATUS__OVERLONG_bm))
+    if (len > MS_MAX_PAYLOAD || n != MS_HEADER_SIZE + MS_CRC_SIZE + len
+        || (cs & SOC_REGS__CMD_STATUS__OVERLONG_bm))
         return MS_ST_BAD_LENGTH;
     if (!(cs & SOC_REGS__CMD_STATUS__CRC_OK_bm))
         return MS_ST_BAD_CRC;

@@ -77,11 +77,9 @@ def c_header() -> str:
            *_c_enum("ms_param", "MS_PARAM_", _members(P.Param), "COUNT")]
     for p, (lo, hi) in P.PARAM_RANGE.items():
         out += [f"#define MS_PARAM_{p.name}_MIN ({lo})", f"#define MS_PARAM_{p.name}_MAX ({hi})"]
-    out += ["/* the same as array initialisers indexed by id (ids without a range: 0) */",
-            "#define MS_PARAM_MINS {" + ", ".join(f"[MS_PARAM_{p.name}] = ({lo})" for p, (lo, _) in P.PARAM_RANGE.items())
-            + "}",
-            "#define MS_PARAM_MAXS {" + ", ".join(f"[MS_PARAM_{p.name}] = ({hi})" for p, (_, hi) in P.PARAM_RANGE.items())
-            + "}"]
+    for macro, side in (("MS_PARAM_MINS", 0), ("MS_PARAM_MAXS", 1)):  # array initialisers indexed by id
+        items = ", ".join(f"[MS_PARAM_{p.name}] = ({r[side]})" for p, r in P.PARAM_RANGE.items())
+        out.append(f"#define {macro} {{{items}}}")
     busy = " | ".join(f"(1u << MS_PARAM_{p.name})" for p in sorted(P.PARAM_BUSY_WHILE_RUNNING))
     out += ["/* parameters SET_PARAM refuses with BUSY while a table runs, as a bit mask of ids */",
             f"#define MS_PARAM_BUSY_WHILE_RUNNING ({busy})", "",

@@ -27,8 +27,8 @@ from ..errors import DeviceNotFound
 from ..urls import Connection, DeviceUrl, register_scheme
 from .function import ParsedConfig, parse_config_descriptor, parse_device_descriptor
 from .usbip_proto import (CMD_SUBMIT, CMD_UNLINK, DIR_IN, DIR_OUT, OP_HDR, OP_REP_DEVLIST, OP_REP_IMPORT,
-                          OP_REQ_DEVLIST, OP_REQ_IMPORT, RET_SUBMIT, NOT_ISO, RET_SUBMIT_TAIL, RET_UNLINK, SUBMIT_HDR, UDEV,
-                          URB_HDR, USBIP_VERSION, recv_exact)
+                          OP_REQ_DEVLIST, OP_REQ_IMPORT, RET_SUBMIT, NOT_ISO, RET_SUBMIT_TAIL, RET_UNLINK,
+                          SUBMIT_HDR, UDEV, URB_HDR, USBIP_VERSION, recv_exact)
 
 
 def _nodev(msg: str) -> usb.core.USBError:
@@ -74,7 +74,8 @@ class _Session:
         self.seq = (self.seq + 1) & 0xFFFFFFFF or 1
         hdr = URB_HDR.pack(CMD_SUBMIT, self.seq, self.devid, direction, ep & 0x7F)
         self.in_flight[self.seq] = direction
-        self.sock.sendall(hdr + SUBMIT_HDR.pack(0, length, 0, NOT_ISO, 0, setup) + (data if direction == DIR_OUT else b""))
+        payload = data if direction == DIR_OUT else b""
+        self.sock.sendall(hdr + SUBMIT_HDR.pack(0, length, 0, NOT_ISO, 0, setup) + payload)
         return self.seq
 
     def _recv_ret(self, deadline: float | None) -> tuple[int, int, int, int, bytes]:
