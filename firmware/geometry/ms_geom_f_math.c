@@ -44,25 +44,8 @@ real msg_rms(real cost, int n) { return SQRT(cost / (real)n); }
  * determinant; singular below 1e-28 */
 void msg_ls_step(real (*J)[2], const real *f, int n, real step[2], real *gd, int *gd_inf)
 {
-    real s0 = 0, s1 = 0, a = 0, b = 0, d = 0, g0 = 0, g1 = 0, j0, j1, x0, x1, det, idet, tr;
-    int i;
-    for (i = 0; i < n; i++) {
-        s0 += MUL(J[i][0], J[i][0]);
-        s1 += MUL(J[i][1], J[i][1]);
-    }
-    s0 = SQRT(s0);
-    s1 = SQRT(s1);
-    if (!(s0 > 0)) s0 = K(1.0);
-    if (!(s1 > 0)) s1 = K(1.0);
-    for (i = 0; i < n; i++) {
-        j0 = DIV(J[i][0], s0);
-        j1 = DIV(J[i][1], s1);
-        a += MUL(j0, j0);
-        b += MUL(j0, j1);
-        d += MUL(j1, j1);
-        g0 -= MUL(j0, f[i]);
-        g1 -= MUL(j1, f[i]);
-    }
+    real s0, s1, a, b, d, g0, g1, x0, x1, det, idet, tr;
+    msg_ls_normal(J, f, n, &s0, &s1, &a, &b, &d, &g0, &g1);
     det = a * d - b * b;
     if (det > K(1e-28)) {
         idet = K(1.0) / det;

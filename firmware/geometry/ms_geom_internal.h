@@ -78,6 +78,33 @@ ang msg_ang_absdiff(ang a, ang b);     /* |a - b| wrapped to half a turn */
 /* Gauss-Newton step minimising |J d + f| over n rows (column-scaled normal equations) and
  * gdop = sqrt(trace((J^T J)^-1)); *gd_inf when J^T J is singular (step and gd then 0) */
 void msg_ls_step(real (*J)[2], const real *f, int n, real step[2], real *gd, int *gd_inf);
+/* msg_ls_step's first half, the same in every format (each format solves it its own way): the
+ * column norms s0, s1 of J (1 for a zero column), then with the columns scaled by them
+ * [a b; b d] = J^T J and (g0, g1) = -J^T f. Inline: one call site per format. */
+static inline void msg_ls_normal(real (*J)[2], const real *f, int n, real *s0_out, real *s1_out,
+                                 real *a_out, real *b_out, real *d_out, real *g0_out, real *g1_out)
+{
+    real s0 = 0, s1 = 0, a = 0, b = 0, d = 0, g0 = 0, g1 = 0, j0, j1;
+    int i;
+    for (i = 0; i < n; i++) {
+        s0 += MUL(J[i][0], J[i][0]);
+        s1 += MUL(J[i][1], J[i][1]);
+    }
+    s0 = SQRT(s0);
+    s1 = SQRT(s1);
+    if (!(s0 > 0)) s0 = K(1.0);
+    if (!(s1 > 0)) s1 = K(1.0);
+    for (i = 0; i < n; i++) {
+        j0 = DIV(J[i][0], s0);
+        j1 = DIV(J[i][1], s1);
+        a += MUL(j0, j0);
+        b += MUL(j0, j1);
+        d += MUL(j1, j1);
+        g0 -= MUL(j0, f[i]);
+        g1 -= MUL(j1, f[i]);
+    }
+    *s0_out = s0, *s1_out = s1, *a_out = a, *b_out = b, *d_out = d, *g0_out = g0, *g1_out = g1;
+}
 /* cylinder: cos and sin of th (radians) */
 void msg_cossin(real th, real *c, real *s);
 /* cylinder: 1 when the bearing th (radians) lies more than fov + 90 deg off the axis */
