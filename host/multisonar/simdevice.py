@@ -118,6 +118,14 @@ class RegisterFile:
     def writable(self, addr: int) -> bool:
         return addr in self.writable_mask
 
+    def write(self, addr: int, value: int) -> None:
+        """A bus write of a writable address (the caller checks :meth:`writable`): its writable
+        bits; a memory entry keeps the bits the RTL stores and remembers an over-wide write."""
+        m = self.writable_mask[addr]
+        self.values[addr] = (self.values[addr] & ~m) | (value & m)
+        if addr in self.mem_entries:  # an overflow is refused at START
+            (self.over_width.add if value & ~m else self.over_width.discard)(addr)
+
     def get(self, name: str, *index: int) -> int:
         return self.values[_regs().REGISTERS[name].addr(*index)]
 
@@ -276,7 +284,7 @@ class SimDevice(UsbFunction):
             from .tools.fw_schedule import TEMPERATURE_C, power_up_writes
 
             for a, v in power_up_writes(power_up_table, self.layout):
-                self.regs.values[a] = v & self.regs.writable_mask[a]
+                self.regs.write(a, v)
             temperature_cc = int(round(TEMPERATURE_C * 100))
         self.params = {P.Param.TEMPERATURE_CC: temperature_cc, P.Param.GEOMETRY: 1,
                        P.Param.TOF_RECORDS: 1, P.Param.MAX_ECHOES: 1,
@@ -407,11 +415,8 @@ class SimDevice(UsbFunction):
         for i, (a, v) in enumerate(P.parse_write_regs(pl)):
             if not self.regs.writable(a):
                 return P.Status.BAD_ADDRESS, struct.pack("<HHI", i, 0, a)
-            m = self.regs.writable_mask[a]
-            self.regs.values[a] = (self.regs.values[a] & ~m) | (v & m)
-            if a in self.regs.mem_entries:  # stored as the RTL (low bits); an overflow is refused at START
-                (self.regs.over_width.add if v & ~m else self.regs.over_width.discard)(a)
-            elif a == _regs().REGISTERS["RX_FILTER"].addr():  # GLITCH_MIN is RX_FILTER.glitch_min (as the firmware)
+            self.regs.write(a, v)
+            if a == _regs().REGISTERS["RX_FILTER"].addr():  # GLITCH_MIN is RX_FILTER.glitch_min (as the firmware)
                 self.params[P.Param.GLITCH_MIN] = self.regs.field("RX_FILTER", "GLITCH_MIN")
         return P.Status.OK, struct.pack("<H", len(pl) // 8)
 

@@ -221,10 +221,7 @@ class Model:
         for i, (a, v) in enumerate(P.parse_write_regs(pl)):
             if not self.regs.writable(a):
                 return P.Status.BAD_ADDRESS, struct.pack("<HHI", i, 0, a)
-            m = self.regs.writable_mask[a]
-            self.regs.values[a] = (self.regs.values[a] & ~m) | (v & m)
-            if a in self.regs.mem_entries:  # the firmware remembers an over-wide DELAY word: START refuses it
-                (self.regs.over_width.add if v & ~m else self.regs.over_width.discard)(a)
+            self.regs.write(a, v)  # an over-wide DELAY word is remembered: START refuses it
             self.log.setdefault(a, []).append(("write", self.n, v))
             self.history[a] |= {v, self.regs.values[a]}
         return P.Status.OK, struct.pack("<H", len(pl) // 8)

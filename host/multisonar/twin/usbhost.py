@@ -135,9 +135,9 @@ class TwinUsbHost:
 
 
 class TwinUsbFunction(UsbFunction):
-    """The twin as a USB function: enumerated at construction (bus reset, SET_ADDRESS,
-    descriptors read from the device's ROM, MS OS 2.0 set included), then control / bulk transfers from any thread (one
-    at a time; the simulation belongs to whichever thread calls).
+    """The twin as a USB function: enumerated at construction (bus reset, SET_ADDRESS, the whole
+    descriptor set read from the device's ROM as a host reads it), then control / bulk transfers
+    from any thread (one at a time; the simulation belongs to whichever thread calls).
 
     A NAKed bulk IN is retried every ``poll_s`` of device time (the device runs meanwhile) until
     data arrive or the call's ``timeout_s`` passes in wall-clock time, as libusb counts it (a
