@@ -110,6 +110,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "simspeed: time the full-system twin and the RTL system test (Verilator)")
     p.add_argument("--twin", action="store_true",
                    help="fig3: add a column measured on the full-system twin (the whole device in Verilator)")
+    p.add_argument("--backend", choices=("model", "twin"), default="model",
+                   help="fig9, fig10, person: 'twin' also runs the cases on the full-system twin (the whole "
+                        "device in Verilator) and puts its results next to the golden model's [%(default)s]")
     p.add_argument("--trials", type=int, default=None, metavar="N", help="safety: crossings to run [1000; --quick 12]")
     p.add_argument("--seed", type=int, default=None, metavar="S", help="safety: first seed (trials S..S+N-1) [0]")
     p.set_defaults(func=_cmd_experiment)
@@ -129,7 +132,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _cmd_experiment(args: argparse.Namespace) -> int:
     import os
 
-    from .experiments import ExecutorError, ExperimentError, run_experiment
+    from .experiments import TWIN_BACKEND_EXPERIMENTS, ExecutorError, ExperimentError, run_experiment
 
     if args.name is None:
         from .experiments import EXPERIMENTS
@@ -144,6 +147,10 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
         if args.name != "fig3":
             raise ValueError("--twin applies to fig3 only (simspeed --rtl times the twin; make demo runs it)")
         opts["twin"] = True
+    if args.backend != "model":
+        if args.name not in TWIN_BACKEND_EXPERIMENTS:
+            raise ValueError(f"--backend {args.backend} applies to {', '.join(TWIN_BACKEND_EXPERIMENTS)} only")
+        opts["backend"] = args.backend
     for key in ("trials", "seed"):
         if getattr(args, key) is not None:
             if args.name != "safety":
@@ -151,7 +158,8 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
             opts[key] = getattr(args, key)
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
     mode = f"Dask scheduler {args.scheduler}" if args.scheduler else f"{workers} local worker(s)"
-    print(f"experiment {args.name}{' (quick)' if args.quick else ''}: golden model, {mode}", file=sys.stderr)
+    backend = "golden model and full-system twin" if args.backend == "twin" else "golden model"
+    print(f"experiment {args.name}{' (quick)' if args.quick else ''}: {backend}, {mode}", file=sys.stderr)
     try:
         res, files = run_experiment(args.name, args.out, quick=args.quick, workers=workers, scheduler=args.scheduler,
                                     **opts)

@@ -30,7 +30,7 @@ from typing import Any
 from .common import ExperimentError, ExperimentResult, write_outputs
 from .executor import ExecutorError, make_executor
 
-__all__ = ["EXPERIMENTS", "ExperimentError", "ExperimentResult", "ExecutorError", "run_experiment", "write_outputs"]
+__all__ = ["EXPERIMENTS", "TWIN_BACKEND_EXPERIMENTS", "ExperimentError", "ExperimentResult", "ExecutorError", "run_experiment", "write_outputs"]
 
 
 def _runner(module: str) -> Callable[..., ExperimentResult]:
@@ -53,6 +53,10 @@ EXPERIMENTS: dict[str, tuple[Callable[..., ExperimentResult], str]] = {
     "ring": (_runner("ring"), "full-ring refresh: 8 sensors, all 24 directions, 2 m and 5.7 m (issue #27)"),
     "safety": (_runner("safety"), "occluder safety: randomised person crossings, false fixes (issue #28)"),
 }
+
+
+#: experiments that take ``backend="twin"`` (``--backend twin``): the twin's results next to the model's
+TWIN_BACKEND_EXPERIMENTS = ("fig9", "fig10", "person")
 
 
 def run_experiment(name: str, out: str | Path | None = None, *, quick: bool = False, workers: int | None = None,
