@@ -32,9 +32,9 @@ TICK = 48_000_000
 START = 1_700_000_000.25
 
 
-def _frame(seq, t0, vs, tofs, geo=(), flags=0):
+def _frame(seq, t0, vs, tofs, geo=(), flags=0, dropped=0, fifo_overflows=0, watchdog=0):
     head = {"timestamp": (t0 + 30000) & 0xFFFFFFFF, "t0": t0 & 0xFFFFFFFF, "vs": vs, "pulse_seq": seq & 0xFF,
-            "dropped": 0, "fifo_overflows": 0, "watchdog": 0}
+            "dropped": dropped, "fifo_overflows": fifo_overflows, "watchdog": watchdog}
     tof = np.zeros(len(tofs), P.TOF_DTYPE)
     for i, (rx, t, fl) in enumerate(tofs):
         tof[i] = (t, rx, seq & 0xFF, vs, fl)
@@ -47,6 +47,9 @@ def _frame(seq, t0, vs, tofs, geo=(), flags=0):
 
 
 MAX_TOF = 1_200_000
+#: pulse period of the fixture: a window closes before the sensor's next pulse (order 1), so every
+#: receiver's acquisition times increase
+PERIOD = 1_250_000
 FIN, EMP, INIT = P.TOF_IN_WINDOW | P.TOF_FIRST_ECHO, P.TOF_WINDOW_EMPTY, P.TOF_INIT_PING
 GATED = FIN | P.TOF_GATED
 
@@ -69,7 +72,7 @@ def recording(tmp_path):
     flags_of = {"echo": FIN, "no_return": EMP, "miss": EMP, "gated": GATED}
     frames = []
     # 12 pulses of sensor 0 (rx 5, 6, 7), the 32-bit tick counter wraps between pulses 5 and 6
-    t0 = (1 << 32) - 5 * 480_000
+    t0 = (1 << 32) - 5 * PERIOD
     for k in range(12):
         tofs = []
         for rx in (5, 6, 7):
@@ -78,7 +81,7 @@ def recording(tmp_path):
         if k == 3:
             tofs.append((6, 400_000, P.TOF_IN_WINDOW))  # a second echo: not a range reading
         geo = [(1200 + k, 50, 0.1, P.GEO_CLASSES.index("wall"))] if k % 2 == 0 else []
-        frames.append(_frame(k, t0 + k * 480_000, 0, tofs, geo, flags=P.FRAME_INIT_PING if k == 0 else 0))
+        frames.append(_frame(k, t0 + k * PERIOD, 0, tofs, geo, flags=P.FRAME_INIT_PING if k == 0 else 0))
     path = tmp_path / "run.msrec"
     meta = {"format": 1, "protocol_version": P.PROTOCOL_VERSION, "url": "test://", "started_unix": START,
             "device_info": {"tick_hz": TICK}, "sensors": [{"id": 0, "name": "left", "tx": [6], "rx": [5, 6, 7],
@@ -152,7 +155,7 @@ def test_export_mcap_reads_back(recording, tmp_path, capsys):
             assert d.variance == pytest.approx(var, rel=1e-6) and d.variance > 0
             assert d.field_of_view == pytest.approx(2 * lay.transducer.beam_half_angle, rel=1e-6)
             # stamps: device time on the recording's start, across the 32-bit wrap
-            t_expect = START + (k * 480_000 + tof_ticks) / TICK  # an empty window's ToF is its end
+            t_expect = START + (k * PERIOD + tof_ticks) / TICK  # an empty window's ToF is its end
             assert d.header.stamp.sec + d.header.stamp.nanosec * 1e-9 == pytest.approx(t_expect, abs=2e-6)
             assert m.log_time == d.header.stamp.sec * 1_000_000_000 + d.header.stamp.nanosec
     # reflector points: one cloud per frame with geometry, one point each
@@ -169,8 +172,11 @@ def test_export_mcap_reads_back(recording, tmp_path, capsys):
         assert P.GEO_CLASSES[int(row["cls"][0])] == "wall"
     # static transforms: robot frame -> every element, yaw = element axis
     (_, _, tf), = msgs["/tf_static"]
-    assert len(tf.transforms) == lay.n
-    for i, t in enumerate(tf.transforms):
+    assert len(tf.transforms) == lay.n + 1
+    ring = tf.transforms[-1]  # and to the ring's centre, the scan's origin
+    assert ring.child_frame_id == "sonar_ring" and ring.header.frame_id == "base_link"
+    assert (ring.transform.translation.x, ring.transform.translation.y) == pytest.approx(tuple(lay.positions.mean(0)))
+    for i, t in enumerate(tf.transforms[:-1]):
         assert t.child_frame_id == f"sonar_{i:02d}" and t.header.frame_id == "base_link"
         assert (t.transform.translation.x, t.transform.translation.y) == pytest.approx(tuple(lay.positions[i]))
         yaw = 2 * math.atan2(t.transform.rotation.z, t.transform.rotation.w)
@@ -190,7 +196,7 @@ def test_export_cdr_matches_rosbags(recording, tmp_path, distro):
     assert counts["ros_distro"] == distro
     assert (counts["range"], counts["range_echo"], counts["range_no_return"], counts["miss_skipped"],
             counts["gated_skipped"]) == (33, 32, 1, 2, 1)
-    assert counts["points"] == 6 and counts["tf"] == 24
+    assert counts["points"] == 6 and counts["tf"] == 25  # 24 elements and the ring centre
     meta, ranges = _read_rosbags(out)
     assert meta["ros_distro"] == distro and "none for an empty or gated tracking window" in meta["range_rule"]
     with open(out, "rb") as fh:
@@ -314,3 +320,102 @@ def test_record_from_the_simulated_device_then_export(tmp_path, scene):
     assert sum(len(v) for v in ranges_h.values()) == len(published)
     m = next(iter(ranges_h.values()))[0]
     assert not hasattr(m, "variance") and type(m).__msgtype__ == "sensor_msgs/msg/Range"
+
+
+def test_export_ring_scan(recording, tmp_path):
+    """/multisonar/scan (sensor_msgs/LaserScan in frame sonar_ring): the fixture's readings
+    grouped by acquisition time (t0 + ToF) into windows of one pulse period (26 ms: the init
+    ping's empty open window, ending at 25 ms, shares its window with no later reading of rx 7;
+    the default is 50 ms); beam rx = the nearest first echo
+    (ring radius + c ToF / 2), +inf for rx 7's empty open window of the init ping when it is the
+    window's only reading of rx 7, NaN for every other beam; stamp = the window's earliest
+    acquisition, on the recording's start."""
+    from multisonar.export import export_mcap
+
+    rec, _ = recording
+    out = tmp_path / "run.mcap"
+    counts = export_mcap(rec, out, scan_period_s=PERIOD / TICK)
+    scans = [d for _, _, d in _read(out)["/multisonar/scan"]]
+    c = speed_of_sound(20.0)
+    lo, hi = _limits(c)
+    radius = float(np.hypot(*load_layout().positions.T).mean())
+    period = PERIOD
+    first = (1 << 32) - 5 * PERIOD
+    windows: dict[int, dict[int, list]] = {}
+    for k in range(12):
+        for rx in (5, 6, 7):
+            tof, kind = _expected(rx, k)
+            if kind in ("echo", "no_return"):
+                acq = first + k * PERIOD + tof
+                value = radius + c * tof / TICK / 2 if kind == "echo" else math.inf
+                windows.setdefault(acq // period, {}).setdefault(rx, []).append((value, acq - first))
+    assert len(scans) == len(windows) == counts["scans"] > 3
+    n_inf = 0
+    for d, (_, w) in zip(scans, sorted(windows.items())):
+        assert d.header.frame_id == "sonar_ring" and len(d.ranges) == 24
+        assert (d.range_min, d.range_max) == pytest.approx((radius + lo, radius + hi), rel=1e-6)
+        assert d.angle_increment == pytest.approx(math.radians(15)) and d.time_increment == 0.0
+        assert d.scan_time == pytest.approx(PERIOD / TICK)
+        for beam, r in enumerate(d.ranges):
+            if beam not in w:
+                assert math.isnan(r)
+                continue
+            want = min(v for v, _ in w[beam])
+            n_inf += want == math.inf
+            assert r == pytest.approx(want, rel=1e-6) if math.isfinite(want) else r == math.inf
+        t_first = min(a for vs in w.values() for _, a in vs)
+        assert d.header.stamp.sec + d.header.stamp.nanosec * 1e-9 == pytest.approx(START + t_first / TICK, abs=2e-6)
+    assert n_inf == 1  # rx 7's open window of the init ping: nothing else of rx 7 in that window
+
+
+def test_export_diagnostics_from_the_frame_headers(tmp_path):
+    """/diagnostics of a recording, once per second of device time and at its end: the counters
+    every frame header carries and frames missing by sequence number, as `multisonar live`
+    reports them: the counters status rises to WARN for overflows and lost frames and to ERROR
+    for a watchdog expiry; the link status names the recording."""
+    from multisonar.export import export_mcap
+
+    step = int(0.3 * TICK)
+    frames = []
+    for k in range(8):
+        seq = k if k < 6 else k + 1  # frame 6 lost on the way
+        frames.append(_frame(seq, 1000 + k * step, 0, [(6, 300_000, FIN)], dropped=0,
+                             fifo_overflows=2 if k >= 5 else 0, watchdog=1 if k >= 7 else 0))
+    path = tmp_path / "diag.msrec"
+    meta = {"format": 2, "protocol_version": P.PROTOCOL_VERSION, "url": "sim://corridor", "started_unix": START,
+            "device_info": {"tick_hz": TICK}, "sensors": [{"id": 0, "name": "left", "tx": [6], "rx": [5, 6, 7],
+                                                          "order": 1, "max_tof": MAX_TOF}]}
+    with RecordingWriter(path, meta) as w:
+        for f in frames:
+            w.write(f)
+    out = tmp_path / "diag.mcap"
+    counts = export_mcap(path, out)
+    diags = [d for _, _, d in _read(out)["/diagnostics"]]
+    assert len(diags) == counts["diagnostics"] == 3  # at 0 s, at 1.2 s, at the end (2.1 s)
+    stamps = [d.header.stamp.sec + d.header.stamp.nanosec * 1e-9 - START for d in diags]
+    assert stamps == pytest.approx([0.0, 1.2, 2.1], abs=1e-6)
+    status = [{s.name: s for s in d.status} for d in diags]
+    assert [s["multisonar/counters"].level for s in status] == [0, 0, 2]  # OK, OK, ERROR (watchdog)
+    last = status[-1]["multisonar/counters"]
+    assert "+2 fifo_overflows" in last.message and "+1 host_lost" in last.message and "+1 watchdog" in last.message
+    assert {kv.key: kv.value for kv in last.values}["fifo_overflows"] == "2"
+    link = status[-1]["multisonar/link"]
+    assert link.level == 0 and "sim://corridor" in link.message and link.hardware_id == "sim://corridor"
+
+
+def test_record_mcap_is_the_export_of_the_recording(tmp_path):
+    """`multisonar record ... --mcap` writes the export of its recording, byte for byte, with
+    the channels `multisonar live` advertises (Range only for receivers with messages)."""
+    from multisonar.rosmsgs import channels
+
+    rec, m_rec, m_exp = tmp_path / "r.msrec", tmp_path / "r.mcap", tmp_path / "e.mcap"
+    assert cli_main(["record", "--url", "sim://corridor", "--frames", "80", "--out", str(rec),
+                     "--mcap", str(m_rec)]) == 0
+    assert cli_main(["export", str(rec), "--mcap", str(m_exp)]) == 0
+    assert m_rec.read_bytes() == m_exp.read_bytes()
+    with open(m_rec, "rb") as fh:
+        summary = make_reader(fh).get_summary()
+    got = {ch.topic: summary.schemas[ch.schema_id].name for ch in summary.channels.values()}
+    receivers = [int(t.rsplit("rx", 1)[1]) for t in got if t.startswith("/multisonar/range/")]
+    assert len(receivers) >= 10
+    assert got == dict(channels(receivers))

@@ -30,8 +30,9 @@ def add_url(p: argparse.ArgumentParser) -> None:
 
 def add_sensors(p: argparse.ArgumentParser, *, optional: bool = False) -> None:
     p.add_argument("--sensors", default=None if optional else DEFAULT_SENSORS,
-                   help="virtual sensors: 'demo' (the demo's five) or a YAML file with a list of VirtualSensor "
-                        "fields (name, tx, rx, order, t_v, ...)" + ("" if optional else " [%(default)s]"))
+                   help="virtual sensors: 'demo' (the demo's five), 'ring8' (eight over all 24 receivers, order 4) "
+                        "or a YAML file with a list of VirtualSensor fields (name, tx, rx, order, t_v, ...)"
+                        + ("" if optional else " [%(default)s]"))
     p.add_argument("--temperature", type=float, default=20.0, help="air temperature, degC [%(default)s]")
 
 
@@ -59,10 +60,11 @@ def device_errors(fn: Callable[[argparse.Namespace], int]) -> Callable[[argparse
 def load_sensors(spec: str) -> list[Any]:
     from .schedule import VirtualSensor
 
-    if spec == "demo":
-        from .demo import DEMO_SENSORS
+    if spec in ("demo", "ring8"):
+        from .demo import SENSOR_SETS
 
-        return [VirtualSensor(name, tx=tx, rx=rx, order=1) for name, tx, rx in DEMO_SENSORS]
+        table, order = SENSOR_SETS[spec]
+        return [VirtualSensor(name, tx=tx, rx=rx, order=order) for name, tx, rx in table]
     import yaml
 
     path = Path(spec)
@@ -197,6 +199,15 @@ def cmd_record(args: argparse.Namespace) -> int:
     size = Path(args.out).stat().st_size
     print(f"recorded {n} frames ({size} bytes) to {args.out}; lost {c['host_lost']}, device dropped "
           f"{c['frames_dropped']}")
+    if args.mcap:  # the export of this recording: the channels of `multisonar export` and `live`
+        from .export import ExportError, export_mcap
+
+        try:
+            stats = export_mcap(args.out, args.mcap, temperature_c=args.temperature, ros_distro=args.ros_distro)
+        except ExportError as e:
+            print(f"multisonar record: error: {e}", file=sys.stderr)
+            return 1
+        print(f"export: {args.mcap}: " + ", ".join(f"{k} {v}" for k, v in stats.items()))
     return 0
 
 
@@ -305,6 +316,10 @@ def register(sub: Any) -> None:
             p.set_defaults(func=cmd_stream)
         else:
             p.add_argument("--out", default="build/recording.msrec", help="recording file [%(default)s]")
+            p.add_argument("--mcap", default=None, metavar="OUT.mcap",
+                           help="also write the recording as a ROS 2 bag in MCAP (as 'multisonar export' does)")
+            p.add_argument("--ros-distro", choices=("humble", "iron", "jazzy"), default="jazzy",
+                           help="with --mcap: the ROS 2 message layout [%(default)s]")
             p.set_defaults(func=cmd_record)
 
     p = sub.add_parser("plot", help="plot a recording (ranges over time, geometry fixes)")
