@@ -55,18 +55,18 @@ GEN_OUTPUTS  := $(GEN)/rtl/ms_layout_pkg.sv $(GEN)/rtl/ms_ucode_pkg.sv $(GEN)/rt
                 $(GEN)/rtl/ms_sched_ucode.hex $(GEN)/sv/sonar_regs.sv $(GEN)/sv/sonar_regs_pkg.sv \
                 $(GEN)/firmware/sonar_regs.h $(GEN)/firmware/ms_layout.h $(GEN)/firmware/ms_sched_layout.h \
                 $(GEN)/firmware/ms_protocol.h $(GEN)/firmware/ms_geom_reasons.h $(GEN)/rtl/ms_protocol_pkg.sv $(GEN)/rtl/ms_usb_desc.hex \
-                $(GEN)/rtl/ms_usb_desc_pkg.sv $(PY_REGS)
+                $(GEN)/rtl/ms_usb_desc_pkg.sv $(GEN)/firmware/ms_event_word.h $(GEN)/rtl/ms_event_pkg.sv $(PY_REGS)
 
 $(STAMPS)/gen: $(RDL) rtl/regs/soc_regs.rdl rtl/regs/soc_map.rdl $(LAYOUT_FILE) host/multisonar/tools/gen_layout.py \
                host/multisonar/tools/peakrdl_pyconst.py host/multisonar/layout.py scripts/gen_vex_icache.py \
                host/multisonar/tools/sched_ucode.py $(wildcard host/multisonar/tools/sched_program/*.py) \
                host/multisonar/tools/gen_contracts.py host/multisonar/protocol.py host/multisonar/usb/descriptors.py \
-               host/multisonar/geometry.py \
+               host/multisonar/geometry.py host/multisonar/event_word.py \
                $(STAMPS)/venv \
                Makefile
 	@echo "gen: layout parameters and register map ($(RDL)) -> $(GEN)/, $(PY_REGS)"
 	@$(VPY) -m multisonar.tools.gen_layout --layout $(LAYOUT) --out $(GEN) >/dev/null
-	@# protocol constants (C header, SV package) and the USB descriptor ROM image + offsets
+	@# protocol and event-word constants (C headers, SV packages), the USB descriptor ROM image + offsets
 	@$(VPY) -m multisonar.tools.gen_contracts --out $(GEN) >/dev/null
 	@$(VPY) -m multisonar.tools.sched_ucode --pkg $(GEN)/rtl/ms_ucode_pkg.sv
 	@# the scheduler's main program (ROM image) and its data-memory / I/O map (ms_sched_uc)

@@ -6,7 +6,7 @@
 // high in clock t+1; an echo first sampled high at tick n gets timestamp n (docs/sonar_core.md).
 // Events reach the FIFO in the golden model's order (docs/fast_firing.md); the host or the
 // soft-core reads them through EVT_LO / EVT_HI. EVENTS counts events produced, OVERFLOWS the
-// ones dropped because the FIFO was full (the next stored one carries bit 44).
+// ones dropped because the FIFO was full (the next stored one carries ms_event_pkg::OVF_BIT, 44).
 module ms_sonar_core #(
   parameter int          NUM_CH     = 24,
   parameter int unsigned TICK_START = 0,
@@ -129,7 +129,9 @@ module ms_sonar_core #(
   );
 
   // ---- events
-  ms_event_fifo #(.WIDTH(64), .DEPTH_W(EVT_DEPTH_W), .OVF_BIT(44), .LEVEL_W(12)) u_fifo (
+  ms_event_fifo #(
+    .WIDTH(64), .DEPTH_W(EVT_DEPTH_W), .OVF_BIT(ms_event_pkg::OVF_BIT), .LEVEL_W(12)
+  ) u_fifo (
     .clk_i, .rst_i, .wr_i (evt_valid), .wdata_i (evt_data), .rd_i (fifo_pop),
     .rvalid_o (fifo_rvalid), .rdata_o (fifo_rdata), .overflow_o (fifo_overflow), .level_o (fifo_level)
   );

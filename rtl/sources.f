@@ -22,6 +22,7 @@ rtl/soc/ms_vex_bridge.sv
 rtl/soc/ms_soc.sv
 $GEN/rtl/ms_ucode_pkg.sv
 $GEN/rtl/ms_sched_io_pkg.sv
+$GEN/rtl/ms_event_pkg.sv
 rtl/core/ms_sched_engine.sv
 rtl/core/ms_sched_div.sv
 rtl/core/ms_sched_slot.sv

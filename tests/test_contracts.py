@@ -42,7 +42,7 @@ def test_generated_files_are_current(tmp_path):
     ran after the last change); only the ROM path inside the package differs."""
     gen_contracts.generate(tmp_path)
     for rel in ("firmware/ms_protocol.h", "firmware/ms_geom_reasons.h", "rtl/ms_protocol_pkg.sv",
-                "rtl/ms_usb_desc.hex"):
+                "rtl/ms_usb_desc.hex", "firmware/ms_event_word.h", "rtl/ms_event_pkg.sv"):
         assert (tmp_path / rel).read_text() == (GEN / rel).read_text(), rel
     strip = re.compile(r'DESC_HEX = "[^"]*"')
     assert strip.sub("", (tmp_path / "rtl/ms_usb_desc_pkg.sv").read_text()) == \
@@ -96,6 +96,59 @@ def test_rtl_package_values_equal_the_protocol_module():
     assert vals == {"PROTOCOL_VERSION": P.PROTOCOL_VERSION, "HEADER_SIZE": P.HEADER_SIZE, "CRC_SIZE": P.CRC_SIZE,
                     "MAX_PAYLOAD": P.MAX_PAYLOAD, "USB_VID": P.USB_VID, "USB_PID": P.USB_PID,
                     "USB_MPS": P.USB_MPS}
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs a host C compiler")
+def test_firmware_event_word_reader_unpacks_what_the_model_packs(tmp_path):
+    """ms_event_word.h's readers, compiled, take random ToF events, pulse and cancel records packed
+    by the golden model (the scheduler's program writes the same words: RTL = model) apart field
+    by field, as the firmware's two 32-bit halves; the flag bits and the overflow bit too."""
+    import random
+
+    from multisonar import event_word as E
+    from multisonar.fastfiring import PulseStart, SensorCancel, ToFEvent
+
+    rng = random.Random(29)
+    words: list[tuple[str, int, dict[str, int]]] = []
+    for _ in range(200):
+        ev = ToFEvent(0, rng.randrange(8), rng.randrange(256), rng.randrange(24), rng.randrange(1 << 24),
+                      *(bool(rng.getrandbits(1)) for _ in range(5)))
+        w = ev.pack() | (E.EVENT_OVERFLOW_BIT if rng.getrandbits(1) else 0)
+        kind = sum(int(getattr(ev, n)) << k for k, n in enumerate(("in_window", "first_echo", "window_empty",
+                                                                   "init_ping")))
+        words.append(("EV", w, {"TOF": ev.tof, "RX": ev.rx, "SEQ": ev.seq, "SENSOR": ev.sensor, "KIND": kind}))
+        ps = PulseStart(0, rng.randrange(8), rng.randrange(1 << 16), rng.randrange(1 << 32), bool(rng.getrandbits(1)),
+                        rng.randrange(32))
+        words.append(("PULSE", ps.pack(), {"T0": ps.t0, "N_WIN": ps.n_win, "SENSOR": ps.sensor,
+                                           "INIT_PING": int(ps.init_ping), "ID": ps.pulse_id}))
+        sc = SensorCancel(rng.randrange(1 << 32), rng.randrange(8))
+        words.append(("CANCEL", sc.pack(), {"TICK": sc.tick, "SENSOR": sc.sensor}))
+    bits = ("RECORD", "CANCEL", "OVF", "GATED")
+    src = tmp_path / "ev.c"
+    body = []
+    for i, (kind, w, fields) in enumerate(words):
+        lo, hi = w & 0xFFFFFFFF, w >> 32
+        for f in fields:
+            body.append(f'    printf("{i} {f} %lu\\n", (unsigned long)MS_{kind}_{f}({lo}u, {hi}u));')
+        for b in bits:
+            body.append(f'    printf("{i} {b} %d\\n", ({hi}u & MS_EVH_{b}) != 0);')
+    src.write_text('#include <stdio.h>\n#include "ms_event_word.h"\nint main(void) {\n' + "\n".join(body)
+                   + "\n    return 0;\n}\n")
+    exe = tmp_path / "ev"
+    subprocess.run(["gcc", "-std=c11", "-Wall", "-Werror", f"-I{GEN / 'firmware'}", str(src), "-o", str(exe)],
+                   check=True)
+    got = {tuple(line.split()[:2]): int(line.split()[2]) for line in
+           subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout.splitlines()}
+    for i, (kind, w, fields) in enumerate(words):
+        for f, v in fields.items():
+            assert got[(str(i), f)] == v, (kind, hex(w), f)
+        want = {"RECORD": w >> 62 & 1, "CANCEL": w >> 61 & 1, "OVF": int(bool(w & E.EVENT_OVERFLOW_BIT)),
+                "GATED": w >> E.EVENT_FIELDS["gated"][0] & 1}  # (a ToF event's; a record's pulse id bit)
+        assert {b: got[(str(i), b)] for b in bits} == want, (kind, hex(w))
+    pkg = (GEN / "rtl/ms_event_pkg.sv").read_text()
+    vals = {k: int(v) for k, v in re.findall(r"localparam int (\w+)\s*= (\d+);", pkg)}
+    assert vals == {"OVF_BIT": 44, "RECORD_BIT": 62, "CANCEL_BIT": 61}
+    assert 1 << vals["OVF_BIT"] == E.EVENT_OVERFLOW_BIT
 
 
 def test_descriptor_rom_is_the_source():

@@ -25,8 +25,10 @@ from typing import Any, Iterable, Mapping, NamedTuple, Protocol, Sequence, runti
 import numpy as np
 
 from .constants import TICK_HZ, speed_of_sound
+from .event_word import (CANCEL_FIELDS, CANCEL_RECORD_BIT, EVENT_FIELDS, EVENT_OVERFLOW_BIT,  # noqa: F401
+                         PULSE_FIELDS, PULSE_ID_W, PULSE_RECORD_BIT)
 from .layout import Layout
-from .schedule import (DEFAULT_GLITCH_MIN, ELEM_W, MISS_W, SEQ_W, TIMESTAMP_W, TOF_W, VS_ID_W, WIN_SLOTS, Mode,
+from .schedule import (DEFAULT_GLITCH_MIN, MISS_W, SEQ_W, TIMESTAMP_W, WIN_SLOTS, Mode,
                        ResolvedSensor, Schedule, effective_order, pulse_period)
 
 SEQ_MASK = (1 << SEQ_W) - 1
@@ -50,12 +52,6 @@ class TriggerEvent(NamedTuple):
     seq: int  #: pulse sequence number mod 2**SEQ_W
 
 
-#: bit positions of the 64-bit event-FIFO word
-EVENT_FIELDS: dict[str, tuple[int, int]] = {
-    "tof": (0, TOF_W), "rx": (24, ELEM_W), "seq": (29, SEQ_W), "sensor": (37, VS_ID_W),
-    "in_window": (40, 1), "first_echo": (41, 1), "window_empty": (42, 1), "init_ping": (43, 1),
-    "gated": (45, 1),
-}
 
 
 def _pack_fields(fields: dict[str, tuple[int, int]], values: Any, what: str, word: int = 0) -> int:
@@ -104,17 +100,6 @@ class ToFEvent(NamedTuple):
                    window_empty=bool(f["window_empty"]), init_ping=bool(f["init_ping"]), gated=bool(f["gated"]))
 
 
-#: pulse record word (docs/fast_firing.md section 6): bit 62 set (EVT_HI shows bits 62:32); sensor and init_ping where a
-#: ToF event has them; bit 44 stays the FIFO's overflow flag
-PULSE_ID_W = 16
-PULSE_FIELDS: dict[str, tuple[int, int]] = {
-    "t0": (0, 32), "n_win": (32, 5), "sensor": (37, VS_ID_W), "init_ping": (43, 1),
-    "pulse_id": (45, PULSE_ID_W),
-}
-PULSE_RECORD_BIT = 1 << 62
-#: cancel record: bits 62 and 61 set, the logical tick and the sensor
-CANCEL_RECORD_BIT = 1 << 61
-CANCEL_FIELDS: dict[str, tuple[int, int]] = {"tick": (0, 32), "sensor": (37, VS_ID_W)}
 
 
 class PulseStart(NamedTuple):

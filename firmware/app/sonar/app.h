@@ -50,12 +50,6 @@
 #define SCAN_TICKS 48000u    /* timeout scan period, 1 ms (time-outs are a backstop) */
 #define GEO_JOBS 8           /* closed pulses waiting for their fix */
 
-/* event word, high half (docs/fast_firing.md section 6) */
-#define EVH_OVF (1u << 12)    /* words were dropped before this one */
-#define EVH_GATED (1u << 13)  /* a first echo the gated miss rule rejected (event bit 45) */
-#define EVH_RECORD (1u << 30) /* a record: a pulse's, or with EVH_CANCEL a sensor's cancel */
-#define EVH_CANCEL (1u << 29)
-
 #define SONAR_BASE (MS_IO_UNCACHED | (uintptr_t)offsetof(ms_soc_map_t, sonar))
 #define SONAR_AT(off) (*(volatile uint32_t *)(SONAR_BASE + (off)))
 #define VS_REG(vs, reg) MS_REG(sonar.VS[vs].reg)

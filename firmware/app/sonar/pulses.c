@@ -11,6 +11,7 @@
  * lost gets an estimated t0 (pop time - tof - edge latency) and LOST. A complete group becomes
  * its ToF frame at once and, with its first echoes, a geometry job (geo.c). */
 #include "app.h"
+#include "ms_event_word.h"
 
 group_t groups[MAX_GROUPS];
 static uint32_t fbuf[3 + 5 + 2 * MAX_EV + 4];
@@ -131,12 +132,12 @@ APP_HOT void cut_open(int vs, uint32_t tick)
 /* A pulse record: the pulse's group with the hardware's t0 and window count. */
 APP_HOT static group_t *take_record(uint32_t lo, uint32_t hi, uint32_t now)
 {
-    uint32_t vs = (hi >> 5) & 7u, init = (hi >> 11) & 1u;
-    uint32_t id = (hi >> 13) & 0xFFFFu;
+    uint32_t vs = MS_PULSE_SENSOR(lo, hi), init = MS_PULSE_INIT_PING(lo, hi);
+    uint32_t id = MS_PULSE_ID(lo, hi);
     if (vs_index[vs] < 0)
         return 0;
-    if (hi & EVH_CANCEL) {
-        cut_open((int)vs, lo);
+    if (hi & MS_EVH_CANCEL) { /* a cancel record: its sensor field is the pulse record's */
+        cut_open((int)vs, MS_CANCEL_TICK(lo, hi));
         return 0;
     }
     reaim_restart_seen(id, init, now); /* a taken apply: the old table's pulses go out */
@@ -145,29 +146,30 @@ APP_HOT static group_t *take_record(uint32_t lo, uint32_t hi, uint32_t now)
         cut_open((int)vs, now);
     group_t *g = group_for(vs, id & 0xFFu, lo, (int)init);
     g->has_rec = 1;
-    g->t0 = lo;
+    g->t0 = MS_PULSE_T0(lo, hi);
     g->t_done = g->t_pop = now;
-    g->n_win = (uint8_t)(hi & 0x1Fu);
+    g->n_win = (uint8_t)MS_PULSE_N_WIN(lo, hi);
     return group_complete(g) ? g : 0;
 }
 
 /* one event word; returns the completed group or 0 */
 APP_HOT static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
 {
-    if (hi & EVH_OVF) /* words were lost just before this one: every open pulse may miss some */
+    if (hi & MS_EVH_OVF) /* words were lost just before this one: every open pulse may miss some */
         for (int i = 0; i < MAX_GROUPS; i++)
             if (groups[i].used)
                 groups[i].flags |= MS_FRAME_LOST;
-    if (hi & EVH_RECORD)
+    if (hi & MS_EVH_RECORD)
         return take_record(lo, hi, now);
-    uint32_t tof = lo & 0xFFFFFFu, rx = (lo >> 24) & 0x1Fu;
-    uint32_t seq = ((lo >> 29) | (hi << 3)) & 0xFFu, vs = (hi >> 5) & 7u, fl = (hi >> 8) & 0xFu;
+    uint32_t tof = MS_EV_TOF(lo, hi), rx = MS_EV_RX(lo, hi);
+    /* fl: the MS_TOF_* flags in_window, first_echo, window_empty, init_ping */
+    uint32_t seq = MS_EV_SEQ(lo, hi), vs = MS_EV_SENSOR(lo, hi), fl = MS_EV_KIND(lo, hi);
     if (vs_index[vs] < 0)
         return 0;
     /* an event without its pulse's record: the record went in an overflow; t0 estimated from
      * the pop time (late by the polling delay), and the frame says so */
-    uint32_t t0c = now - tof - ((fl & 4u) ? 0u : edge_lat);
-    group_t *g = group_for(vs, seq, t0c, (fl & 8u) != 0);
+    uint32_t t0c = now - tof - ((fl & MS_TOF_WINDOW_EMPTY) ? 0u : edge_lat);
+    group_t *g = group_for(vs, seq, t0c, (fl & MS_TOF_INIT_PING) != 0);
     if (!g->has_rec) {
         g->flags |= MS_FRAME_LOST;
         if ((int32_t)(t0c - g->t0) < 0)
@@ -181,8 +183,9 @@ APP_HOT static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
     }
     const sensor_t *s = &sens[vs_index[vs]];
     const app_sensor_t *c = &cfgs[vs_index[vs]];
-    if ((fl & 3u) == 3u) { /* in window, first echo; one the gate rejected is no geometry input */
-        if (hi & EVH_GATED)
+    if ((fl & (MS_TOF_IN_WINDOW | MS_TOF_FIRST_ECHO)) == (MS_TOF_IN_WINDOW | MS_TOF_FIRST_ECHO)) {
+        /* the window's first echo; one the gate rejected is no geometry input */
+        if (hi & MS_EVH_GATED)
             g->gated |= 1u << rx;
         else
             for (int k = 0; k < c->n_rx; k++)
@@ -193,7 +196,7 @@ APP_HOT static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
         g->done |= 1u << rx;
         g->n_term++;
         g->t_done = g->t0 + tof + edge_lat;         /* the edge's detection tick */
-    } else if (fl & 4u) {
+    } else if (fl & MS_TOF_WINDOW_EMPTY) {
         g->done |= 1u << rx;
         g->n_term++;
         g->t_done = g->t0 + tof - 1u + edge_lat;    /* the window's close */

@@ -13,7 +13,10 @@ flags, frame layouts) and :mod:`multisonar.usb.descriptors` (the USB descriptors
   USB identity);
 * ``rtl/ms_usb_desc.hex``: the descriptor ROM image for ``$readmemh`` (one byte per line);
 * ``rtl/ms_usb_desc_pkg.sv``: each descriptor's ROM offset and length, the serial string's
-  offset, the MS OS 2.0 vendor code and the image's path (``DESC_HEX``).
+  offset, the MS OS 2.0 vendor code and the image's path (``DESC_HEX``);
+* ``firmware/ms_event_word.h`` from :mod:`multisonar.event_word`: readers of the sonar core's
+  event-FIFO word (ToF event, pulse and cancel record fields; the record, cancel, overflow and
+  gated bits), and ``rtl/ms_event_pkg.sv``: the bits the RTL sets itself (the FIFO's overflow bit).
 
 The ``make`` gen step runs it (like the register map), so no number is typed twice. Files are
 rewritten only when their text changes (stable mtimes for ``make``).
@@ -118,6 +121,59 @@ def geom_reasons_header() -> str:
         f"#define MS_REASON_TEXTS {{{names}}}", "", "#endif", ""])
 
 
+def _c_field(prefix: str, name: str, lsb: int, width: int) -> str:
+    """A macro reading bits lsb .. lsb+width-1 of a 64-bit word the firmware holds as two u32
+    halves (lo = bits 31:0, hi = 63:32), also across the halves."""
+    mask = f"0x{(1 << width) - 1:X}u" if width < 32 else "0xFFFFFFFFu"
+    if lsb + width <= 32:
+        expr = "(lo)" if (lsb, width) == (0, 32) else f"(((lo) >> {lsb}) & {mask})" if lsb else f"((lo) & {mask})"
+    elif lsb >= 32:
+        expr = f"(((hi) >> {lsb - 32}) & {mask})" if lsb > 32 else f"((hi) & {mask})"
+    else:
+        expr = f"((((lo) >> {lsb}) | ((hi) << {32 - lsb})) & {mask})"
+    return f"#define {prefix}{name.upper()}(lo, hi) {expr}"
+
+
+def event_word_header() -> str:
+    """firmware/ms_event_word.h: the sonar core's event-FIFO word (docs/fast_firing.md section 6)."""
+    from .. import event_word as F
+
+    kinds = ("in_window", "first_echo", "window_empty", "init_ping")
+    kind_lsb = F.EVENT_FIELDS[kinds[0]][0]
+    tof_flags = (P.TOF_IN_WINDOW, P.TOF_FIRST_ECHO, P.TOF_WINDOW_EMPTY, P.TOF_INIT_PING)
+    # the firmware keeps the four kind bits as they come and writes them out as the ToF record's
+    # flags: both orders must agree, and the bits must be contiguous
+    for k, (name, flag) in enumerate(zip(kinds, tof_flags)):
+        if F.EVENT_FIELDS[name] != (kind_lsb + k, 1) or flag != 1 << k:
+            raise ValueError(f"event kind bit {name} no longer matches ToF record flag bit {k}")
+
+    def hi_bit(bit: int) -> str:
+        if bit < 32:
+            raise ValueError(f"bit {bit} is in the low half")
+        return f"(1u << {bit - 32})"
+
+    out = ["/* " + BANNER.format(src="multisonar.event_word") + " */",
+           "/* The sonar core's event-FIFO word (docs/fast_firing.md section 6), read through EVT_LO",
+           " * (bits 31:0: lo) and EVT_HI (bits 62:32: hi; bit 31 of hi is the register's VALID).",
+           " * MS_EV_* read a ToF event, MS_PULSE_* a pulse record, MS_CANCEL_* a cancel record. */",
+           "#ifndef MS_EVENT_WORD_H", "#define MS_EVENT_WORD_H", "",
+           "/* a record (pulse, or with MS_EVH_CANCEL a sensor's cancel), not a ToF event */",
+           f"#define MS_EVH_RECORD {hi_bit(F.PULSE_RECORD_BIT.bit_length() - 1)}",
+           f"#define MS_EVH_CANCEL {hi_bit(F.CANCEL_RECORD_BIT.bit_length() - 1)}",
+           "/* words were dropped (FIFO full) just before this one, in any kind of word */",
+           f"#define MS_EVH_OVF {hi_bit(F.EVENT_OVERFLOW_BIT.bit_length() - 1)}",
+           "/* a first echo the gated miss rule rejected */",
+           f"#define MS_EVH_GATED {hi_bit(F.EVENT_FIELDS['gated'][0])}", ""]
+    out += [_c_field("MS_EV_", n, lsb, w) for n, (lsb, w) in F.EVENT_FIELDS.items()
+            if n not in kinds and n != "gated"]
+    out += ["/* in_window, first_echo, window_empty, init_ping as bits 0..3: the ToF record's MS_TOF_* */",
+            _c_field("MS_EV_", "kind", kind_lsb, len(kinds))]
+    out += [_c_field("MS_PULSE_", n.removeprefix("pulse_"), lsb, w) for n, (lsb, w) in F.PULSE_FIELDS.items()]
+    out += [_c_field("MS_CANCEL_", n, lsb, w) for n, (lsb, w) in F.CANCEL_FIELDS.items()]
+    out += ["", "#endif", ""]
+    return "\n".join(out)
+
+
 def sv_package() -> str:
     """rtl/ms_protocol_pkg.sv"""
     return "\n".join([
@@ -131,6 +187,21 @@ def sv_package() -> str:
         f"  localparam int USB_VID          = 'h{P.USB_VID:04X};",
         f"  localparam int USB_PID          = 'h{P.USB_PID:04X};",
         f"  localparam int USB_MPS          = {P.USB_MPS};",
+        "endpackage", ""])
+
+
+def event_package() -> str:
+    """rtl/ms_event_pkg.sv"""
+    from .. import event_word as E
+
+    return "\n".join([
+        "// " + BANNER.format(src="multisonar.event_word"),
+        "// The sonar core's event-FIFO word (docs/fast_firing.md section 6): the bits the RTL itself",
+        "// sets (the scheduler's program packs the rest; the firmware reads them with ms_event_word.h).",
+        "package ms_event_pkg;",
+        f"  localparam int OVF_BIT    = {E.EVENT_OVERFLOW_BIT.bit_length() - 1};  // words were dropped before this one",
+        f"  localparam int RECORD_BIT = {E.PULSE_RECORD_BIT.bit_length() - 1};  // a pulse (or cancel) record",
+        f"  localparam int CANCEL_BIT = {E.CANCEL_RECORD_BIT.bit_length() - 1};  // with RECORD_BIT: a cancel record",
         "endpackage", ""])
 
 
@@ -165,7 +236,9 @@ def generate(out: Path) -> list[Path]:
     hex_path = out / "rtl" / "ms_usb_desc.hex"
     files = {out / "firmware" / "ms_protocol.h": c_header(),
              out / "firmware" / "ms_geom_reasons.h": geom_reasons_header(),
+             out / "firmware" / "ms_event_word.h": event_word_header(),
              out / "rtl" / "ms_protocol_pkg.sv": sv_package(),
+             out / "rtl" / "ms_event_pkg.sv": event_package(),
              hex_path: desc_hex(ds),
              out / "rtl" / "ms_usb_desc_pkg.sv": desc_package(ds, hex_path)}
     for path, text in files.items():

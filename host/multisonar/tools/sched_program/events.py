@@ -3,10 +3,34 @@
 
 from __future__ import annotations
 
+from ...event_word import CANCEL_FIELDS, CANCEL_RECORD_BIT, EVENT_FIELDS, PULSE_FIELDS, PULSE_RECORD_BIT
 from ..sched_ucode import Program
 from .layout import (EVT_HI, EVT_LO, F_ANY_TRK, F_EPOCH, F_IN_INIT, F_TRACKING, HC, HD_EL, HD_T, HS,
                      NUM_RX, R_MASK24, R_SIGN24, SU_EDGE, SU_FLAGS, SU_GO, SU_HEAD, SU_MINC,
                      SU_SENSOR, SU_TA, SU_VALID, SU_X, S_DUE, S_FLAGS, S_K, S_MODE, S_OPEN, WV)
+
+
+# The kernels pack event words without a shifter (multiplies, byte rotations, immediates), so they
+# are written for this layout of multisonar.event_word; a change of it must fail here, not on the wire.
+_PACKED_FOR = {"event": {"tof": (0, 24), "rx": (24, 5), "seq": (29, 8), "sensor": (37, 3), "in_window": (40, 1),
+                         "first_echo": (41, 1), "window_empty": (42, 1), "init_ping": (43, 1), "gated": (45, 1)},
+               "pulse": {"t0": (0, 32), "n_win": (32, 5), "sensor": (37, 3), "init_ping": (43, 1),
+                         "pulse_id": (45, 16)},
+               "cancel": {"tick": (0, 32), "sensor": (37, 3)}, "bits": (62, 61)}
+if (_PACKED_FOR != {"event": EVENT_FIELDS, "pulse": PULSE_FIELDS, "cancel": CANCEL_FIELDS,
+                    "bits": (PULSE_RECORD_BIT.bit_length() - 1, CANCEL_RECORD_BIT.bit_length() - 1)}):
+    raise ImportError("multisonar.event_word changed: the scheduler program's event packing "
+                      "(sched_program/events.py, decision.py) must be rewritten for it")
+
+
+def _hi_bits(*names: str) -> int:
+    """The event word's one-bit fields ``names`` as bits of its high half (bits 63:32)."""
+    return sum(1 << (EVENT_FIELDS[n][0] - 32) for n in names)
+
+
+KIND_FIRST_ECHO = _hi_bits("in_window", "first_echo")   # 0x300
+KIND_GATED = KIND_FIRST_ECHO | _hi_bits("gated")         # 0x2300: a first echo the gate rejected
+KIND_EMPTY = _hi_bits("window_empty")                    # 0x400
 
 
 def _tof_event(p: Program, tof: int, seq: int, rx: int, sensor: int, flags: int, kind: int | tuple[int],
@@ -52,7 +76,7 @@ def hit_kernel(p: Program) -> Program:
     p.li(12, 0).andi(0, 4, 4).b("ne", "hit_done")        # not the first echo: no event
     p.sub(14, 1, 2)
     p.and_(14, 14, R_MASK24)                             # tof
-    p.li(13, 0x300)                                      # the event's kind: in_window, first_echo
+    p.li(13, KIND_FIRST_ECHO)                            # the event's kind: in_window, first_echo
     p.andi(0, 4, 2).b("eq", "hit_event")                 # an earlier epoch's window: no sample
     p.ld(23, 5, 0).ld(24, 5, 1)
     p.andi(0, 4, 1).b("ne", "hit_init")
@@ -71,7 +95,7 @@ def hit_kernel(p: Program) -> Program:
     p.clamp(22, 10, 11)
     p.sub(22, 14, 22).b("ge", "hit_abs").sub(22, 0, 22)
     p.label("hit_abs").cmp(22, 8).b("le", "hit_sample")
-    p.li(12, 1).li(13, 0x2300).jmp("hit_event")          # rejected: gated; a miss at close
+    p.li(12, 1).li(13, KIND_GATED).jmp("hit_event")      # rejected: gated; a miss at close
     p.label("hit_sample").tst(27).b("eq", "hit_event")   # gap 0: no sample
     p.andi(0, 27, 0x80).b("ne", "hit_event")             # gap 128..255 (negative): no sample
     p.li(26, 0).li(21, 1)                                # v, flags: tracked
@@ -110,7 +134,7 @@ def close_kernel(p: Program) -> Program:
     p.li(10, 0).ld(11, 8, S_FLAGS).andi(0, 5, 2)
     p.b("ne", "close_hit")                              # an echo came: no event
     p.and_(18, 3, R_MASK24)                             # tof = end - t0
-    _tof_event(p, 18, 4, 6, 7, 5, 0x400, (12, 13, 14, 15, 16))   # window_empty
+    _tof_event(p, 18, 4, 6, 7, 5, KIND_EMPTY, (12, 13, 14, 15, 16))   # window_empty
     p.jmp("close_miss")
     p.label("close_hit").andi(0, 5, 4).b("eq", "close_init")   # a sample: no miss
     p.label("close_miss").andi(0, 5, 1).b("ne", "close_init")  # init pings count no misses
