@@ -126,7 +126,19 @@ def build_parser() -> argparse.ArgumentParser:
                    help="ROS 2 distribution whose message layout to write (Range has 'variance' from iron on) "
                         "[%(default)s]")
     p.set_defaults(func=_cmd_export)
+
+    p = sub.add_parser("live", help="Foxglove WebSocket server of live ROS 2 messages (docs/live.md)")
+    from .live import add_arguments as _add_live_arguments
+
+    _add_live_arguments(p)
+    p.set_defaults(func=_cmd_live)
     return ap
+
+
+def _cmd_live(args: argparse.Namespace) -> int:
+    from .live import cmd_live
+
+    return cmd_live(args)
 
 
 def _cmd_experiment(args: argparse.Namespace) -> int:
