@@ -264,29 +264,41 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return 0
 
 
+def serve_url(args: argparse.Namespace) -> str:
+    """The model URL ``serve`` serves: --url as given, else one built from --scene / --twin and the
+    simulated device's options."""
+    from urllib.parse import quote, urlencode
+
+    if args.url:
+        return args.url
+    scene = quote(args.scene, safe="")
+    if args.twin:
+        return f"twin://{scene}"
+    q = {"source": args.source, "queue": args.queue} | ({"rate": args.rate} if args.rate is not None else {})
+    return f"sim://{scene}?{urlencode(q)}"
+
+
+@device_errors
 def cmd_serve(args: argparse.Namespace) -> int:
+    from .urls import make_model
     from .usb.usbip_server import UsbipServer
 
-    if args.twin:  # the device's RTL (multisonar.twin), the scene's echoes in the loop
-        from .fastfiring import SceneEchoSource
-        from .twin import BOOT_CLOCKS, TwinSim, TwinUsbFunction
-
-        sim = TwinSim(SceneEchoSource(args.scene))
-        sim.reset()
-        sim.run(BOOT_CLOCKS)
-        fn: Any = TwinUsbFunction(sim)
-        what = "the full-system twin (RTL in Verilator; use long timeouts)"
-    else:
-        from .simdevice import SimDevice
-
-        fn = SimDevice(args.scene, rate=args.rate, source=args.source, queue_frames=args.queue)
-        what = "the simulated Multisonar"
-    srv = UsbipServer(fn, args.host, args.port)
-    print(f"serving {what} (scene {args.scene!r}) at {srv.url}; Ctrl-C stops", flush=True)
+    url = serve_url(args)
+    model = make_model(url)  # any registered model scheme: sim://, twin://, a third party's
     try:
-        srv.serve_forever()
-    except KeyboardInterrupt:
-        pass
+        try:
+            srv = UsbipServer(model.function, args.host, args.port)
+        except OSError as e:
+            raise ConnectionError(f"cannot serve on {args.host}:{args.port}: {e.strerror or e}") from None
+        print(f"serving {url} at {srv.url}" + ("; use long timeouts" if model.min_timeout_s > 10 else "")
+              + "; Ctrl-C stops", flush=True)
+        try:
+            srv.serve_forever()
+        except KeyboardInterrupt:
+            pass
+    finally:
+        if model.close is not None:
+            model.close()
     return 0
 
 
@@ -327,7 +339,10 @@ def register(sub: Any) -> None:
     p.add_argument("--out", default=None, help="PNG [PATH with .png]")
     p.set_defaults(func=cmd_plot)
 
-    p = sub.add_parser("serve", help="serve the simulated device over USB/IP (for --url usbip://...)")
+    p = sub.add_parser("serve", help="serve a simulated device over USB/IP (for --url usbip://...)")
+    p.add_argument("--url", default=None,
+                   help="the device model to serve, any model scheme: sim://SCENE?rate=R&source=S&queue=N&seed=S, "
+                        "twin://SCENE, ... (default: built from the options below)")
     p.add_argument("--scene", default="corridor", help="scene name or YAML path [%(default)s]")
     p.add_argument("--host", default="127.0.0.1", help="bind address [%(default)s]")
     p.add_argument("--port", type=int, default=3240, help="TCP port [%(default)s]")
