@@ -2,7 +2,8 @@
 numbers obey what the model and the paper say (each assertion can fail on a regression).
 
 Also: the same sweep gives identical results on local processes and on a Dask
-LocalCluster (the --scheduler path).
+LocalCluster (the --scheduler path); fig9, fig10 and person on the full-system twin
+(``--backend twin``, a minimal case each, slow) against the model's figures.
 """
 
 from __future__ import annotations
@@ -304,3 +305,106 @@ def test_safety_experiment_writes_the_figures_as_json(tmp_path, capsys):
     assert [int(r["seed"]) for r in rows] == [5, 6, 7]
     assert cli_main(["experiment", "fig3", "--trials", "3", "--quick", "--out", str(tmp_path)]) == 1
     assert "--trials applies to safety only" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------------------
+# --backend twin: the device (multisonar.twin) next to the model, a minimal case each
+# ----------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def twin_built():
+    from multisonar.twin import TwinError, build
+
+    try:
+        build(quiet=True)
+    except TwinError as e:
+        pytest.skip(f"the full-system twin cannot be built here (make twin: Verilator): {e}")
+
+
+@pytest.mark.slow
+def test_fig9_on_the_twin_measures_a_facing_wall_as_the_model(twin_built, tmp_path):
+    """90 deg (the wall faces the pair), 2 and 3 receivers on the twin: the firmware's wall records
+    (3 rx) and the wall fit on the device's ToF records (2 rx) are unbiased, as spread as the model's
+    1 us Monte Carlo, and the firmware keeps the sensor where it is."""
+    import json
+
+    from multisonar.experiments import fig9, write_outputs
+
+    res = fig9.run(InlineExecutor(), quick=True, cases=300, step_deg=45.0, backend="twin", twin_orient=[90.0],
+                   progress=False)
+    by = {(r["orientation_deg"], r["config"], r["reaim"]): r for r in res.rows}
+    assert {o for o, _, _ in by} == {45.0, 90.0, 135.0}
+    for cfg, src in (("3 rx", "firmware"), ("2 rx", "host fit on the device's ToF")):
+        r = by[(90.0, cfg, False)]
+        assert r["twin_source"] == src and r["twin_n"] >= fig9.TWIN_PULSES, r
+        assert r["twin_valid_frac"] >= 0.5, r
+        assert abs(r["twin_mean_deg"]) < 0.3 and r["twin_max_abs_deg"] < 1.5, r
+        assert abs(r["twin_mean_deg"] - r["mean_deg"]) < 0.3, r  # the model's mean is ~0 (1 us noise, 300 trials)
+        assert 0 < r["twin_std_deg"] < 2 * r["std_deg"], r
+        assert by[(90.0, cfg, True)]["twin_shifts"] == "0"  # within 10 deg of the axis: no re-aim
+        for o in (45.0, 135.0):  # not run on the twin
+            assert math.isnan(by[(o, cfg, False)]["twin_mean_deg"]) and by[(o, cfg, False)]["twin_source"] == ""
+    assert all(not t["health"] for t in res.summary["twin"]), res.summary["twin"]
+    assert "twin: 3 rx, fixed" in res.markdown and "golden model, same scene" in res.markdown
+    write_outputs(res, tmp_path)
+    with open(tmp_path / "fig9.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert sum(1 for r in rows if r["twin_mean_deg"]) == 4  # 90 deg x 2 configs x fixed / re-aimed
+    doc = json.loads((tmp_path / "fig9.json").read_text())
+    assert len(doc["summary"]["twin"]) == 2 and doc["summary"]["backend"] == "twin"
+
+
+@pytest.mark.slow
+def test_person_on_the_twin_detects_the_occluder_within_the_bound(twin_built):
+    """K = 2 on the twin from the model's start (the wall tracked before the person is audible): the
+    device's ToF frames show the occlusion where the model does and report the person within the
+    safety bound, in as many pulses as the model."""
+    from multisonar.experiments import person as P
+
+    res = P.run(InlineExecutor(), quick=True, miss_limits=[2], backend="twin", twin_window=(1.95, 0.26),
+                progress=False)
+    rows = {r["backend"]: r for r in res.rows}
+    assert set(rows) == {"model", "twin"}
+    model, twin = rows["model"], rows["twin"]
+    max_tof_s = 2 * 4.3 / speed_of_sound(20.0)
+    person_tof_s = 2 * (0.95 - 0.2 - 0.35) / speed_of_sound(20.0)
+    for r in (model, twin):
+        assert math.isfinite(r["latency_ms"]), f"{r['backend']}: person never detected"
+        bound_ms = ((2 + r["order"]) * r["period_ms"] / 1e3 + max_tof_s + person_tof_s) * 1e3
+        assert 0 < r["latency_ms"] <= bound_ms, (r, bound_ms)
+        assert r["latency_pulses"] <= 2 + r["order"] + 1, r
+    # the same scene: the wall is hidden at the same moment (within a tracking period of the two
+    # runs' pulse ticks) and the sensor reacts in as many pulses
+    assert abs(twin["onset_s"] - model["onset_s"]) < 0.006, (twin, model)
+    assert abs(twin["latency_pulses"] - model["latency_pulses"]) <= 1, (twin, model)
+    assert "Twin rows" in res.markdown and "nothing dropped, lost or clipped" in res.markdown
+
+
+@pytest.mark.slow
+def test_fig10_on_the_twin_maps_and_localises(twin_built):
+    """0.2 s of the corridor on the twin: the firmware's wall fixes lie on the true walls and
+    localise the robot as the model's do."""
+    from multisonar.experiments import fig10
+
+    res = fig10.run(InlineExecutor(), quick=True, seconds=0.2, backend="twin", progress=False)
+    tw = res.summary["twin"]
+    assert not tw["health"], tw["health"]
+    assert tw["n_wall_fixes"] >= 30 and tw["wall_median_m"] < 0.002, tw
+    assert tw["loc_updates"] >= 30 and tw["loc_rows"], tw
+    for r in tw["loc_rows"]:
+        assert r["lat_med"] < 5.0 and r["hd_med"] < 2.0, r  # mm across the wall, deg
+    side = {r["sensor"]: r for r in tw["sensor_rows"]}
+    assert side["left"]["rate"] > 100 and side["right"]["rate"] > 100  # side walls tracked at >= 100 Hz
+    assert {r["backend"] for r in res.rows} == {"model", "twin"}
+    assert "| twin | left |" in res.markdown
+
+
+def test_cli_experiment_refuses_the_twin_backend_elsewhere(tmp_path, capsys):
+    assert cli_main(["experiment", "fig3", "--backend", "twin", "--quick", "--out", str(tmp_path)]) == 1
+    assert "--backend twin applies to fig9, fig10, person only" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())  # refused before running
+    from multisonar.experiments import fig9, fig10, person
+
+    for mod in (fig9, fig10, person):
+        with pytest.raises(ValueError, match="unknown backend 'rtl'"):
+            mod.run(InlineExecutor(), quick=True, backend="rtl", progress=False)

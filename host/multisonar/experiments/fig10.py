@@ -17,6 +17,7 @@ initialisation pings at its scene time: the chunk boundaries cost one init ping 
 from __future__ import annotations
 
 import math
+import sys
 from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
@@ -28,13 +29,58 @@ from .common import ExperimentResult, batch_fixes, finite_stat, md_table, robot_
 from .executor import run_sweep
 
 KNOWN_WALLS_EXCLUDE = ("door_back",)
+BACKENDS = ("model", "twin")
+#: sonar time of the twin's corridor at most (full runs; --quick: the model's 0.5 s): the straight
+#: run past the door, as `make demo`
+TWIN_MAX_S = 2.0
 ASSOC_ANGLE = math.radians(10.0)
 ASSOC_DIST = 0.3
 
 
+def _map_fix(scene: Any, known: list[tuple[str, Any]], t_ref: float, sensor: str, kind: str, p_robot: Any,
+             normal_robot: float) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """One wall or edge fix (robot frame: the wall's foot point and normal, or the edge's
+    position) in the world with the pose at the reflection instant ``t_ref``, its distance to
+    the nearest true reflector, and (a wall associated with a known wall) the localisation update."""
+    from ..demo import _truth_distance
+
+    px, py, ph = (float(v) for v in scene.pose(t_ref))
+    p = robot_to_world(scene, t_ref, p_robot)
+    if kind == "edge":
+        return ({"t_s": t_ref, "sensor": sensor, "kind": "edge", "x_m": p[0], "y_m": p[1], "normal_rad": 0.0,
+                 "error_m": _truth_distance(p, scene, walls=True, points=True)}, None)
+    normal_w = normal_robot + ph
+    fix = {"t_s": t_ref, "sensor": sensor, "kind": "wall", "x_m": p[0], "y_m": p[1], "normal_rad": normal_w,
+           "error_m": _truth_distance(p, scene, walls=True, points=False)}
+    # localisation: distance robot origin -> wall line (robot frame) and the wall normal
+    nr = np.array([math.cos(normal_robot), math.sin(normal_robot)])
+    d_meas = float(np.asarray(p_robot, float) @ nr)
+    for name, (a, b) in known:
+        tvec = (b - a) / np.linalg.norm(b - a)
+        nw = np.array([-tvec[1], tvec[0]])
+        cw = float(nw @ a)
+        if nw @ np.array([px, py]) > cw:  # orient the normal away from the robot
+            nw, cw = -nw, -cw
+        ang = math.atan2(nw[1], nw[0])
+        if abs(wrap_angle(normal_w - ang)) > ASSOC_ANGLE:
+            continue
+        u = float((p - a) @ tvec)
+        if abs(float(nw @ p) - cw) > ASSOC_DIST or not -ASSOC_DIST <= u <= np.linalg.norm(b - a) + ASSOC_DIST:
+            continue
+        lat_est = cw - d_meas  # robot origin's coordinate along nw
+        return fix, {"t_s": t_ref, "sensor": sensor, "wall": name,
+                     "lateral_err_m": lat_est - float(nw @ np.array([px, py])),
+                     "heading_err_rad": float(wrap_angle((ang - normal_robot) - ph))}
+    return fix, None
+
+
+def _known_walls(scene: Any) -> list[tuple[str, Any]]:
+    return [(n, w) for n, w in zip(scene.wall_names, scene.walls) if n not in KNOWN_WALLS_EXCLUDE]
+
+
 def chunk_task(scene_name: str, t_offset_s: float, duration_s: float, seed: int) -> dict[str, Any]:
     """One chunk of the corridor run: fixes, localisation updates and per-sensor counts."""
-    from ..demo import DEMO_SENSORS, _truth_distance
+    from ..demo import DEMO_SENSORS
     from ..scene import load_scene
     from ..schedule import VirtualSensor
 
@@ -42,44 +88,22 @@ def chunk_task(scene_name: str, t_offset_s: float, duration_s: float, seed: int)
     sensors = [VirtualSensor(name, tx=tx, rx=rx, order=1) for name, tx, rx in DEMO_SENSORS]
     run = simulate_scene(scene, sensors, duration_s, t_offset_s=t_offset_s, seed=seed)
     layout, c = scene.layout, scene.speed_of_sound
-    known = [(n, w) for n, w in zip(scene.wall_names, scene.walls) if n not in KNOWN_WALLS_EXCLUDE]
+    known = _known_walls(scene)
     fixes, loc = [], []
     for fx in batch_fixes(layout, run.resolved, run.echoes, c):
         pe = fx.echo
-        r = run.resolved[pe.sensor]
         tof = np.array(list(pe.tofs.values()), float)
         t_ref = t_offset_s + (pe.t0 + float(np.mean(tof)) / 2) / TICK_HZ  # reflection instant, scene time
-        px, py, ph = (float(v) for v in scene.pose(t_ref))
+        name = run.resolved[pe.sensor].name
         if fx.kind == "wall" and fx.wall_valid:
-            foot_r = fx.wall_foot
-            foot = robot_to_world(scene, t_ref, foot_r)
-            normal_w = fx.wall_normal + ph
-            fixes.append({"t_s": t_ref, "sensor": r.name, "kind": "wall", "x_m": foot[0], "y_m": foot[1],
-                          "normal_rad": normal_w, "error_m": _truth_distance(foot, scene, walls=True, points=False)})
-            # localisation: distance robot origin -> wall line (robot frame) and the wall normal
-            nr = np.array([math.cos(fx.wall_normal), math.sin(fx.wall_normal)])
-            d_meas = float(foot_r @ nr)
-            for name, (a, b) in known:
-                tvec = (b - a) / np.linalg.norm(b - a)
-                nw = np.array([-tvec[1], tvec[0]])
-                cw = float(nw @ a)
-                if nw @ np.array([px, py]) > cw:  # orient the normal away from the robot
-                    nw, cw = -nw, -cw
-                ang = math.atan2(nw[1], nw[0])
-                if abs(wrap_angle(normal_w - ang)) > ASSOC_ANGLE:
-                    continue
-                u = float((foot - a) @ tvec)
-                if abs(float(nw @ foot) - cw) > ASSOC_DIST or not -ASSOC_DIST <= u <= np.linalg.norm(b - a) + ASSOC_DIST:
-                    continue
-                lat_est = cw - d_meas  # robot origin's coordinate along nw
-                loc.append({"t_s": t_ref, "sensor": r.name, "wall": name,
-                            "lateral_err_m": lat_est - float(nw @ np.array([px, py])),
-                            "heading_err_rad": float(wrap_angle((ang - fx.wall_normal) - ph))})
-                break
+            fix, upd = _map_fix(scene, known, t_ref, name, "wall", fx.wall_foot, fx.wall_normal)
         elif fx.kind == "edge" and fx.point_valid:
-            p = robot_to_world(scene, t_ref, fx.point)
-            fixes.append({"t_s": t_ref, "sensor": r.name, "kind": "edge", "x_m": p[0], "y_m": p[1], "normal_rad": 0.0,
-                          "error_m": _truth_distance(p, scene, walls=True, points=True)})
+            fix, upd = _map_fix(scene, known, t_ref, name, "edge", fx.point, 0.0)
+        else:
+            continue
+        fixes.append(fix)
+        if upd is not None:
+            loc.append(upd)
     counts = []
     for r in run.resolved:
         ps = [p for p in run.pulses if p.sensor == r.id]
@@ -91,19 +115,42 @@ def chunk_task(scene_name: str, t_offset_s: float, duration_s: float, seed: int)
             "wall_s": run.wall_s}
 
 
-def run(executor: Executor, *, quick: bool = False, scene_name: str = "corridor", seconds: float | None = None,
-        chunk_s: float = 0.5, seed: int = 10, progress: bool = True) -> ExperimentResult:
+def twin_corridor(scene_name: str, seconds: float, seed: int, progress: bool = True) -> dict[str, Any]:
+    """The corridor on the full-system twin: the demo's sensors configured through the driver,
+    streamed for ``seconds``; the map and the localisation from the firmware's wall and edge
+    records, the counts from the device's ToF frames (the chunk's dict, plus the re-aims)."""
+    from ..demo import DEMO_SENSORS
     from ..scene import load_scene
+    from ..schedule import VirtualSensor
+    from .twin_backend import run_on_twin
 
     scene = load_scene(scene_name)
-    total = float(seconds if seconds is not None else (0.5 if quick else scene.duration_s))
-    n_chunks = max(1, int(math.ceil(total / chunk_s - 1e-9)))
-    tasks = [{"scene_name": scene_name, "t_offset_s": k * chunk_s, "duration_s": min(chunk_s, total - k * chunk_s),
-              "seed": seed + k} for k in range(n_chunks)]
-    parts = run_sweep(executor, chunk_task, tasks, label="fig10", progress=progress)
-    fixes = [f for p in parts for f in p["fixes"]]
-    loc = [u for p in parts for u in p["loc"]]
-    sim_wall = sum(p["wall_s"] for p in parts)
+    sensors = [VirtualSensor(name, tx=tx, rx=rx, order=1) for name, tx, rx in DEMO_SENSORS]
+    run = run_on_twin(scene, sensors, seconds, seed=seed, progress=progress, label="fig10 twin: corridor")
+    known = _known_walls(scene)
+    fixes, loc = [], []
+    for f in run.fixes:
+        if f.kind not in ("wall", "edge"):
+            continue
+        fix, upd = _map_fix(scene, known, f.t_ref, f.name, f.kind, f.xy, f.normal)
+        fixes.append(fix)
+        if upd is not None:
+            loc.append(upd)
+    counts = []
+    for r in run.resolved:
+        ps = run.sensor_pulses(r.id)
+        counts.append({"sensor": r.name, "tx": list(map(int, r.tx)), "rx": list(map(int, r.rx)), "pulses": len(ps),
+                       "init": sum(p.init for p in ps), "samples": sum(len(p.firsts) for p in ps),
+                       "empty": sum(len(p.empty) for p in ps if not p.init),
+                       "groups": ">".join(f"{k:+d}" if k else "0" for k in run.reaims(r.id)) or "0"})
+    return {"t_offset_s": 0.0, "duration_s": run.sonar_s, "fixes": fixes, "loc": loc, "counts": counts,
+            "wall_s": run.wall_s, "health": run.fw_healthy()}
+
+
+def _summarise(parts: list[dict[str, Any]], total: float, backend: str) -> dict[str, Any]:
+    """The tables' rows of one backend's parts (chunks of the model, or the twin's run)."""
+    fixes = [{"backend": backend, **f} for p in parts for f in p["fixes"]]
+    loc = [{"backend": backend, **u} for p in parts for u in p["loc"]]
     sens: dict[str, dict[str, Any]] = {}
     for p in parts:
         for cnt in p["counts"]:
@@ -114,13 +161,14 @@ def run(executor: Executor, *, quick: bool = False, scene_name: str = "corridor"
     for name, s in sens.items():
         fw = sum(1 for f in fixes if f["sensor"] == name and f["kind"] == "wall")
         fe = sum(1 for f in fixes if f["sensor"] == name and f["kind"] == "edge")
-        sensor_rows.append({"sensor": name, "tx": s["tx"], "rx": s["rx"], "pulses": s["pulses"], "init": s["init"],
+        sensor_rows.append({"backend": backend, "sensor": name, "tx": s["tx"], "rx": s["rx"],
+                            "groups": s.get("groups", "-"), "pulses": s["pulses"], "init": s["init"],
                             "rate": s["samples"] / len(s["rx"]) / total, "fix_rate": (fw + fe) / total,
                             "miss": s["empty"] / max(s["empty"] + s["samples"], 1), "fixes": f"{fw} / {fe}"})
     acc_rows = []
     for kind in ("wall", "edge"):
         e = np.array([f["error_m"] for f in fixes if f["kind"] == kind])
-        acc_rows.append({"kind": kind, "n": len(e), "med": finite_stat(e, np.median) * 1e3,
+        acc_rows.append({"backend": backend, "kind": kind, "n": len(e), "med": finite_stat(e, np.median) * 1e3,
                          "p95": finite_stat(e, lambda v: np.percentile(v, 95)) * 1e3,
                          "max": finite_stat(e, np.max) * 1e3})
     loc_rows = []
@@ -129,33 +177,91 @@ def run(executor: Executor, *, quick: bool = False, scene_name: str = "corridor"
         t = np.array([u["t_s"] for u in us])
         lat = np.abs([u["lateral_err_m"] for u in us])
         hd = np.degrees(np.abs([u["heading_err_rad"] for u in us]))
-        loc_rows.append({"wall": wall, "n": len(us), "span": f"{t[0]:.2f}..{t[-1]:.2f}",
+        loc_rows.append({"backend": backend, "wall": wall, "n": len(us), "span": f"{t[0]:.2f}..{t[-1]:.2f}",
                          "rate": len(us) / max(t[-1] - t[0], 1e-9) if len(us) > 1 else float("nan"),
                          "lat_med": float(np.median(lat)) * 1e3, "lat_p95": float(np.percentile(lat, 95)) * 1e3,
                          "hd_med": float(np.median(hd)), "hd_p95": float(np.percentile(hd, 95))})
     t_all = np.sort([u["t_s"] for u in loc])
     gaps = np.diff(t_all) if t_all.size > 1 else np.array([])
-    max_gap = float(gaps.max()) * 1e3 if gaps.size else float("nan")
-    share_10ms = float(np.mean(gaps <= 0.010)) if gaps.size else float("nan")
+    wall_err = np.array([f["error_m"] for f in fixes if f["kind"] == "wall"])
+    return {"backend": backend, "fixes": fixes, "loc": loc, "sensor_rows": sensor_rows, "acc_rows": acc_rows,
+            "loc_rows": loc_rows,
+            "max_gap_ms": float(gaps.max()) * 1e3 if gaps.size else float("nan"),
+            "share_10ms": float(np.mean(gaps <= 0.010)) if gaps.size else float("nan"),
+            "n_wall_fixes": int(wall_err.size), "wall_median_m": finite_stat(wall_err, np.median),
+            "loc_updates": len(loc), "sonar_s": total}
+
+
+def run(executor: Executor, *, quick: bool = False, scene_name: str = "corridor", seconds: float | None = None,
+        chunk_s: float = 0.5, seed: int = 10, progress: bool = True, backend: str = "model") -> ExperimentResult:
+    from ..scene import load_scene
+
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r} for fig10; known: {', '.join(BACKENDS)}")
+    scene = load_scene(scene_name)
+    total = float(seconds if seconds is not None else (0.5 if quick else scene.duration_s))
+    n_chunks = max(1, int(math.ceil(total / chunk_s - 1e-9)))
+    tasks = [{"scene_name": scene_name, "t_offset_s": k * chunk_s, "duration_s": min(chunk_s, total - k * chunk_s),
+              "seed": seed + k} for k in range(n_chunks)]
+    parts = run_sweep(executor, chunk_task, tasks, label="fig10", progress=progress)
+    sim_wall = sum(p["wall_s"] for p in parts)
+    m = _summarise(parts, total, "model")
+    tw: dict[str, Any] | None = None
+    twin_total = min(total, TWIN_MAX_S)
+    if backend == "twin":
+        if progress:
+            print(f"  fig10: twin: {twin_total:.2f} s of the corridor", file=sys.stderr)
+        tpart = twin_corridor(scene_name, twin_total, seed, progress)
+        tw = _summarise([tpart], tpart["duration_s"], "twin")
+        tw.update(wall_s=tpart["wall_s"], health=tpart["health"])
+    both = [m] + ([tw] if tw else [])
+    fixes = [f for b in both for f in b["fixes"]]
+    loc = [u for b in both for u in b["loc"]]
+    if tw:
+        twin_note = (
+            f"Twin rows (`--backend twin`): the full-system twin (RTL sonar core, VexRiscv firmware, USB device, the "
+            f"driver in-process) on the same scene and sensors for {tw['sonar_s']:.2f} s of sonar time from scene time "
+            f"0 in one run (the model: {n_chunks} chunk(s) of {chunk_s} s"
+            + (f"; the twin is capped at {TWIN_MAX_S} s, the corridor's straight run past the door, as `make demo`"
+               if total > TWIN_MAX_S else "")
+            + "). Map and localisation from the firmware's geometry records (wall: foot point and normal; edge: "
+            "position; robot frame, placed with the pose at t0 + half the pulse's mean first-echo ToF), counts from "
+            "the device's ToF frames. The firmware re-aims on its own ('groups': the shifts each sensor went "
+            "through; each move restarts every sensor with init pings); the model keeps the configured table. "
+            "The firmware reports whole millimetres: on walls parallel to the robot's path a foot point rounds to the "
+            "wall's own coordinate, so such errors show as 0.0 mm. The scene's noise is drawn per pulse, so once the "
+            "two runs fire at different ticks their echoes differ, and a sensor's rate differs as between two noise "
+            "seeds of the model (`make demo` shows the same). "
+            f"Twin wall time {tw['wall_s']:.0f} s ({tw['sonar_s'] / max(tw['wall_s'], 1e-9):.4f} sonar-s per "
+            f"wall-s, boot included); device / harness: "
+            f"{', '.join(tw['health']) or 'nothing dropped, lost or clipped'}.")
+    else:
+        twin_note = "Twin rows: not run (`--backend twin` runs the corridor on the full-system twin)."
+    gap_lines = [f"All known walls together ({b['backend']}): {b['loc_updates']} "
+                 f"localisation updates, longest gap {b['max_gap_ms']:.1f} ms, {b['share_10ms']:.0%} of the gaps "
+                 "<= 10 ms (the paper's locomotion controller period)." for b in both]
     md = "\n".join([
         f"# Fig. 10: map building while localising on known walls (scene `{scene.name}`)", "",
         f"Golden model, {total:.2f} s of sonar time in {n_chunks} chunk(s) of {chunk_s} s "
         f"({sim_wall:.1f} s of model wall time, {total / max(sim_wall, 1e-9):.2f} sonar-s per wall-s per worker).", "",
-        md_table([("sensor", "sensor"), ("tx", "tx"), ("rx", "rx"), ("pulses", "pulses"), ("init", "init pings"),
+        md_table([("backend", "backend"), ("sensor", "sensor"), ("tx", "tx"), ("rx", "rx"), ("groups", "groups"),
+                  ("pulses", "pulses"), ("init", "init pings"),
                   ("rate", "samples/s per receiver"), ("miss", "empty windows"), ("fix_rate", "fixes/s"),
-                  ("fixes", "fixes (wall / edge)")], sensor_rows, {"rate": ".1f", "miss": ".1%", "fix_rate": ".1f"}), "",
+                  ("fixes", "fixes (wall / edge)")], [r for b in both for r in b["sensor_rows"]],
+                 {"rate": ".1f", "miss": ".1%", "fix_rate": ".1f"}), "",
         "Map accuracy: distance from each fix to the nearest true wall / cylinder surface (walls) or edge, wall or "
         "cylinder (edges); pose at the reflection instant.", "",
-        md_table([("kind", "fix kind"), ("n", "count"), ("med", "median error (mm)"), ("p95", "95% (mm)"),
-                  ("max", "max (mm)")], acc_rows, {"med": ".1f", "p95": ".1f", "max": ".1f"}), "",
+        md_table([("backend", "backend"), ("kind", "fix kind"), ("n", "count"), ("med", "median error (mm)"),
+                  ("p95", "95% (mm)"), ("max", "max (mm)")], [r for b in both for r in b["acc_rows"]],
+                 {"med": ".1f", "p95": ".1f", "max": ".1f"}), "",
         "Localisation on known walls: robot position across the wall and heading from each associated wall fix, "
         "against the true pose.", "",
-        md_table([("wall", "known wall"), ("n", "updates"), ("span", "time span (s)"), ("rate", "updates/s"),
-                  ("lat_med", "|position error| median (mm)"), ("lat_p95", "95% (mm)"),
-                  ("hd_med", "|heading error| median (deg)"), ("hd_p95", "95% (deg)")], loc_rows,
+        md_table([("backend", "backend"), ("wall", "known wall"), ("n", "updates"), ("span", "time span (s)"),
+                  ("rate", "updates/s"), ("lat_med", "|position error| median (mm)"), ("lat_p95", "95% (mm)"),
+                  ("hd_med", "|heading error| median (deg)"), ("hd_p95", "95% (deg)")],
+                 [r for b in both for r in b["loc_rows"]],
                  {"rate": ".0f", "lat_med": ".1f", "lat_p95": ".1f", "hd_med": ".2f", "hd_p95": ".2f"}), "",
-        f"All known walls together: {len(loc)} localisation updates, longest gap {max_gap:.1f} ms, "
-        f"{share_10ms:.0%} of the gaps <= 10 ms (the paper's locomotion controller period).", ""])
+        *gap_lines, "", twin_note, ""])
 
     def plot(path: Path) -> None:
         import matplotlib.pyplot as plt
@@ -170,22 +276,28 @@ def run(executor: Executor, *, quick: bool = False, scene_name: str = "corridor"
         ts = np.linspace(0, total, 200)
         x, y, _ = scene.pose(ts)
         ax.plot(x, y, color="tab:blue", lw=1.5, label="robot path", zorder=2)
-        for f in fixes:
-            if f["kind"] == "wall":
-                dx, dy = -math.sin(f["normal_rad"]) * 0.04, math.cos(f["normal_rad"]) * 0.04
-                ax.plot([f["x_m"] - dx, f["x_m"] + dx], [f["y_m"] - dy, f["y_m"] + dy], color="tab:red", lw=1.2, zorder=3)
-        ed = np.array([(f["x_m"], f["y_m"]) for f in fixes if f["kind"] == "edge"])
-        if len(ed):
-            ax.scatter(ed[:, 0], ed[:, 1], s=6, color="k", zorder=4, label="edges")
-        ax.plot([], [], color="tab:red", label="wall patches")
+        colours = {"model": ("tab:red", "k"), "twin": ("tab:purple", "tab:green")}
+        for b in both:
+            wall_c, edge_c = colours[b["backend"]]
+            for f in b["fixes"]:
+                if f["kind"] == "wall":
+                    dx, dy = -math.sin(f["normal_rad"]) * 0.04, math.cos(f["normal_rad"]) * 0.04
+                    ax.plot([f["x_m"] - dx, f["x_m"] + dx], [f["y_m"] - dy, f["y_m"] + dy], color=wall_c, lw=1.2,
+                            zorder=3)
+            ed = np.array([(f["x_m"], f["y_m"]) for f in b["fixes"] if f["kind"] == "edge"])
+            if len(ed):
+                ax.scatter(ed[:, 0], ed[:, 1], s=6, color=edge_c, zorder=4, label=f"edges ({b['backend']})")
+            ax.plot([], [], color=wall_c, label=f"wall patches ({b['backend']})")
         ax.set_aspect("equal")
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
-        ax.set_title(f"map building, scene '{scene.name}' (golden model)")
+        ax.set_title(f"map building, scene '{scene.name}' ({' and '.join(b['backend'] for b in both)})")
         ax.legend(loc="upper left", fontsize=8)
-        for wall in sorted({u["wall"] for u in loc}):
-            us = [u for u in loc if u["wall"] == wall]
-            ax2.plot([u["t_s"] for u in us], [u["lateral_err_m"] * 1e3 for u in us], ".", ms=3, label=wall)
+        for b in both:
+            for wall in sorted({u["wall"] for u in b["loc"]}):
+                us = [u for u in b["loc"] if u["wall"] == wall]
+                ax2.plot([u["t_s"] for u in us], [u["lateral_err_m"] * 1e3 for u in us],
+                         "." if b["backend"] == "model" else "x", ms=3, label=f"{wall} ({b['backend']})")
         ax2.set_xlabel("scene time (s)")
         ax2.set_ylabel("position error across the wall (mm)")
         ax2.set_title("localisation on known walls")
@@ -195,11 +307,19 @@ def run(executor: Executor, *, quick: bool = False, scene_name: str = "corridor"
         fig.savefig(path, dpi=110)
         plt.close(fig)
 
-    columns = ["t_s", "sensor", "kind", "x_m", "y_m", "normal_rad", "error_m"]
-    wall_err = np.array([f["error_m"] for f in fixes if f["kind"] == "wall"])
+    columns = ["backend", "t_s", "sensor", "kind", "x_m", "y_m", "normal_rad", "error_m"]
+    keys = ("n_wall_fixes", "wall_median_m", "loc_updates", "max_gap_ms", "share_10ms", "sonar_s")
+    summary: dict[str, Any] = {"n_wall_fixes": m["n_wall_fixes"], "wall_median_m": m["wall_median_m"],
+                               "loc_updates": m["loc_updates"], "loc_max_gap_ms": m["max_gap_ms"],
+                               "loc_rows": m["loc_rows"], "sensor_rows": m["sensor_rows"], "backend": backend}
+    json_data = None
+    if tw:
+        summary["twin"] = {**{k: tw[k] for k in keys}, "loc_rows": tw["loc_rows"], "sensor_rows": tw["sensor_rows"],
+                           "acc_rows": tw["acc_rows"], "wall_s": tw["wall_s"], "health": tw["health"]}
+        json_data = {"summary": {**{k: v for k, v in summary.items() if k != "twin"}, "acc_rows": m["acc_rows"],
+                                 "share_10ms": m["share_10ms"], "twin": summary["twin"]}}
     return ExperimentResult(
-        "fig10", "map building and localisation", columns, sorted(fixes, key=lambda f: f["t_s"]), md, plot,
-        summary={"n_wall_fixes": int(wall_err.size), "wall_median_m": finite_stat(wall_err, np.median),
-                 "loc_updates": len(loc), "loc_max_gap_ms": max_gap, "loc_rows": loc_rows, "sensor_rows": sensor_rows},
-        extra_csv={"fig10_localisation": (["t_s", "sensor", "wall", "lateral_err_m", "heading_err_rad"],
-                                          sorted(loc, key=lambda u: u["t_s"]))})
+        "fig10", "map building and localisation", columns, sorted(fixes, key=lambda f: (f["backend"], f["t_s"])), md,
+        plot, summary=summary, json_data=json_data,
+        extra_csv={"fig10_localisation": (["backend", "t_s", "sensor", "wall", "lateral_err_m", "heading_err_rad"],
+                                          sorted(loc, key=lambda u: (u["backend"], u["t_s"])))})
