@@ -172,8 +172,11 @@ def export_mcap(recording: str | Path, out: str | Path, *, frame_id: str = "base
     # unwrap the 32-bit device tick of each frame's t0; device time placed on the recording's start
     t0 = np.array([f.t0 for f in rec.frames], dtype=np.int64)
     t0u = t0 + (np.concatenate([[0], np.cumsum(np.diff(t0) < -(1 << 31))]) << 32)
-    ns = start_ns + np.rint((t0u - t0u.min()) * 1e9 / tick_hz).astype(np.int64)
-    ns_per_tick = 1e9 / tick_hz
+    tick_min = int(t0u.min())
+    ns = start_ns + np.rint((t0u - tick_min) * 1e9 / tick_hz).astype(np.int64)
+
+    def to_ns(tick: int) -> int:
+        return start_ns + round((tick - tick_min) * 1e9 / tick_hz)
 
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -193,11 +196,11 @@ def export_mcap(recording: str | Path, out: str | Path, *, frame_id: str = "base
         next_diag = int(ns[0])
         for f, tick, t_ns in zip(rec.frames, t0u, ns):
             heads.frame(f)
-            pub.publish(ring.frame(f, int(tick), int(t_ns), ns_per_tick))
+            pub.publish(ring.frame(f, int(tick), to_ns))
             if t_ns >= next_diag:
                 diagnostics(int(t_ns))
                 next_diag = int(t_ns) + 1_000_000_000
-        pub.publish(ring.flush())
+        pub.publish(ring.flush(to_ns))
         diagnostics(int(ns[-1]))
         variance = range_variance(c, tick_hz, sigma)
         sink.metadata(METADATA_NAME, {

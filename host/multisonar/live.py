@@ -96,6 +96,9 @@ class LiveSession:
         self._open = open_device
         self._log = log or (lambda s: print(f"multisonar live: {s}", file=sys.stderr, flush=True))
         self.dev: Any = None
+        self._clock: Any = None  #: the device's clock.DeviceClock (kept after a loss for what is held)
+        self._last_mapped: tuple[int, int] | None = None  #: (tick, host ns) of the latest release
+        self.slewed = 0  #: stamps held back from a mapping that moved back (_to_ns)
         self.state = "connecting"  #: connecting | streaming | lost | stopped
         self.last_error = ""
         self.reconnects = 0  #: successful opens after the first
@@ -174,7 +177,8 @@ class LiveSession:
         self.dev = dev
         self._idle_timeout_s = max(5.0, float(getattr(dev, "timeout_s", 0.0)))
         self._quiet_s = max(self.QUIET_S, float(getattr(dev, "timeout_s", 0.0)) / 20)
-        self.publisher.publish(self.ring.reset())  # a new session: its ticks start afresh
+        self.publisher.publish(self.ring.reset(self._to_ns))  # a new session: its ticks start afresh
+        self._clock, self._last_mapped = dev.clock, None
         self._counters = counters
         self._last_frame = time.monotonic()
         self._set_state("streaming", "")
@@ -184,8 +188,7 @@ class LiveSession:
         dev = self.dev
         try:
             for f in dev.stream(duration_s=0.2, idle_timeout_s=self._idle_timeout_s):
-                t0_ns = f.stamp_ns if f.stamp_ns is not None else time.time_ns()
-                self.publisher.publish(self.ring.frame(f, f.t0_ticks, t0_ns, dev.clock.rate_ns))
+                self.publisher.publish(self.ring.frame(f, f.t0_ticks, self._to_ns))
                 self.frames += 1
                 self._period_frames += 1
                 self._last_frame = time.monotonic()
@@ -193,6 +196,24 @@ class LiveSession:
                     break
         except Exception as e:  # noqa: BLE001 - a lost device must not end the session
             self._lost(e)
+
+    def _to_ns(self, tick: int) -> int:
+        """Host time of a device tick for messages released in acquisition order: the driver's
+        current mapping (multisonar.clock), slewed rather than stepped back: when a clock sync
+        moved the mapping back, stamps advance at half the tick rate until it catches up (as
+        adjtime does), so they never go back."""
+        clock = self._clock
+        ns = clock.to_host_ns(tick) if clock is not None else None
+        ns = time.time_ns() if ns is None else int(ns)
+        last = self._last_mapped
+        if last is not None and tick >= last[0]:
+            floor = last[1] + int((tick - last[0]) * clock.rate_ns / 2) + (tick > last[0])
+            if ns < floor:
+                ns = floor
+                self.slewed += 1
+        if last is None or tick >= last[0]:
+            self._last_mapped = (int(tick), ns)
+        return ns
 
     def _read_counters(self) -> None:
         try:
@@ -209,7 +230,7 @@ class LiveSession:
 
     def _close(self, *, stopping: bool) -> None:
         dev, self.dev = self.dev, None
-        self.publisher.publish(self.ring.flush())
+        self.publisher.publish(self.ring.flush(self._to_ns))
         self._counters = None
         if dev is None:
             return
@@ -234,6 +255,7 @@ class LiveSession:
         if self.dev is not None and getattr(self.dev, "clock", None) is not None:
             unc = self.dev.clock.uncertainty_ns()
             values["clock_uncertainty_us"] = "unknown" if unc is None else f"{unc / 1000:.1f}"
+        values["stamps_slewed"] = self.slewed
         self._period_frames = 0
         self._published_at = time.monotonic()
         self._published_state = self.state

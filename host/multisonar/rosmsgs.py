@@ -27,15 +27,20 @@ Channels (:func:`channels`):
     link state, device / link / firmware counters and ranging rates (:meth:`RingMessages.diagnostics`).
 
 Stamps are acquisition times: a Range message t0 + ToF (an empty window: its end), a cloud
-t0 + the frame's latest accepted first echo, a scan its earliest reading; every channel's
-stamps are made strictly increasing (a later clock sync can move the mapping back by a few
-microseconds: such a stamp is set 1 ns after the channel's previous one and counted).
+t0 + the frame's latest accepted first echo, a scan its earliest reading. Frames of different
+sensors arrive in the order their windows close, not in acquisition order, so Range messages
+and clouds are held until no earlier acquisition can still come (a frame whose t0 is MAX_TOF +
+10 ms later arrived) and released in acquisition order. Every channel's stamps are then made
+strictly increasing: a stamp not later than the channel's previous one (the tick -> host
+mapping moved back at a clock sync) is set 1 ns after it and counted (``clamped``).
 """
 
 from __future__ import annotations
 
+import heapq
+import itertools
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple, Protocol
 
@@ -79,11 +84,13 @@ POINT_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("normal", "<f
 #: diagnostic_msgs/msg/DiagnosticStatus levels
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
 #: counters whose increase the diagnostics report (Device.counters() names), and the level it
-#: raises: device (READ_COUNTERS), host link (host_*), firmware (fw_*, FW_STATS)
+#: raises: device (READ_COUNTERS), host link (host_*), firmware (fw_*, FW_STATS). Not fw_frames_cut:
+#: a frame closed before all its windows reported is the normal outcome of a re-initialisation
+#: or a re-aim (docs/protocol.md, frame flags bit 4)
 WATCHED_COUNTERS: dict[str, int] = {
     "fifo_overflows": WARN, "frames_dropped": WARN, "watchdog": ERROR, "bad_commands": WARN, "tx_collisions": WARN,
     "host_lost": WARN, "host_bad_crc": WARN, "host_bad_header": WARN, "host_bad_frames": WARN,
-    "host_queue_dropped": WARN, "fw_frames_lost": WARN, "fw_frames_cut": WARN, "fw_geo_skipped": WARN,
+    "host_queue_dropped": WARN, "fw_frames_lost": WARN, "fw_geo_skipped": WARN,
 }
 
 
@@ -457,6 +464,10 @@ class RingMessages:
                                                       "gated_skipped", "scans", "clouds", "points", "tf",
                                                       "diagnostics")}
         self._prev_counters: dict[str, int] | None = None
+        #: Range readings and clouds waiting until no earlier acquisition can come: (tick, order,
+        #: ("range", rx, RangeReading) | ("cloud", builder))
+        self._pending: list[tuple[int, int, tuple[Any, ...]]] = []
+        self._order = itertools.count()
 
     # -- helpers ------------------------------------------------------------------------------
     def limits(self, vs: int) -> RangeLimits:
@@ -487,6 +498,25 @@ class RingMessages:
         ns = self._stamp(topic, ns)
         return Message(topic, typename, build(ns), ns)
 
+    def _hold(self, tick: int, item: tuple[Any, ...]) -> None:
+        heapq.heappush(self._pending, (int(tick), next(self._order), item))
+
+    def _release(self, before_tick: int | None, to_ns: Callable[[int], int]) -> list[Message]:
+        """The held Range messages and clouds acquired before ``before_tick`` (None: all), in
+        acquisition order, stamped ``to_ns(tick)``; their readings go into the scan windows."""
+        out = []
+        while self._pending and (before_tick is None or self._pending[0][0] < before_tick):
+            tick, _, item = heapq.heappop(self._pending)
+            ns = int(to_ns(tick))
+            if item[0] == "cloud":
+                out.append(self._msg(POINTS_TOPIC, CLOUD_TYPE, item[1], ns))
+                continue
+            _, rx, reading = item
+            out.append(self._msg(RANGE_TOPIC.format(rx), RANGE_TYPE, self._range(rx, reading), ns))
+            if 0 <= rx < self.ring.n:
+                self.scan.add(tick, rx, reading, ns)
+        return out
+
     # -- messages -----------------------------------------------------------------------------
     def static_tf(self, stamp_ns: int) -> Message:
         """The robot frame -> every element (position, yaw = axis) and -> the ring's centre."""
@@ -508,13 +538,11 @@ class RingMessages:
         self.counts["tf"] += self.layout.n + 1
         return self._msg(TF_TOPIC, TF_TYPE, build, stamp_ns)
 
-    def frame(self, f: P.Frame, t0_tick: int, t0_ns: int, ns_per_tick: float) -> list[Message]:
-        """Messages of one frame: a Range per first echo / empty open window, the cloud of its
-        geometry records, and the scans its arrival closes. ``t0_tick``: the frame's t0 as a
-        64-bit device tick; ``t0_ns``: its host time; ``ns_per_tick``: host ns per device tick."""
-        T = self.types.types
-        Range = T[RANGE_TYPE]
-        out: list[Message] = []
+    def frame(self, f: P.Frame, t0_tick: int, to_ns: Callable[[int], int]) -> list[Message]:
+        """Messages whose time has come with this frame: Range messages (per first echo / empty
+        open window) and clouds (of geometry records) acquired before its t0 - ``scan.lag``, of
+        this frame and earlier ones, and the scans its arrival closes. ``t0_tick``: the frame's
+        t0 as a 64-bit device tick; ``to_ns``: 64-bit device tick -> host ns (the time base)."""
         lim = self.limits(int(f.vs))
         latest_echo = 0
         for r in f.tof:
@@ -527,39 +555,41 @@ class RingMessages:
                 continue
             if kind == "echo":
                 latest_echo = max(latest_echo, tof)
-            acq_ns = int(t0_ns) + int(round(tof * ns_per_tick))
-
-            def build(ns: int, rx: int = rx, reading: RangeReading = reading) -> Any:
-                fields = dict(header=self.types.header(ns, ELEMENT_FRAME.format(rx)), radiation_type=Range.ULTRASOUND,
-                              field_of_view=self.fov, min_range=reading.min_range, max_range=reading.max_range,
-                              range=reading.range)
-                if self.types.has_variance:
-                    fields["variance"] = reading.variance
-                return Range(**fields)
-
-            out.append(self._msg(RANGE_TOPIC.format(rx), RANGE_TYPE, build, acq_ns))
+            self._hold(int(t0_tick) + tof, ("range", rx, reading))
             self.counts["range"] += 1
             self.counts[f"range_{kind}"] += 1
-            if 0 <= rx < self.ring.n:
-                self.scan.add(int(t0_tick) + tof, rx, reading, acq_ns)
         if len(f.geo):
-            out.append(self._cloud(f, int(t0_ns) + int(round(latest_echo * ns_per_tick))))
-        out += self._scans(self.scan.close(int(t0_tick)))
-        return out
+            self._hold(int(t0_tick) + latest_echo, ("cloud", self._cloud(f)))
+        return self._release(int(t0_tick) - self.scan.lag, to_ns) + self._scans(self.scan.close(int(t0_tick)))
 
-    def flush(self) -> list[Message]:
-        """The scans still open (end of a recording, a lost device)."""
-        return self._scans(self.scan.close(None))
+    def flush(self, to_ns: Callable[[int], int]) -> list[Message]:
+        """The held messages and the scans still open (end of a recording, a lost device)."""
+        return self._release(None, to_ns) + self._scans(self.scan.close(None))
 
-    def reset(self) -> list[Message]:
-        """A new device session (ticks restart): flush the open scans, forget the counters'
-        previous values. Channel stamps stay increasing."""
-        out = self.flush()
+    def reset(self, to_ns: Callable[[int], int]) -> list[Message]:
+        """A new device session (ticks restart): flush what the old one left (``to_ns``: its time
+        base), forget the counters' previous values. Channel stamps stay increasing."""
+        out = self.flush(to_ns)
         self.scan.reset()
         self._prev_counters = None
         return out
 
-    def _cloud(self, f: P.Frame, stamp_ns: int) -> Message:
+    def _range(self, rx: int, reading: RangeReading) -> Any:
+        """The builder of a Range message (header stamp -> Range)."""
+        Range = self.types.types[RANGE_TYPE]
+
+        def build(ns: int) -> Any:
+            fields = dict(header=self.types.header(ns, ELEMENT_FRAME.format(rx)), radiation_type=Range.ULTRASOUND,
+                          field_of_view=self.fov, min_range=reading.min_range, max_range=reading.max_range,
+                          range=reading.range)
+            if self.types.has_variance:
+                fields["variance"] = reading.variance
+            return Range(**fields)
+
+        return build
+
+    def _cloud(self, f: P.Frame) -> Any:
+        """The builder of a frame's cloud (header stamp -> PointCloud2)."""
         T = self.types.types
         pts = np.zeros(len(f.geo), POINT_DTYPE)
         pts["x"] = f.geo["x_mm"] / 1000.0
@@ -581,7 +611,7 @@ class RingMessages:
 
         self.counts["clouds"] += 1
         self.counts["points"] += len(pts)
-        return self._msg(POINTS_TOPIC, CLOUD_TYPE, build, stamp_ns)
+        return build
 
     def _scans(self, closed: list[tuple[int, np.ndarray, int]]) -> list[Message]:
         Scan = self.types.types[SCAN_TYPE]
