@@ -419,3 +419,32 @@ def test_record_mcap_is_the_export_of_the_recording(tmp_path):
     receivers = [int(t.rsplit("rx", 1)[1]) for t in got if t.startswith("/multisonar/range/")]
     assert len(receivers) >= 10
     assert got == dict(channels(receivers))
+
+
+def test_cloud_of_a_geometry_frame_is_stamped_at_its_pulses_echoes(tmp_path):
+    """The board sends a pulse's geometry records in a frame of their own after its ToF frame
+    (flag FRAME_GEO, no ToF records, the pulse's t0): the cloud is stamped at t0 + that pulse's
+    latest accepted first echo, as a cloud from a frame holding both."""
+    from multisonar.export import export_mcap
+
+    t0, step = 1000, int(0.01 * TICK)
+    frames = []
+    for k in range(6):
+        frames.append(_frame(2 * k, t0 + k * step, 0, [(5, 300_000 + k, FIN), (6, 290_000, FIN), (7, 310_000, EMP)]))
+        frames.append(_frame(2 * k + 1, t0 + k * step, 0, [], [(1200, 50, 0.1, P.GEO_CLASSES.index("wall"))],
+                             flags=P.FRAME_GEO))
+    assert frames[1].is_geometry
+    path = tmp_path / "geo.msrec"
+    meta = {"format": 2, "protocol_version": P.PROTOCOL_VERSION, "url": "test://", "started_unix": START,
+            "device_info": {"tick_hz": TICK}, "sensors": [{"id": 0, "name": "left", "tx": [6], "rx": [5, 6, 7],
+                                                          "order": 1, "max_tof": MAX_TOF}]}
+    with RecordingWriter(path, meta) as w:
+        for f in frames:
+            w.write(f)
+    out = tmp_path / "geo.mcap"
+    export_mcap(path, out)
+    clouds = [d for _, _, d in _read(out)["/multisonar/reflectors"]]
+    assert len(clouds) == 6
+    for k, d in enumerate(clouds):  # rx 5's echo is the latest accepted one (rx 7's window was empty)
+        want = START + (k * step + 300_000 + k) / TICK
+        assert d.header.stamp.sec + d.header.stamp.nanosec * 1e-9 == pytest.approx(want, abs=2e-6)

@@ -27,7 +27,7 @@ Channels (:func:`channels`):
     link state, device / link / firmware counters and ranging rates (:meth:`RingMessages.diagnostics`).
 
 Stamps are acquisition times: a Range message t0 + ToF (an empty window: its end), a cloud
-t0 + the frame's latest accepted first echo, a scan its earliest reading. Frames of different
+t0 + its pulse's latest accepted first echo, a scan its earliest reading. Frames of different
 sensors arrive in the order their windows close, not in acquisition order, so Range messages
 and clouds are held until no earlier acquisition can still come (a frame whose t0 is MAX_TOF +
 10 ms later arrived) and released in acquisition order. Every channel's stamps are then made
@@ -468,6 +468,9 @@ class RingMessages:
         #: ("range", rx, RangeReading) | ("cloud", builder))
         self._pending: list[tuple[int, int, tuple[Any, ...]]] = []
         self._order = itertools.count()
+        #: (vs, t0 tick) -> the latest accepted first echo of that pulse's ToF frame (ticks), for the
+        #: stamp of its geometry frame
+        self._latest_echo: dict[tuple[int, int], int] = {}
 
     # -- helpers ------------------------------------------------------------------------------
     def limits(self, vs: int) -> RangeLimits:
@@ -558,6 +561,13 @@ class RingMessages:
             self._hold(int(t0_tick) + tof, ("range", rx, reading))
             self.counts["range"] += 1
             self.counts[f"range_{kind}"] += 1
+        key = (int(f.vs), int(t0_tick))
+        if len(f.tof):
+            self._latest_echo[key] = latest_echo
+            while len(self._latest_echo) > 256:  # a geometry frame follows its ToF frame closely
+                self._latest_echo.pop(next(iter(self._latest_echo)))
+        elif len(f.geo):  # a geometry frame (the board's): its pulse's ToF frame came before
+            latest_echo = self._latest_echo.get(key, 0)
         if len(f.geo):
             self._hold(int(t0_tick) + latest_echo, ("cloud", self._cloud(f)))
         return self._release(int(t0_tick) - self.scan.lag, to_ns) + self._scans(self.scan.close(int(t0_tick)))
@@ -571,6 +581,7 @@ class RingMessages:
         base), forget the counters' previous values. Channel stamps stay increasing."""
         out = self.flush(to_ns)
         self.scan.reset()
+        self._latest_echo.clear()
         self._prev_counters = None
         return out
 
