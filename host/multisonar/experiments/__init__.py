@@ -15,9 +15,11 @@ safety     occluder safety: randomised person crossings (``--trials N --seed S``
 =========  ==============================================================================
 
 Each writes ``NAME.md`` (tables), ``NAME.csv`` (one row per measured point) and ``NAME.png``
-(``fig3``, ``ring`` and ``safety`` also ``NAME.json``, machine-readable figures) into the output folder (default
-``build/experiments/NAME``). Sweeps run on a ``concurrent.futures`` executor (:mod:`.executor`): local processes, or a Dask cluster.
-The backend today is the golden model; the RTL twin joins per experiment as it lands.
+(``fig3``, ``ring``, ``safety``, ``simspeed`` and the twin backend's runs also ``NAME.json``, machine-readable
+figures) into the output folder (default ``build/experiments/NAME``). Sweeps run on a ``concurrent.futures``
+executor (:mod:`.executor`): local processes, or a Dask cluster. The backend is the golden model; ``fig3 --twin``,
+``--backend twin`` (fig9, fig10, person: :mod:`.twin_backend`) and ``--rtl`` (fig3, ring, simspeed) add the
+device's RTL next to it.
 """
 
 from __future__ import annotations
