@@ -56,6 +56,34 @@ def test_gate_needs_a_measured_velocity():
     assert st.vel and st.v != 0
 
 
+def test_the_sample_that_would_measure_velocity_is_gated_at_vmax_per_pulse():
+    """No velocity yet, not right after the init ping: an echo further than v_max per pulse of the
+    gap from the last sample is gated (it would set a clamped, wrong velocity and drag the track
+    off: the twin's demo lost a side wall that way to one early spurious echo); within v_max it is
+    the sample that measures v. Right after the init ping's sample there is no bound (its period
+    differs). The rule follows the gate: off with it."""
+    sched = Schedule(LAYOUT, [VirtualSensor("s", tx=[10], rx=[9, 10, 11], order=2, vmax=2000)])
+
+    def hit(tof, *, seq, init=False, gate=DEFAULT_MISS_GATE):
+        m = FastFiringModel(sched, SyntheticEchoSource({}), miss_gate=gate)
+        s = m.sensors[0]
+        st = _RxState(tracked=True, tof=200_000, seq=10, v=0, miss=0, init=init, vel=False)
+        s.rx[10] = st
+        w = _Window(0, 1 << 30, 0, 0, seq, 10, 0, False, s.epoch)
+        m.windows[10].append(w)
+        m._rise(10, tof)
+        return w.rejected, st, m.events[-1]
+
+    rejected, st, ev = hit(200_000 - 2001, seq=11)          # 2001 ticks in one pulse: > v_max
+    assert rejected and ev.gated and (st.seq, st.vel) == (10, False)
+    rejected, st, ev = hit(200_000 - 2000, seq=11)          # at v_max: the sample, v measured
+    assert not rejected and not ev.gated and (st.seq, st.v, st.vel) == (11, -2000, True)
+    assert not hit(200_000 + 5000, seq=13)[0]               # gap 3: bound 6000
+    assert hit(200_000 + 6001, seq=13)[0]
+    assert not hit(200_000 - 30_000, seq=11, init=True)[0]  # after the init ping's sample: no bound
+    assert not hit(200_000 - 30_000, seq=11, gate=0)[0]     # gate off
+
+
 def test_sample_after_a_skipped_pulse_keeps_velocity_gate_and_miss_count():
     """An echo that passes the gate after a missed window (pulse gap > 1) moves the track but
     keeps its velocity, its gate and its miss count; only a gated sample of the next pulse

@@ -441,7 +441,9 @@ class FastFiringModel:
         #: resets the miss count (the window counts as empty), so another pulse's echo cannot
         #: keep a lost track alive. It applies once the track's velocity is measured
         #: (``_RxState.vel``: the last sample followed one of the previous pulse; before that the
-        #: prediction assumes v = 0 and a moving reflector would fail the gate).
+        #: prediction assumes v = 0 and a moving reflector would fail the gate); the sample that
+        #: would measure the velocity is gated at v_max per pulse instead (an echo implying a
+        #: faster change is no sample of this track: it would set a clamped, wrong velocity).
         #: 0 or None = off (the rule before the register existed). Default: the register's reset
         #: value. Forced re-initialisation: each sensor's ``reinit_every`` M (VirtualSensor field,
         #: RTL MODE.reinit_every, 0 = off): a tracking sensor that has sent M tracking pulses since
@@ -544,8 +546,12 @@ class FastFiringModel:
         s = self.sensors[w.sensor]
         st = s.rx.get(rx)
         if (first and w.epoch == s.epoch and self.miss_gate is not None and not w.init and st is not None
-                and st.tracked and st.vel and abs(n - w.t0 - self._predict(s, st, w.seq)) > self.miss_gate):
-            w.rejected = True  # reported flagged 'gated'; counts as a miss at close
+                and st.tracked and (st.vel or not st.init)):
+            # with a measured velocity: G around the prediction; without (the sample that would
+            # measure it): v_max per pulse of the gap (k - j mod 2^8), the clamp v would hit
+            bound = self.miss_gate if st.vel else s.cfg.vmax * ((w.seq - st.seq) & SEQ_MASK)
+            if abs(n - w.t0 - self._predict(s, st, w.seq)) > bound:
+                w.rejected = True  # reported flagged 'gated'; counts as a miss at close
         self._emit(ToFEvent(self.now, w.sensor, w.seq & SEQ_MASK, rx, n - w.t0, True, first, False, w.init,
                             first and w.rejected))
         if first and w.epoch == s.epoch:

@@ -448,16 +448,20 @@ async def window_boundaries_order2(dut):
 # --------------------------------------------------------------------------------------
 
 class GateEdgeSource:
-    """Directed echoes relative to the prediction the gate compares with (order 1, vmax = 0:
+    """Directed echoes relative to the prediction the gate compares with (order 1, v_max = 0:
     the prediction is the last accepted sample, clamped, and the gate is exactly G; the source
     keeps its own copy of the tracking state): per tracking pulse and receiver one of +-gate
     (inside: accepted, the track moves), +-(gate + 1) (outside: reported, counts as a miss, the
-    track stays), exactly at the prediction, or no echo. The gate applies only once the track's
+    track stays), exactly at the prediction, or no echo. The gate G applies once the track's
     velocity is measured (a sample followed one of the previous pulse; a later sample after a
-    skipped pulse keeps it), so the outside cases hit both states. Init pings: a static
+    skipped pulse keeps it); before that, the sample that would measure it is bounded by v_max
+    per pulse of the gap (0 here: any offset is gated) unless the last sample was the init
+    ping's (no bound); the offsets meet all three states. Init pings: a static
     reflector per receiver (reset the copy)."""
 
-    CASES = ("in+", "out-", "in-", "out+", "mid", "none")
+    # the order makes every offset meet each state of the rule (a mid right after a sample
+    # measures the velocity, v_max being 0)
+    CASES = ("out-", "mid", "out+", "none", "in-", "in+")
 
     def __init__(self, model_ref, init_tof: dict[int, int], gate: int, width: int = 600):
         self.model_ref, self.init_tof, self.gate, self.width = model_ref, init_tof, gate, width
@@ -468,6 +472,7 @@ class GateEdgeSource:
         self.k = 0
         self.rows: dict[int, list[tuple[int, int, int]]] = {}
         self.cases: list[str] = []
+        self.seen: set[tuple[str, str]] = set()  # (case, the track's state: vel | measuring | after_init)
 
     def fire(self, t0, elements, delays):
         m = self.model_ref[0]
@@ -488,11 +493,12 @@ class GateEdgeSource:
             at = t0 + self.pred[w.rx] + off
             assert w.start <= at < w.end, "directed echo outside its window"
             out.append((w.rx, at, self.width))
-            if self.vel[w.rx] and abs(off) > g:
+            j, init = self.last[w.rx]
+            self.seen.add((case, "vel" if self.vel[w.rx] else "after_init" if init else "measuring"))
+            if abs(off) > (g if self.vel[w.rx] else 0 if not init else 1 << 30):  # v_max = 0
                 self.gated.append((t0, w.rx))
             else:  # a sample: the track moves; v (0) is measured if the last sample was of the
                 # previous pulse, and once measured it is kept until the next init ping
-                j, init = self.last[w.rx]
                 self.pred[w.rx] += off
                 self.vel[w.rx] = self.vel[w.rx] or (j == self.k - 1 and not init)
                 self.last[w.rx] = (self.k, False)
@@ -505,7 +511,8 @@ class GateEdgeSource:
 async def miss_gate_boundaries(dut):
     """Directed: once the track's velocity is measured, a tracking window's first echo exactly
     +-gate from the prediction updates the track, +-(gate + 1) is reported but counts as a miss
-    and leaves the track; before, both update it (order 1, vmax 0, K = 15). RTL against the
+    and leaves the track; right after the init ping's sample both update it, in between only
+    an echo within v_max (0) per pulse does (order 1, vmax 0, K = 15). RTL against the
     model, the model's gated windows against the source's own bookkeeping, and the model
     without the gate schedules differently."""
     gate = 2400
@@ -533,10 +540,12 @@ async def miss_gate_boundaries(dut):
     compare("miss gate boundaries", b, res, words, trig, e0 + dur)
     cases = src.cases
     assert {"in+", "in-", "out+", "out-"} <= set(cases)
-    n_out = cases.count("out+") + cases.count("out-")
     n_gated = len(src.gated)
     assert n_gated - 3 <= model.gated <= n_gated and model.gated > 4, (model.gated, n_gated)  # the last may be open
-    assert n_out > n_gated, "the outside cases must also meet tracks whose velocity is not measured"
+    offsets = ("in+", "out+", "in-", "out-")
+    for state in ("vel", "measuring"):  # each offset meets the gate G and the v_max bound
+        assert {(case, state) for case in offsets} <= src.seen, (state, sorted(src.seen))
+    assert len({(case, "after_init") for case in offsets} & src.seen) >= 2, sorted(src.seen)
     assert sum(p.init for p in res.pulses) == 1, "K = 15: the misses must not re-initialise"
     # the same echoes without the gate: the outside echoes move the track, the pulses differ
     ungated = CountingModel(sched, WithNoise(SyntheticEchoSource({}), [r for rs in src.rows.values() for r in rs]),

@@ -69,7 +69,9 @@ def hit_kernel(p: Program) -> Program:
     window of the current epoch, updates the tracking state (an init ping's first echo starts
     the track; a tracking window's first echo is a sample if the pulse gap is 1..127, with
     velocity when the gap is 1 after a tracking sample; after a gap a track with velocity keeps
-    it, its gate and its miss count) unless the gated miss rule rejects it
+    it, its gate and its miss count) unless the gated miss rule rejects it: |tof - prediction| >
+    G with a measured velocity, > v_max * gap (unsigned 8-bit gap) for the sample that would
+    measure it (not after the init ping's sample); r8 is free after the test
     (r12 = 1: then the window counts as a miss and the event word has its gated bit). The word
     is written last, when the gate has decided. A later echo does nothing. Model:
     FastFiringModel._rise and _sample (max_echoes_per_window = 1)."""
@@ -87,8 +89,10 @@ def hit_kernel(p: Program) -> Program:
     p.andi(27, 27, 0xFF).sub(18, 18, R_SIGN24)           # gap (8 bits); v
     p.and_(20, 23, R_MASK24)                             # the state's tof
     p.tst(8).b("eq", "hit_sample")                       # gate off
-    p.andi(0, 25, 4).b("eq", "hit_sample")               # velocity not measured: no gate
-    p.xori(21, 27, 0x80)
+    p.andi(0, 25, 4).b("ne", "hit_pred")                 # velocity measured: the gate G
+    p.andi(0, 25, 2).b("ne", "hit_sample")               # after the init ping's sample: no bound
+    p.mul(8, 27, 9)                                      # no velocity yet: v_max per pulse of the gap
+    p.label("hit_pred").xori(21, 27, 0x80)
     p.addi(21, 21, -128)                                 # the gap, signed
     p.mul(22, 21, 18)
     p.add(22, 22, 20)                                    # prediction, then its clamp
