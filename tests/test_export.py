@@ -67,6 +67,17 @@ def _expected(rx, k):
     return {5: 300_000 + k, 6: 290_000 + k, 7: 310_000 + k}[rx], "echo"
 
 
+def _write_recording(path, frames, *, url="test://", fmt=2):
+    """A recording of ``frames`` from sensor 0 ("left": tx 6, rx 5, 6, 7) started at START."""
+    meta = {"format": fmt, "protocol_version": P.PROTOCOL_VERSION, "url": url, "started_unix": START,
+            "device_info": {"tick_hz": TICK}, "sensors": [{"id": 0, "name": "left", "tx": [6], "rx": [5, 6, 7],
+                                                          "order": 1, "max_tof": MAX_TOF}]}
+    with RecordingWriter(path, meta) as w:
+        for f in frames:
+            w.write(f)
+    return path
+
+
 @pytest.fixture()
 def recording(tmp_path):
     flags_of = {"echo": FIN, "no_return": EMP, "miss": EMP, "gated": GATED}
@@ -82,14 +93,7 @@ def recording(tmp_path):
             tofs.append((6, 400_000, P.TOF_IN_WINDOW))  # a second echo: not a range reading
         geo = [(1200 + k, 50, 0.1, P.GEO_CLASSES.index("wall"))] if k % 2 == 0 else []
         frames.append(_frame(k, t0 + k * PERIOD, 0, tofs, geo, flags=P.FRAME_INIT_PING if k == 0 else 0))
-    path = tmp_path / "run.msrec"
-    meta = {"format": 1, "protocol_version": P.PROTOCOL_VERSION, "url": "test://", "started_unix": START,
-            "device_info": {"tick_hz": TICK}, "sensors": [{"id": 0, "name": "left", "tx": [6], "rx": [5, 6, 7],
-                                                          "order": 1, "max_tof": MAX_TOF}]}
-    with RecordingWriter(path, meta) as w:
-        for f in frames:
-            w.write(f)
-    return path, frames
+    return _write_recording(tmp_path / "run.msrec", frames, fmt=1), frames
 
 
 def _read(path):
@@ -381,13 +385,7 @@ def test_export_diagnostics_from_the_frame_headers(tmp_path):
         seq = k if k < 6 else k + 1  # frame 6 lost on the way
         frames.append(_frame(seq, 1000 + k * step, 0, [(6, 300_000, FIN)], dropped=0,
                              fifo_overflows=2 if k >= 5 else 0, watchdog=1 if k >= 7 else 0))
-    path = tmp_path / "diag.msrec"
-    meta = {"format": 2, "protocol_version": P.PROTOCOL_VERSION, "url": "sim://corridor", "started_unix": START,
-            "device_info": {"tick_hz": TICK}, "sensors": [{"id": 0, "name": "left", "tx": [6], "rx": [5, 6, 7],
-                                                          "order": 1, "max_tof": MAX_TOF}]}
-    with RecordingWriter(path, meta) as w:
-        for f in frames:
-            w.write(f)
+    path = _write_recording(tmp_path / "diag.msrec", frames, url="sim://corridor")
     out = tmp_path / "diag.mcap"
     counts = export_mcap(path, out)
     diags = [d for _, _, d in _read(out)["/diagnostics"]]
@@ -434,13 +432,7 @@ def test_cloud_of_a_geometry_frame_is_stamped_at_its_pulses_echoes(tmp_path):
         frames.append(_frame(2 * k + 1, t0 + k * step, 0, [], [(1200, 50, 0.1, P.GEO_CLASSES.index("wall"))],
                              flags=P.FRAME_GEO))
     assert frames[1].is_geometry
-    path = tmp_path / "geo.msrec"
-    meta = {"format": 2, "protocol_version": P.PROTOCOL_VERSION, "url": "test://", "started_unix": START,
-            "device_info": {"tick_hz": TICK}, "sensors": [{"id": 0, "name": "left", "tx": [6], "rx": [5, 6, 7],
-                                                          "order": 1, "max_tof": MAX_TOF}]}
-    with RecordingWriter(path, meta) as w:
-        for f in frames:
-            w.write(f)
+    path = _write_recording(tmp_path / "geo.msrec", frames)
     out = tmp_path / "geo.mcap"
     export_mcap(path, out)
     clouds = [d for _, _, d in _read(out)["/multisonar/reflectors"]]
