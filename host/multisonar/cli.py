@@ -117,12 +117,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=None, metavar="S", help="safety: first seed (trials S..S+N-1) [0]")
     p.set_defaults(func=_cmd_experiment)
 
+    from .rosmsgs import DEFAULT_ROS_DISTRO, ROS_DISTROS
+
     p = sub.add_parser("export", help="export a recording (.msrec) for robotics tools (ROS 2 MCAP)")
     p.add_argument("recording", metavar="REC", help="recording written by 'multisonar record'")
     p.add_argument("--mcap", required=True, metavar="OUT.mcap", help="ROS 2 bag in MCAP format to write")
     p.add_argument("--frame-id", default="base_link", help="robot frame of the messages [%(default)s]")
     p.add_argument("--temperature", type=float, default=20.0, help="air temperature for ToF -> range, degC [%(default)s]")
-    p.add_argument("--ros-distro", choices=("humble", "iron", "jazzy"), default="jazzy",
+    p.add_argument("--ros-distro", choices=tuple(ROS_DISTROS), default=DEFAULT_ROS_DISTRO,
                    help="ROS 2 distribution whose message layout to write (Range has 'variance' from iron on) "
                         "[%(default)s]")
     p.set_defaults(func=_cmd_export)

@@ -469,10 +469,14 @@ class Device:
         return n
 
     def _sensor_meta(self) -> list[dict[str, Any]]:
-        if self.schedule is None:
-            return []
-        return [{"id": r.id, "name": r.name, "tx": [int(e) for e in r.tx], "rx": [int(e) for e in r.rx],
-                 "order": r.order, "max_tof": r.max_tof} for r in self.schedule.resolved]
+        return [] if self.schedule is None else sensor_meta(self.schedule.resolved)
+
+
+def sensor_meta(resolved: Any) -> list[dict[str, Any]]:
+    """The recording's (and the live view's) entry per resolved virtual sensor: what the ROS
+    messages need of it (docs/host_driver.md, "Recording format"; rosmsgs.sensor_limits)."""
+    return [{"id": r.id, "name": r.name, "tx": [int(e) for e in r.tx], "rx": [int(e) for e in r.rx],
+             "order": r.order, "max_tof": int(r.max_tof), "blank": int(r.blank)} for r in resolved]
 
 
 def _safe_serial(d: Any) -> str | None:

@@ -58,13 +58,11 @@ def device_errors(fn: Callable[[argparse.Namespace], int]) -> Callable[[argparse
 
 
 def load_sensors(spec: str) -> list[Any]:
+    from .demo import SENSOR_SETS, demo_sensors
     from .schedule import VirtualSensor
 
-    if spec in ("demo", "ring8"):
-        from .demo import SENSOR_SETS
-
-        table, order = SENSOR_SETS[spec]
-        return [VirtualSensor(name, tx=tx, rx=rx, order=order) for name, tx, rx in table]
+    if spec in SENSOR_SETS:
+        return demo_sensors(spec)
     import yaml
 
     path = Path(spec)
@@ -304,6 +302,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 def register(sub: Any) -> None:
     """Add the device subcommands to the top-level parser's subparsers."""
+    from .rosmsgs import DEFAULT_ROS_DISTRO, ROS_DISTROS
+
     p = sub.add_parser("info", help="device identity, versions, tick rate and counters")
     add_url(p)
     p.set_defaults(func=cmd_info)
@@ -330,7 +330,7 @@ def register(sub: Any) -> None:
             p.add_argument("--out", default="build/recording.msrec", help="recording file [%(default)s]")
             p.add_argument("--mcap", default=None, metavar="OUT.mcap",
                            help="also write the recording as a ROS 2 bag in MCAP (as 'multisonar export' does)")
-            p.add_argument("--ros-distro", choices=("humble", "iron", "jazzy"), default="jazzy",
+            p.add_argument("--ros-distro", choices=tuple(ROS_DISTROS), default=DEFAULT_ROS_DISTRO,
                            help="with --mcap: the ROS 2 message layout [%(default)s]")
             p.set_defaults(func=cmd_record)
 
