@@ -173,7 +173,6 @@ def export_mcap(recording: str | Path, out: str | Path, *, frame_id: str = "base
     t0 = np.array([f.t0 for f in rec.frames], dtype=np.int64)
     t0u = t0 + (np.concatenate([[0], np.cumsum(np.diff(t0) < -(1 << 31))]) << 32)
     tick_min = int(t0u.min())
-    ns = start_ns + np.rint((t0u - tick_min) * 1e9 / tick_hz).astype(np.int64)
 
     def to_ns(tick: int) -> int:
         return start_ns + round((tick - tick_min) * 1e9 / tick_hz)
@@ -192,16 +191,17 @@ def export_mcap(recording: str | Path, out: str | Path, *, frame_id: str = "base
                                                        "corrupt_frames": rec.corrupt, "truncated": rec.truncated},
                                           counters=heads.values, period_s=1.0)])
 
-        pub.publish([ring.static_tf(int(ns[0]))])
-        next_diag = int(ns[0])
-        for f, tick, t_ns in zip(rec.frames, t0u, ns):
+        pub.publish([ring.static_tf(to_ns(int(t0u[0])))])
+        next_diag = to_ns(int(t0u[0]))
+        for f, tick in zip(rec.frames, t0u.tolist()):
             heads.frame(f)
-            pub.publish(ring.frame(f, int(tick), to_ns))
+            pub.publish(ring.frame(f, tick, to_ns))
+            t_ns = to_ns(tick)
             if t_ns >= next_diag:
-                diagnostics(int(t_ns))
-                next_diag = int(t_ns) + 1_000_000_000
+                diagnostics(t_ns)
+                next_diag = t_ns + 1_000_000_000
         pub.publish(ring.flush(to_ns))
-        diagnostics(int(ns[-1]))
+        diagnostics(to_ns(int(t0u[-1])))
         variance = range_variance(c, tick_hz, sigma)
         sink.metadata(METADATA_NAME, {
             "ros_distro": ros_distro,
