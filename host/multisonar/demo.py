@@ -371,14 +371,14 @@ def _first_echo_paths(layout: Any, resolved: list[Any], frame: Any, c: float) ->
     re-aim shift that maps its configured receivers onto the frame's; None with fewer than
     three or for a sensor not in ``resolved``."""
     from . import protocol as P
-    from .georecord import sensor_paths
+    from .georecord import receiver_shift, sensor_paths
 
     if frame.vs >= len(resolved):
         return None
     sensor, n = resolved[frame.vs], layout.n
     firsts = {int(x["rx"]): int(x["tof"]) for x in frame.tof if int(x["flags"]) & P.TOF_SAMPLE_MASK == P.TOF_SAMPLE}
     rxs = sorted(firsts)
-    shift = next((k for k in range(n) if set(rxs) <= {(int(e) + k) % n for e in sensor.rx}), None)
+    shift = receiver_shift(sensor.rx, rxs, n)
     if shift is None or len(rxs) < 3:
         return None
     source, paths = sensor_paths(layout, sensor, np.array([firsts[e] for e in rxs]), c, shift)

@@ -17,6 +17,17 @@ from . import protocol as P
 from .constants import TICK_HZ
 
 
+def receiver_shift(rx_cfg: Any, rxs: Any, n: int) -> int | None:
+    """The firmware's re-aim shift of a pulse: the rotation round the ring of ``n`` elements,
+    smallest in magnitude (ties: positive first), that maps the configured receivers ``rx_cfg``
+    onto (a superset of) the receivers ``rxs`` its ToF records name; None if none does."""
+    rxs = {int(e) for e in rxs}
+    for k in sorted(range(-(n // 2), n - n // 2), key=abs):
+        if rxs <= {(int(e) + k) % n for e in rx_cfg}:
+            return k
+    return None
+
+
 def sensor_paths(layout: Any, sensor: Any, tofs: np.ndarray, c: float, shift: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Source position and path lengths (m) for ToF ticks ``tofs`` (pulses x receivers) of a
     resolved sensor whose groups are moved by ``shift`` elements round the ring (the firmware's

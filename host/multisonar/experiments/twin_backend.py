@@ -26,28 +26,12 @@ import numpy as np
 
 from ..constants import TICK_HZ
 from ..fastfiring import SceneEchoSource
+from ..georecord import receiver_shift
 from .common import ExperimentError, Progress
 
 #: the firmware's re-aim threshold (firmware/app/sonar/app.h REAIM_DEG): a fix whose bearing (a
 #: wall: its normal) is more than this off the sensor's axis moves the groups one element
 REAIM_DEG = 10.0
-
-
-class _SceneEchoes(SceneEchoSource):
-    """The scene's echoes with scene time ``scene_t0`` at the tick the twin starts the sonar
-    (``Twin.start`` sets ``t_offset`` to put scene time 0 there; this adds the case's start)."""
-
-    def __init__(self, scene: Any, scene_t0: float, rng: Any = None) -> None:
-        self.scene_t0 = float(scene_t0)
-        super().__init__(scene, rng=rng)
-
-    @property
-    def t_offset(self) -> float:  # type: ignore[override]
-        return self._base + self.scene_t0
-
-    @t_offset.setter
-    def t_offset(self, value: float) -> None:
-        self._base = float(value)
 
 
 @dataclass
@@ -136,14 +120,6 @@ class TwinRun:
         return bad
 
 
-def _shift_of(rx_cfg: Sequence[int], rxs: set[int], n: int) -> int | None:
-    """The smallest rotation (signed) that maps the configured receivers onto ``rxs``."""
-    for k in sorted(range(-(n // 2), n - n // 2), key=abs):
-        if rxs <= {(int(e) + k) % n for e in rx_cfg}:
-            return k
-    return None
-
-
 #: device time streamed after the end for the geometry frames of the pulses already reported
 #: (a fix's frame follows its ToF frame by ~0.2 ms when the firmware is not backlogged)
 DRAIN_S = 0.005
@@ -164,7 +140,7 @@ def run_on_twin(scene: Any, sensors: Sequence[Any], seconds: float, *, t_offset_
         raise ValueError(f"sonar time on the twin must be positive, got {seconds}")
     t_wall = time.time()
     rng = None if seed is None else np.random.default_rng(seed)
-    echoes = _SceneEchoes(scene, t_offset_s, rng=rng)
+    echoes = SceneEchoSource(scene, rng=rng)
     layout = scene.layout
     n = layout.n
     run = TwinRun(scene, [], t_offset_s, [], [], 0.0, 0.0)
@@ -176,7 +152,7 @@ def run_on_twin(scene: Any, sensors: Sequence[Any], seconds: float, *, t_offset_
             sched = tw.device.configure(list(sensors), temperature_c=scene.temperature_c)
             run.resolved = list(sched.validate())
             by_id = {r.id: r for r in run.resolved}
-            start = tw.start()
+            start = tw.start(scene_t0=t_offset_s)
             total = int(round(seconds * TICK_HZ))
             shift_now: dict[int, int] = {}
             count: dict[int, int] = {}
@@ -193,7 +169,7 @@ def run_on_twin(scene: Any, sensors: Sequence[Any], seconds: float, *, t_offset_
                     continue
                 if not f.is_geometry:
                     rxs = {int(x) for x in f.tof["rx"]}
-                    k = _shift_of(r.rx, rxs, n) if rxs else None
+                    k = receiver_shift(r.rx, rxs, n) if rxs else None
                     shift = shift_now.get(f.vs, 0) if k is None else k
                     shift_now[f.vs] = shift
                     fl = f.tof["flags"].astype(int)
@@ -217,7 +193,8 @@ def run_on_twin(scene: Any, sensors: Sequence[Any], seconds: float, *, t_offset_
                         run.fixes.append(TwinFix(
                             f.vs, r.name, t_s, pulse.t_ref() if pulse is not None else t_s, kind,
                             np.array([int(g["x_mm"]), int(g["y_mm"])], float) * 1e-3,
-                            int(g["normal"]) * 2 * math.pi / 65536, int(g["bearing"]) * 2 * math.pi / 65536,
+                            float(P.from_binary_angle(int(g["normal"]))),
+                            float(P.from_binary_angle(int(g["bearing"]))),
                             int(g["range_mm"]) * 1e-3, pulse))
                 if end_tick is not None:
                     continue

@@ -43,11 +43,11 @@ class Twin:
     url: str
     server: Any = None
 
-    def start(self) -> int:
-        """START the device; scene time 0 = now. Returns the tick at START."""
+    def start(self, scene_t0: float = 0.0) -> int:
+        """START the device; scene time ``scene_t0`` (s) = now. Returns the tick at START."""
         tick = self.sim.tick
         if self.echo_source is not None and hasattr(self.echo_source, "t_offset"):
-            self.echo_source.t_offset = -tick / TICK_HZ
+            self.echo_source.t_offset = float(scene_t0) - tick / TICK_HZ
         self.start_tick = tick
         self.device.start()
         return tick
