@@ -142,7 +142,7 @@ def twin_corridor(scene_name: str, seconds: float, seed: int, progress: bool = T
         counts.append({"sensor": r.name, "tx": list(map(int, r.tx)), "rx": list(map(int, r.rx)), "pulses": len(ps),
                        "init": sum(p.init for p in ps), "samples": sum(len(p.firsts) for p in ps),
                        "empty": sum(len(p.empty) for p in ps if not p.init),
-                       "groups": ">".join(f"{k:+d}" if k else "0" for k in run.reaims(r.id)) or "0"})
+                       "groups": run.placements(r.id)})
     return {"t_offset_s": 0.0, "duration_s": run.sonar_s, "fixes": fixes, "loc": loc, "counts": counts,
             "wall_s": run.wall_s, "health": run.fw_healthy()}
 

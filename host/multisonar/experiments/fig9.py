@@ -251,7 +251,7 @@ def twin_case(orientation_deg: float, config: str, distance_m: float = 1.0, seed
     p0 = [p for p in pulses if p.shift == 0]
     heard = [r for r in rx if 2 * sum(r in p.firsts for p in p0) >= max(len(p0), 1)]
     return {"orientation_deg": orientation_deg, "config": config, "source": source,
-            "shifts": ">".join(f"{k:+d}" if k else "0" for k in shifts) or "0", "final_shift": final,
+            "shifts": run.placements(0), "final_shift": final,
             "heard": f"{len(heard)} of {len(rx)}",
             "fixed": _err_stats(valid[sel0], est[sel0], na), "reaimed": _err_stats(valid[sel1], est[sel1], na),
             "scene_model": _err_stats(gv, ge, na), "pulses": len(run.pulses), "fw_fixes": len(run.fixes),

@@ -177,9 +177,8 @@ def twin_crossing(miss_limit: int, order: int, t_offset_s: float, duration_s: fl
         events += [{"t_s": p.t_s + t / TICK_HZ, "tof_ms": t / TICK_HZ * 1e3, "rx": r, "init": p.init, "empty": False}
                    for r, t in p.firsts.items()]
         events += [{"t_s": p.t_s, "tof_ms": 0.0, "rx": r, "init": p.init, "empty": True} for r in p.empty]
-    shifts = run.reaims(0)
     return _part(miss_limit, order, t_offset_s, run.sonar_s, pulses, track, events, run.wall_s, backend="twin",
-                 groups=">".join(f"{k:+d}" if k else "0" for k in shifts) or "0", health=run.fw_healthy())
+                 groups=run.placements(0), health=run.fw_healthy())
 
 
 def _velocity(track: list[dict[str, Any]]) -> tuple[np.ndarray, np.ndarray, float]:

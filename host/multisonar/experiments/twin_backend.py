@@ -111,6 +111,10 @@ class TwinRun:
                 out.append(p.shift)
         return out
 
+    def placements(self, sensor: int) -> str:
+        """:meth:`reaims` for a table: "0", "0>-1>0", ..."""
+        return ">".join(f"{k:+d}" if k else "0" for k in self.reaims(sensor)) or "0"
+
     def fw_healthy(self) -> list[str]:
         """What went wrong on the link or in the harness (empty if nothing)."""
         bad = [f"{k} {self.counters[k]}" for k in ("frames_dropped", "fifo_overflows", "watchdog", "host_lost",
