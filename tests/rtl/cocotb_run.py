@@ -19,6 +19,7 @@ SIMULATORS = ("verilator", "icarus")
 # testbench wrappers that make their own clock with delays (Verilator --timing): no VPI call per
 # clock edge, which caps cocotb's GPI clock at a few hundred thousand cycles per second
 OWN_CLOCK_TOPS = frozenset({"ms_scheduler_tb"})
+PUBLIC_VLT = Path(__file__).with_name("public.vlt")
 
 
 def selected_simulator() -> str:
@@ -52,6 +53,17 @@ def rtl_sources() -> list[Path]:
     return out
 
 
+def _public_args(top: str, build_dir: Path) -> list[str]:
+    """Verilator options that undo the runner's --public-flat-rw: only the top's variables and the
+    internal signals tests/rtl/public.vlt lists stay visible to VPI (see there why)."""
+    build_dir.mkdir(parents=True, exist_ok=True)
+    top_vlt = build_dir / "public_top.vlt"
+    text = f'`verilator_config\npublic_flat_rw -module "{top}" -var "*"\n'
+    if not top_vlt.exists() or top_vlt.read_text() != text:  # unchanged: no rebuild
+        top_vlt.write_text(text)
+    return ["--no-public-flat-rw", str(PUBLIC_VLT), str(top_vlt)]
+
+
 def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = None,
                parameters: Mapping[str, object] | None = None, icarus_ok: bool = True,
                extra_env: Mapping[str, str] | None = None, extra_sources: Sequence[Path] = (),
@@ -75,6 +87,7 @@ def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = Non
     plusargs: list[str] = []
     if sim == "verilator":
         build_args = ["-Wno-fatal", "-O3", "--x-assign", "fast", "--x-initial", "fast"]
+        build_args += _public_args(top, build_dir)
         if top in OWN_CLOCK_TOPS:
             build_args += ["--timing"]
         if waves:
