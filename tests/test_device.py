@@ -200,7 +200,9 @@ def test_fuzzed_commands_always_get_one_reply(data):
     sim = _fuzz_sim()
     t = time.monotonic()
     r = P.decode_packet(sim.handle_command(data))
-    assert time.monotonic() - t < 1.0
+    # a runaway loop, not a slow machine: a reply takes milliseconds, and CI shares its two cores
+    # with the synthesis (1.0 s failed there at load 5)
+    assert time.monotonic() - t < 10.0, "the device took over 10 s to answer one command"
     assert r.magic == P.MAGIC_REPLY and r.status in set(P.Status)
     if r.status == P.Status.INTERNAL:
         pytest.fail(f"device bug on {data.hex()}: {r.payload!r}")

@@ -53,12 +53,17 @@ def rtl_sources() -> list[Path]:
     return out
 
 
-def _public_args(top: str, build_dir: Path) -> list[str]:
-    """Verilator options that undo the runner's --public-flat-rw: only the top's variables and the
-    internal signals tests/rtl/public.vlt lists stay visible to VPI (see there why)."""
+def _public_args(top: str, build_dir: Path, parameters: Sequence[str]) -> list[str]:
+    """Verilator options that undo the runner's --public-flat-rw: only the top's ports (a wrapper's
+    variables) and the internal signals tests/rtl/public.vlt lists stay visible to VPI (see there
+    why)."""
     build_dir.mkdir(parents=True, exist_ok=True)
     top_vlt = build_dir / "public_top.vlt"
-    text = f'`verilator_config\npublic_flat_rw -module "{top}" -var "*"\n'
+    # a testbench wrapper (*_tb) is all test signals; an RTL module as top: its ports only (all
+    # named *_i / *_o), its internals stay optimisable
+    # (and the parameters the build sets, which a testbench may read back)
+    names = ["*"] if top.endswith("_tb") else ["*_i", "*_o", *parameters]
+    text = "`verilator_config\n" + "".join(f'public_flat_rw -module "{top}" -var "{n}"\n' for n in names)
     if not top_vlt.exists() or top_vlt.read_text() != text:  # unchanged: no rebuild
         top_vlt.write_text(text)
     return ["--no-public-flat-rw", str(PUBLIC_VLT), str(top_vlt)]
@@ -87,7 +92,7 @@ def run_cocotb(top: str, tb_module: str, *, sources: Sequence[Path] | None = Non
     plusargs: list[str] = []
     if sim == "verilator":
         build_args = ["-Wno-fatal", "-O3", "--x-assign", "fast", "--x-initial", "fast"]
-        build_args += _public_args(top, build_dir)
+        build_args += _public_args(top, build_dir, list(parameters or {}))
         if top in OWN_CLOCK_TOPS:
             build_args += ["--timing"]
         if waves:
