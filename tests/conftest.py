@@ -40,10 +40,6 @@ LONGEST_FIRST = (
 
 
 def pytest_collection_modifyitems(session, config, items):
-    tests = Path(__file__).parent
-    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
-
-    def key(item) -> int:
-        return rank.get(Path(item.fspath).relative_to(tests).as_posix(), len(rank))
-
-    items.sort(key=key)  # stable: the order within a file and among the others is kept
+    rank = {f"tests/{name}": i for i, name in enumerate(LONGEST_FIRST)}
+    # stable: the order within a file and among the others is kept
+    items.sort(key=lambda item: rank.get(item.nodeid.split("::", 1)[0], len(rank)))

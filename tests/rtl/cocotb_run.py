@@ -54,14 +54,13 @@ def rtl_sources() -> list[Path]:
 
 
 def _public_args(top: str, build_dir: Path, parameters: Sequence[str]) -> list[str]:
-    """Verilator options that undo the runner's --public-flat-rw: only the top's ports (a wrapper's
-    variables) and the internal signals tests/rtl/public.vlt lists stay visible to VPI (see there
-    why)."""
+    """Verilator options that undo the runner's --public-flat-rw: only the top's ports and the
+    internal signals tests/rtl/public.vlt lists stay visible to VPI (see there why)."""
     build_dir.mkdir(parents=True, exist_ok=True)
     top_vlt = build_dir / "public_top.vlt"
-    # a testbench wrapper (*_tb) is all test signals; an RTL module as top: its ports only (all
-    # named *_i / *_o), its internals stay optimisable
-    # (and the parameters the build sets, which a testbench may read back)
+    # a testbench wrapper (*_tb) is all test signals; an RTL module as top: its ports (all named
+    # *_i / *_o) and the parameters the build sets (a testbench may read them back), not its
+    # internals, which stay optimisable
     names = ["*"] if top.endswith("_tb") else ["*_i", "*_o", *parameters]
     text = "`verilator_config\n" + "".join(f'public_flat_rw -module "{top}" -var "{n}"\n' for n in names)
     if not top_vlt.exists() or top_vlt.read_text() != text:  # unchanged: no rebuild
