@@ -26,3 +26,28 @@ def test_demo_maps_the_corridor(tmp_path, capsys):
 def test_demo_rejects_unknown_scene(tmp_path, capsys):
     assert cli_main(["demo", "--backend", "golden", "--scene", "no_such_scene", "--out", str(tmp_path)]) == 1
     assert "no_such_scene" in capsys.readouterr().err
+
+
+def test_reaim_log_decodes_the_firmwares_mailbox_records():
+    """reaim.c reports a taken move after the record naming the new table's first frame (tag
+    0x5), a refused one alone; the log gives each with its sensor, signed shift, reason and the
+    sonar time of that frame."""
+    from types import SimpleNamespace
+
+    from multisonar.demo import _reaim_log
+
+    sensors = [SimpleNamespace(name=n) for n in ("front", "left")]
+    frames = [SimpleNamespace(seq=7, t0=1000 + 48_000), SimpleNamespace(seq=9, t0=1000 + 96_000)]
+    mail = np.array([0x50000007, 0x30000000 | 1 << 20 | 1 << 16 | 1 << 8 | 2,  # left +1, track lost
+                     0x30000000 | 1 << 20 | 0 << 16 | 23 << 8 | 3 << 4 | 1,  # front -1 refused (error 3)
+                     0x20000010,  # another tag between: ignored
+                     0x50000009, 0x30000000 | 2 << 20 | 1 << 16 | 0 << 8 | 1,  # left back to 0, fix off axis
+                     0x5000000A, 0x30000000 | 3 << 20 | 0 << 16 | 1 << 8 | 1],  # its frame never arrived
+                    dtype=np.uint32)
+    log = _reaim_log(mail, frames, start=1000, resolved=sensors, n_elements=24)
+    assert log == [
+        {"sensor": "left", "shift": 1, "why": "track lost", "refused": 0, "t_s": 0.001},
+        {"sensor": "front", "shift": -1, "why": "fix off axis", "refused": 3, "t_s": None},
+        {"sensor": "left", "shift": 0, "why": "fix off axis", "refused": 0, "t_s": 0.002},
+        {"sensor": "front", "shift": 1, "why": "fix off axis", "refused": 0, "t_s": None},
+    ]

@@ -270,6 +270,7 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
         geo_jobs = mail[tags == 0x6] & 0x0FFFFFFF
         geo_what, geo_cycles = geo_jobs >> 24, (geo_jobs & 0xFFFFFF).astype(float)
         reaims = int(np.sum((tags == 0x3) & ((mail & 0xF0) == 0)))
+        moves = _reaim_log(mail, frames, start, resolved, scene.layout.n)
         usb = dict(tw.function.stats)
         notes.append(f"Device time simulated: {tw.sim.seconds:.3f} s ({tw.sim.cycles:,} clocks at 48 MHz: boot, "
                      f"enumeration and configuration {(start / TICK_HZ) * 1e3:.1f} ms, then {duration:.2f} s of sonar "
@@ -289,6 +290,11 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
                          f"{np.percentile(commit, 99) / 48:.0f} us, max {commit.max() / 48:.0f} us; main-loop busy "
                          f"cycles per frame median {np.median(busy):.0f}, 99 % {np.percentile(busy, 99):.0f}, max "
                          f"{busy.max():.0f}; {reaims} re-aims taken.")
+        if moves:
+            notes.append("Re-aims (each restarts every sensor's track): " + "; ".join(
+                f"{m['sensor']} to shift {m['shift']:+d} ({m['why']}"
+                + (f", refused: {m['refused']}" if m["refused"] else "")
+                + (f") at {m['t_s']:.3f} s" if m["t_s"] is not None else ")") for m in moves) + ".")
         if cycles:
             notes.append("Firmware worst cycles per path (FW_STATS): " + ", ".join(
                 f"{k.replace('_max', '')} {v:,}" for k, v in cycles.items()) + ".")
@@ -351,7 +357,7 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
         "busy_share_max": round(busy_win / BUSY_WINDOW_TICKS, 3),
         # the firmware's worst cycles per bounded path (FW_STATS; firmware/README.md)
         "firmware_cycles": cycles,
-        "reaims": reaims, "fw_vs_host": fw_host["summary"],
+        "reaims": reaims, "reaim_log": moves, "fw_vs_host": fw_host["summary"],
     }
     return DemoRun("twin", duration, time.time() - t_wall, list(resolved),
                    pulses={r.id: int(np.sum(vs == r.id)) for r in resolved},
@@ -359,6 +365,33 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
                    samples={r.id: int(np.sum(samples & (ev["sensor"] == r.id))) for r in resolved},
                    fixes=fixes, events=ev, notes=notes + fw_host["notes"], metrics=metrics,
                    host_fixes=host_fixes)
+
+
+#: why the firmware moved a sensor (reaim.c, the low nibble of its 0x3 mailbox record)
+REAIM_WHY = {1: "fix off axis", 2: "track lost"}
+
+
+def _reaim_log(mail: np.ndarray, frames: list[Any], start: int, resolved: list[Any],
+               n_elements: int) -> list[dict[str, Any]]:
+    """The firmware's re-aim records (mailbox tag 0x3: vs, shift, refusal, why) in order, each
+    taken move with the sonar time of the new table's first frame (the tag-0x5 record before it
+    names that frame's sequence number; None if that frame never arrived). The shift, elements
+    the groups sit from their configured place, is signed (the firmware keeps it mod the ring)."""
+    t0_of_seq = {f.seq: f.t0 for f in frames}
+    out: list[dict[str, Any]] = []
+    first_seq = None
+    for w in (int(x) for x in mail):
+        if w >> 28 == 0x5:
+            first_seq = w & 0x0FFFFFFF
+        elif w >> 28 == 0x3:
+            vs, shift, err, why = (w >> 16) & 0xF, (w >> 8) & 0xFF, (w >> 4) & 0xF, w & 0xF
+            t0 = t0_of_seq.get(first_seq) if not err else None
+            half = n_elements // 2
+            out.append({"sensor": resolved[vs].name if vs < len(resolved) else f"vs{vs}",
+                        "shift": (shift + half) % n_elements - half, "why": REAIM_WHY.get(why, str(why)),
+                        "refused": err, "t_s": None if t0 is None else round(((t0 - start) & 0xFFFFFFFF) / TICK_HZ, 4)})
+            first_seq = None
+    return out
 
 
 def _pct(v: np.ndarray, q: float) -> float | None:
