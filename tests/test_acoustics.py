@@ -459,3 +459,23 @@ def test_prefilter_loses_no_path_random_walls(moving):
             np.testing.assert_allclose(a["arrival"], b["arrival"], atol=1e-12)
             total += a.size
     assert total > 20
+
+
+def test_a_firings_echo_components_are_computed_once():
+    """fire() then truth() of one firing (the safety and false-fix benches) share the noise-free
+    components; they are read-only and equal to a fresh model's."""
+    sc = load_scene("corridor")
+    model = AcousticModel(sc)
+    f = Firing.phased(0.3, [5, 6, 7], sc.layout, sc.speed_of_sound)
+    calls = []
+    compute = model._compute_echo_components
+    model._compute_echo_components = lambda firing: calls.append(firing) or compute(firing)
+    model.fire(f)
+    got = model.truth(f)
+    assert len(calls) == 1
+    assert got.size > 0
+    fresh = AcousticModel(sc).truth(f)
+    for k in TRUTH_DTYPE.names:  # second-order fields are NaN on first-order rows
+        np.testing.assert_array_equal(got[k], fresh[k], err_msg=k)
+    with pytest.raises(ValueError):
+        model._echo_components(f)["arrival"][0] = 0.0

@@ -56,6 +56,7 @@ into one comparator pulse (start/kind/source/path of the earliest, the largest a
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any
@@ -217,9 +218,13 @@ class AcousticModel:
     #: tested against the unfiltered model)
     PREFILTER = True
     BEAM_MARGIN = 0.15
+    #: firings whose noise-free echo components are kept: a bench that fires a pulse and then
+    #: asks for its truth (safety, false fixes) computes the geometry once, not twice
+    COMPONENTS_KEPT = 4096
 
     def __init__(self, scene: Scene, rng: np.random.Generator | None = None):
         self.scene = scene
+        self._components: OrderedDict[tuple[Any, ...], dict[str, np.ndarray]] = OrderedDict()
         self.rng = rng if rng is not None else np.random.default_rng(scene.seed)
         lay = scene.layout
         self.layout = lay
@@ -516,6 +521,22 @@ class AcousticModel:
         return beam_gain(_off_axis(v, axis), self.half_angle, self.scene.model.beam_cutoff)
 
     def _echo_components(self, firing: Firing) -> dict[str, np.ndarray]:
+        """The firing's echo components (deterministic: no noise drawn), read-only; the last
+        COMPONENTS_KEPT firings' are kept."""
+        key = (firing.t0, firing.elements.tobytes(), firing.delays.tobytes(), self.PREFILTER)
+        comp = self._components.get(key)
+        if comp is not None:
+            self._components.move_to_end(key)
+            return comp
+        comp = self._compute_echo_components(firing)
+        for v in comp.values():
+            v.flags.writeable = False
+        self._components[key] = comp
+        if len(self._components) > self.COMPONENTS_KEPT:
+            self._components.popitem(last=False)
+        return comp
+
+    def _compute_echo_components(self, firing: Firing) -> dict[str, np.ndarray]:
         sc = self.scene
         t_tx = firing.t0 + firing.delays
         S, Sax = sc.element_poses(t_tx, firing.elements)  # (K,2), (K,)
