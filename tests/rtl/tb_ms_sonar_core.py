@@ -5,7 +5,8 @@ Configuration goes over the bus exactly as the host and firmware write it
 echoes go in on echo_i, triggers are read off drive_o, and events come out through EVT_LO /
 EVT_HI. Everything is compared with the golden model (FastFiringModel with the same decision
 lead) driven by an identically seeded echo source.
-Python wakes per pulse, per echo edge and per drive edge, never per clock.
+Python wakes per pulse, per echo edge and per drive edge, never per clock; the clock runs in
+the model (tests/rtl/ms_sonar_core_tb.sv, the core's wrapper).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from multisonar.regmap import load_writes, schedule_writes
 from multisonar.schedule import Schedule, VirtualSensor
 from echo_driver import EchoDriver
 from passthrough_bfm import PassthroughMaster
-from tbutil import CLK_PERIOD_PS, reset, start_clock
+from tbutil import CLK_PERIOD_PS, reset
 
 LEAD = DEVICE_DECISION_LEAD  # ms_scheduler's LEAD parameter default
 MS = 48_000
@@ -34,8 +35,8 @@ _CLOCK_ORIGIN_PS = [0]
 
 
 def tick_now() -> int:
-    """Tick of the current clock cycle, counted from this test's clock start (each cocotb test
-    starts its clock where the previous test stopped)."""
+    """Tick of the current clock cycle, counted from the rising edge where this test's bench
+    started (the cocotb tests of this module run one after the other on one free-running clock)."""
     return (int(get_sim_time("ps")) - _CLOCK_ORIGIN_PS[0]) // CLK_PERIOD_PS
 
 
@@ -64,8 +65,8 @@ class CoreBench:
 
     async def start(self) -> None:
         dut = self.dut
+        await RisingEdge(dut.clk_i)
         _CLOCK_ORIGIN_PS[0] = int(get_sim_time("ps"))
-        start_clock(dut.clk_i)
         dut.echo_i.value = 0
         self.bus = PassthroughMaster(dut, dut.clk_i)
         await reset(dut.clk_i, dut.rst_i)
@@ -87,12 +88,12 @@ class CoreBench:
     async def _fire_loop(self) -> None:
         """One wake per pulse: the scheduler's decision strobe carries t0 (P ticks ahead)."""
         dut, tx = self.dut, [int(e) for e in self.cfg.tx]
-        sched = dut.u_sched
+        sched, core = dut.u_core.u_sched, dut.u_core
         while True:
             await RisingEdge(sched.pulse_o)
             await ReadOnly()
-            t0 = tick_now() + ((int(sched.pulse_t0_o.value) - int(dut.tick_q.value)) & 0xFFFFFFFF)
-            self.tick_offset = (tick_now() - int(dut.tick_q.value)) & 0xFFFFFFFF
+            t0 = tick_now() + ((int(sched.pulse_t0_o.value) - int(core.tick_q.value)) & 0xFFFFFFFF)
+            self.tick_offset = (tick_now() - int(core.tick_q.value)) & 0xFFFFFFFF
             self.fires.append(t0)
             for rx, st, w in _rows(self.source.fire(t0, np.array(tx), self.cfg.delays.copy())):
                 self.echo.drive(int(rx), max(int(st), t0), int(w))
