@@ -12,13 +12,15 @@
 // packet's bytes are appended to CAP_FILE as "<cycle> <hex bytes>\n" (the file is flushed), and
 // n_replies_o / n_frames_o count packets whose magic is "MR" / "MF".
 // drive_edges_o counts rising edges of |drive_o (transducer bursts) since reset.
+// The clock clk_i is made here (Verilator --timing, tests/rtl/cocotb_run.py OWN_CLOCK_TOPS): no
+// VPI call per edge. The bench writes its inputs at falling edges.
 module cmd_fuzz_tb #(
+  parameter int    CLK_HALF_PS = 10417,  // tests/rtl/tbutil.py CLK_PERIOD_PS / 2
   parameter string INIT_FILE = "",
   parameter string CAP_FILE  = "cmd_fuzz_cap.txt",
   parameter string CMD_FILE  = "cmd_fuzz_cmd.txt",
   parameter int    NB        = 1200
 ) (
-  input  logic            clk_i,
   input  logic            rst_i,
   input  logic [23:0]     echo_i,
   output logic [23:0]     drive_o,
@@ -36,6 +38,9 @@ module cmd_fuzz_tb #(
   output logic            trap_o,
   output logic            bus_err_o
 );
+  logic clk_i = 1'b0;
+  always #(CLK_HALF_PS * 1ps) clk_i = ~clk_i;
+
   logic            cmd_valid, cmd_end, cmd_zlp, cmd_ready, host_rvalid, host_flush, evt, zlp_q;
   logic [7:0]      cmd_data, host_rdata, led;
   logic [8*NB-1:0] buf_q;
