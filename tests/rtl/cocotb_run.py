@@ -18,7 +18,7 @@ GEN = ROOT / "build" / "gen"
 SIMULATORS = ("verilator", "icarus")
 # testbench wrappers that make their own clock with delays (Verilator --timing): no VPI call per
 # clock edge, which caps cocotb's GPI clock at a few hundred thousand cycles per second
-OWN_CLOCK_TOPS = frozenset({"ms_scheduler_tb", "ms_sonar_core_tb", "cmd_fuzz_tb"})
+OWN_CLOCK_TOPS = frozenset({"ms_scheduler_tb", "ms_sonar_core_tb", "cmd_fuzz_tb", "system_scene_tb"})
 PUBLIC_VLT = Path(__file__).with_name("public.vlt")
 
 

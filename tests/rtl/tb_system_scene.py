@@ -52,7 +52,7 @@ from multisonar.tools.fw_schedule import TEMPERATURE_C, schedule_for
 from multisonar.tools.sched_program.layout import MAIN, M_GATE
 from echo_driver import EchoDriver
 from link_reader import LinkReader, send_command
-from tbutil import CLK_PERIOD_PS, reset, start_clock
+from tbutil import CLK_PERIOD_PS, reset
 
 LEAD = DEVICE_DECISION_LEAD
 MS = 48_000
@@ -147,7 +147,7 @@ class Bench:
 
     async def start(self) -> None:
         dut = self.dut
-        start_clock(dut.clk_i)
+        await FallingEdge(dut.clk_i)  # the wrapper's own clock (system_scene_tb.sv)
         dut.echo_i.value = 0
         for name in ("cmd_valid_i", "cmd_data_i", "cmd_end_i", "cmd_zlp_i"):
             getattr(dut, name).value = 0
