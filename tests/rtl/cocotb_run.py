@@ -18,7 +18,8 @@ GEN = ROOT / "build" / "gen"
 SIMULATORS = ("verilator", "icarus")
 # testbench wrappers that make their own clock with delays (Verilator --timing): no VPI call per
 # clock edge, which caps cocotb's GPI clock at a few hundred thousand cycles per second
-OWN_CLOCK_TOPS = frozenset({"ms_scheduler_tb", "ms_sonar_core_tb", "cmd_fuzz_tb", "system_scene_tb"})
+OWN_CLOCK_TOPS = frozenset({"ms_scheduler_tb", "ms_sonar_core_tb", "cmd_fuzz_tb", "system_scene_tb",
+                            "ms_soc_tb", "ms_soc_vex_tb", "ms_soc_geometry_tb", "ms_soc_geometry_vex_tb"})
 PUBLIC_VLT = Path(__file__).with_name("public.vlt")
 
 

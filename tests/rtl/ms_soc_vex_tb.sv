@@ -4,7 +4,6 @@
 module ms_soc_vex_tb #(
   parameter string INIT_FILE = ""
 ) (
-  input  logic        clk_i,
   input  logic        rst_i,
   input  logic        host_rd_i,
   output logic        host_rvalid_o,
@@ -15,8 +14,11 @@ module ms_soc_vex_tb #(
   output logic        trap_o,
   output logic        bus_err_o
 );
+  logic clk_i;  // ms_soc_tb's own clock, for the bench
+  assign clk_i = u_tb.clk_i;
+
   ms_soc_tb #(.INIT_FILE(INIT_FILE), .CPU("vexriscv")) u_tb (
-    .clk_i, .rst_i, .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
+    .rst_i, .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o
   );
 endmodule
