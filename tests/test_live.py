@@ -84,9 +84,13 @@ def _check_scan(scan, lay) -> None:
 # the command, over WebSocket
 # --------------------------------------------------------------------------------------------
 
-def _start_live(*args: str) -> tuple[subprocess.Popen, int]:
+def _start_live(*args: str, sigint_ignored: bool = False) -> tuple[subprocess.Popen, int]:
+    """``sigint_ignored``: started as a non-interactive shell starts a background job, with SIGINT
+    ignored (inherited through exec)."""
     proc = subprocess.Popen([sys.executable, "-m", "multisonar", "live", "--port", "0", "--seconds", "60", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+                            preexec_fn=(lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if sigint_ignored
+                            else None)
     line: list[str] = []
     reader = threading.Thread(target=lambda: line.append(proc.stdout.readline()), daemon=True)
     reader.start()
@@ -97,13 +101,13 @@ def _start_live(*args: str) -> tuple[subprocess.Popen, int]:
     return proc, int(line[0].split("ws://", 1)[1].split()[0].rsplit(":", 1)[1])
 
 
-def _stop_live(proc: subprocess.Popen) -> str:
-    proc.send_signal(signal.SIGINT)
+def _stop_live(proc: subprocess.Popen, sig: int = signal.SIGINT) -> str:
+    proc.send_signal(sig)
     try:
         _, err = proc.communicate(timeout=TIMEOUT)
     except subprocess.TimeoutExpired:
         proc.kill()
-        raise AssertionError("multisonar live did not stop on SIGINT") from None
+        raise AssertionError(f"multisonar live did not stop on {signal.Signals(sig).name}") from None
     assert proc.returncode == 0, err
     return err
 
@@ -185,6 +189,17 @@ def test_live_refuses_a_taken_port():
     finally:
         _stop_live(proc)
     assert out.returncode == 1 and f"cannot serve on 127.0.0.1:{port}" in out.stderr
+
+
+@pytest.mark.parametrize("sig,sigint_ignored", [(signal.SIGINT, True), (signal.SIGTERM, False)],
+                         ids=["sigint-started-in-background", "sigterm"])
+def test_live_stops_cleanly_on_sigint_and_sigterm(sig, sigint_ignored):
+    """Ctrl-C and a service manager's SIGTERM end the session with its counts and exit 0, also
+    when the process was started with SIGINT ignored (a script's background job)."""
+    proc, _ = _start_live("--url", "sim://corridor", sigint_ignored=sigint_ignored)
+    time.sleep(1.0)  # streaming
+    err = _stop_live(proc, sig)
+    assert "multisonar live: frames" in err, err
 
 
 # --------------------------------------------------------------------------------------------

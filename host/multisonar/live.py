@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
 import threading
 import time
@@ -367,13 +368,16 @@ def cmd_live(args: argparse.Namespace) -> int:
         return 1
     print(f"multisonar live: serving {session.url} on ws://{args.host}:{server.port} (Foxglove: Open connection -> "
           f"Foxglove WebSocket; layout {LAYOUT_FILE}); Ctrl-C stops", flush=True)
+    # Ctrl-C (SIGINT) and SIGTERM end the session cleanly, the device stopped and closed, at its
+    # next frame or wait: the handler only sets the event. Installed here, not inherited: a
+    # process started in the background of a script inherits SIGINT ignored.
     stop = threading.Event()
+    handlers = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         stats = session.run(stop, duration_s=args.seconds)
-    except KeyboardInterrupt:
-        stop.set()
-        stats = {"frames": session.frames, "reconnects": session.reconnects, **session.ring.counts}
     finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
         server.stop()
         sink.close()
     print("multisonar live: " + ", ".join(f"{k} {v}" for k, v in stats.items()), file=sys.stderr)
