@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 import subprocess
 import sys
 
@@ -28,6 +29,25 @@ def test_serve_a_model_url_and_read_it_over_usbip(args):
     finally:
         proc.terminate()
         proc.wait(timeout=10)
+
+
+@pytest.mark.parametrize("sig,sigint_ignored", [(signal.SIGINT, True), (signal.SIGTERM, False)],
+                         ids=["sigint-started-in-background", "sigterm"])
+def test_serve_stops_cleanly_on_sigint_and_sigterm(sig, sigint_ignored):
+    """Ctrl-C and a service manager's SIGTERM close the server and its model and exit 0, also when
+    the process was started with SIGINT ignored (a script's background job)."""
+    proc = subprocess.Popen([sys.executable, "-m", "multisonar", "serve", "--port", "0", "--scene", "wall_1m"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=(lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if sigint_ignored
+                            else None)
+    try:
+        assert proc.stdout.readline().startswith("serving sim://")
+        proc.send_signal(sig)
+        assert proc.wait(timeout=10) == 0, proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
 
 
 @pytest.mark.parametrize("url, message", [

@@ -278,6 +278,7 @@ def serve_url(args: argparse.Namespace) -> str:
 
 @device_errors
 def cmd_serve(args: argparse.Namespace) -> int:
+    from .stopsignals import stop_on_signals
     from .urls import make_model
     from .usb.usbip_server import UsbipServer
 
@@ -290,10 +291,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
             raise ConnectionError(f"cannot serve on {args.host}:{args.port}: {e.strerror or e}") from None
         print(f"serving {url} at {srv.url}" + ("; use long timeouts" if model.min_timeout_s > 10 else "")
               + "; Ctrl-C stops", flush=True)
-        try:
+        with stop_on_signals(srv.request_stop):  # Ctrl-C, SIGTERM: the model closed below
             srv.serve_forever()
-        except KeyboardInterrupt:
-            pass
     finally:
         if model.close is not None:
             model.close()

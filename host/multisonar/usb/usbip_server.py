@@ -26,6 +26,7 @@ import threading
 from collections import deque
 from dataclasses import dataclass
 
+from ..stopsignals import stop_on_signals
 from .function import Disconnected, Stall, UsbFunction, UsbTimeout, parse_config_descriptor, parse_device_descriptor
 
 # the wire format, shared with the client (multisonar.usb.usbip_proto)
@@ -100,6 +101,10 @@ class UsbipServer:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    def request_stop(self) -> None:
+        """Make serve_forever return (within 0.5 s) and close the server; safe in a signal handler."""
+        self._stop.set()
 
     def serve_forever(self) -> None:
         self.start()
@@ -304,10 +309,8 @@ def main(argv: list[str] | None = None) -> int:
     query = urlencode({"source": a.source, **({"rate": a.rate} if a.rate is not None else {})})
     srv = UsbipServer(make_model(f"sim://{quote(a.scene, safe='')}?{query}").function, a.host, a.port)
     print(f"serving simulated Multisonar ({a.scene}) at {srv.url}; Ctrl-C stops", flush=True)
-    try:
+    with stop_on_signals(srv.request_stop):
         srv.serve_forever()
-    except KeyboardInterrupt:
-        pass
     return 0
 
 
