@@ -269,8 +269,8 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
         busy = (mail[tags == 0x4] & 0x0FFFFFFF).astype(float)
         geo_jobs = mail[tags == 0x6] & 0x0FFFFFFF
         geo_what, geo_cycles = geo_jobs >> 24, (geo_jobs & 0xFFFFFF).astype(float)
-        reaims = int(np.sum((tags == 0x3) & ((mail & 0xF0) == 0)))
         moves = _reaim_log(mail, frames, start, resolved, scene.layout.n)
+        reaims = sum(1 for m in moves if not m["refused"])
         usb = dict(tw.function.stats)
         notes.append(f"Device time simulated: {tw.sim.seconds:.3f} s ({tw.sim.cycles:,} clocks at 48 MHz: boot, "
                      f"enumeration and configuration {(start / TICK_HZ) * 1e3:.1f} ms, then {duration:.2f} s of sonar "
@@ -378,6 +378,7 @@ def _reaim_log(mail: np.ndarray, frames: list[Any], start: int, resolved: list[A
     names that frame's sequence number; None if that frame never arrived). The shift, elements
     the groups sit from their configured place, is signed (the firmware keeps it mod the ring)."""
     t0_of_seq = {f.seq: f.t0 for f in frames}
+    half = n_elements // 2
     out: list[dict[str, Any]] = []
     first_seq = None
     for w in (int(x) for x in mail):
@@ -386,7 +387,6 @@ def _reaim_log(mail: np.ndarray, frames: list[Any], start: int, resolved: list[A
         elif w >> 28 == 0x3:
             vs, shift, err, why = (w >> 16) & 0xF, (w >> 8) & 0xFF, (w >> 4) & 0xF, w & 0xF
             t0 = t0_of_seq.get(first_seq) if not err else None
-            half = n_elements // 2
             out.append({"sensor": resolved[vs].name if vs < len(resolved) else f"vs{vs}",
                         "shift": (shift + half) % n_elements - half, "why": REAIM_WHY.get(why, str(why)),
                         "refused": err, "t_s": None if t0 is None else round(((t0 - start) & 0xFFFFFFFF) / TICK_HZ, 4)})
