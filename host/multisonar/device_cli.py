@@ -289,9 +289,10 @@ def cmd_serve(args: argparse.Namespace) -> int:
             srv = UsbipServer(model.function, args.host, args.port)
         except OSError as e:
             raise ConnectionError(f"cannot serve on {args.host}:{args.port}: {e.strerror or e}") from None
-        print(f"serving {url} at {srv.url}" + ("; use long timeouts" if model.min_timeout_s > 10 else "")
-              + "; Ctrl-C stops", flush=True)
+        # the handlers before the line that tells a supervisor we are up: a signal sent on that line stops cleanly
         with stop_on_signals(srv.request_stop):  # Ctrl-C, SIGTERM: the model closed below
+            print(f"serving {url} at {srv.url}" + ("; use long timeouts" if model.min_timeout_s > 10 else "")
+                  + "; Ctrl-C stops", flush=True)
             srv.serve_forever()
     finally:
         if model.close is not None:

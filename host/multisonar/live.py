@@ -366,12 +366,13 @@ def cmd_live(args: argparse.Namespace) -> int:
     except Exception as e:  # noqa: BLE001 - the SDK raises its own errors for a taken port / bad address
         print(f"multisonar live: error: cannot serve on {args.host}:{args.port}: {e}", file=sys.stderr)
         return 1
-    print(f"multisonar live: serving {session.url} on ws://{args.host}:{server.port} (Foxglove: Open connection -> "
-          f"Foxglove WebSocket; layout {LAYOUT_FILE}); Ctrl-C stops", flush=True)
-    # Ctrl-C and SIGTERM end the session at its next frame or wait: the device stopped and closed
+    # Ctrl-C and SIGTERM end the session at its next frame or wait: the device stopped and closed; the
+    # handlers come before the "serving" line, so that a signal sent as soon as it appears stops cleanly too
     stop = threading.Event()
     try:
         with stop_on_signals(stop.set):
+            print(f"multisonar live: serving {session.url} on ws://{args.host}:{server.port} (Foxglove: Open "
+                  f"connection -> Foxglove WebSocket; layout {LAYOUT_FILE}); Ctrl-C stops", flush=True)
             stats = session.run(stop, duration_s=args.seconds)
     finally:
         server.stop()

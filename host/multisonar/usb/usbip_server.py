@@ -308,8 +308,8 @@ def main(argv: list[str] | None = None) -> int:
     # the sim:// scheme's model (multisonar.urls), so that the server does not import the simulated device
     query = urlencode({"source": a.source, **({"rate": a.rate} if a.rate is not None else {})})
     srv = UsbipServer(make_model(f"sim://{quote(a.scene, safe='')}?{query}").function, a.host, a.port)
-    print(f"serving simulated Multisonar ({a.scene}) at {srv.url}; Ctrl-C stops", flush=True)
-    with stop_on_signals(srv.request_stop):
+    with stop_on_signals(srv.request_stop):  # installed before the "serving" line a supervisor waits for
+        print(f"serving simulated Multisonar ({a.scene}) at {srv.url}; Ctrl-C stops", flush=True)
         srv.serve_forever()
     return 0
 
