@@ -17,12 +17,13 @@ echo path of its own pulse within 12.5 us; "alias" ones are another pulse's echo
 rejected (flagged gated, event bit 45) are no geometry input and counted apart ("gated", in
 brackets those that are false or alias).
 
-    .venv/bin/python scripts/bench_false_fix.py [--trials 20] [--rates 2,20,100,500] [--crosstalk 0.1,0.3,1.0] [--workers 1] [--plot F.png] [--csv F.csv]
+    .venv/bin/python scripts/bench_false_fix.py [--trials 20] [--rates 2,20,100,500] [--crosstalk 0.1,0.3,1.0] [--workers 1] [--plot F.png] [--csv F.csv] [--json F.json]
 """
 from __future__ import annotations
 
 import argparse
 import csv
+import json
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -50,6 +51,7 @@ def main() -> int:
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--plot", type=Path)
     ap.add_argument("--csv", type=Path)
+    ap.add_argument("--json", type=Path, help="the table as JSON: one summary per condition")
     a = ap.parse_args()
     seeds = range(a.first_seed, a.first_seed + a.trials)
     conds = [(r, x) for x in a.crosstalk for r in a.rates]
@@ -80,6 +82,12 @@ def main() -> int:
               f"{s['gated']} ({s['gated_false'] + s['gated_alias']}) | {s['fixes']} | {s['fixes_per_s']:.1f} | {s['false_fixes']} ({s['false_fixes_spurious']} / {s['false_fixes_alias']} / {other}) | "
               f"{s['false_fix_rate']:.2%} | {s['false_fixes_per_s']:.3f} | {s['max_fix_error_m'] * 1e3:.1f} | "
               f"{s['uncertain_points']} ({s['false_uncertain_points']}) |")
+    if a.json:
+        a.json.write_text(json.dumps({
+            "trials_per_condition": a.trials, "first_seed": a.first_seed, "person": not a.no_person,
+            "tol_mm": a.tol_mm, "wall_s": round(time.time() - t, 1),
+            "conditions": [{"spurious_rate_hz": rate, "crosstalk_level": xt} | summarise_false_fixes(rs)
+                           for (rate, xt), rs in results.items()]}, indent=1, default=float) + "\n")
     if a.csv:
         rows = [asdict(r) for rs in results.values() for r in rs]
         with a.csv.open("w", newline="") as f:

@@ -7,7 +7,7 @@ and K are random per seed. Reported: how often the person is reported within the
 N + K + 1 pulses after it first hides the wall on one of the sensor's receivers ("detected"),
 later ("late") or not at all ("missed"); latency in pulses and ms; tracking samples that were
 another pulse's echo (interlacing aliases) or no echo at all (spurious / crosstalk).
-The gated miss rule is the RTL's default (RX_FILTER.miss_gate reset value, 12.5 us);
+The gated miss rule is the RTL's default (RX_FILTER.miss_gate reset value, 10.4 us);
 --miss-gate-us 0 measures the rule without it.
 
 --sweep-reinit none,4,8,bound runs the same seeds once per value of the golden model's forced

@@ -350,26 +350,37 @@ def test_deferral_jump_equals_per_tick_retry():
 
 def _replay_prediction(res, m, lead):
     """Independent check of the decision-lead rule: every tracking pulse's windows follow
-    from the first-echo samples detected no later than its decision tick t0 - P."""
+    from the first-echo samples detected no later than its decision tick t0 - P (the
+    prediction rule of docs/fast_firing.md section 4.2, with the model's default gate on)."""
     c = m.cfg[0]
     lo, hi = c.te_limits()
-    samples = sorted((e.tick, e.rx, e.seq, e.tof, e.init_ping) for e in res.events if e.first_echo)
+    assert m.miss_gate
+    samples = sorted((e.tick, e.rx, e.seq, e.tof, e.init_ping) for e in res.events if e.first_echo and not e.gated)
     seqs = {p.seq & 0xFF: p.seq for p in res.pulses}
+
+    def vclamp(v):
+        return max(-c.vmax, min(c.vmax, v))
     for p in res.pulses:
         if p.init:
             continue
-        st: dict[int, tuple[int, int, int, bool]] = {}  # rx -> (tof, seq, v, from_init)
+        st: dict[int, tuple[int, int, int, bool, bool]] = {}  # rx -> (tof, seq, v, from_init, vel)
         for tick, rx, sq, tof, init in samples:
             if tick > p.t0 - lead:
                 break
             k = seqs[sq]
             if init:
-                st[rx] = (tof, k, 0, True)
+                st[rx] = (tof, k, 0, True, False)
             elif rx in st and k > st[rx][1]:
-                t_prev, k_prev, _, was_init = st[rx]
-                v = max(-c.vmax, min(c.vmax, tof - t_prev)) if k - k_prev == 1 and not was_init else 0
-                st[rx] = (tof, k, v, False)
-        want = {rx: max(lo, min(hi, tof + (p.seq - k) * v)) for rx, (tof, k, v, _) in st.items()}
+                t_prev, k_prev, v, was_init, vel = st[rx]
+                if vel and k - k_prev == 1:   # v plus half the residual from the prediction
+                    st[rx] = (tof, k, vclamp(v + ((tof - max(lo, min(hi, t_prev + v))) >> 1)), False, True)
+                elif vel:                     # after a skipped pulse: v kept
+                    st[rx] = (tof, k, v, False, True)
+                elif k - k_prev == 1 and not was_init:
+                    st[rx] = (tof, k, vclamp(tof - t_prev), False, True)
+                else:
+                    st[rx] = (tof, k, 0, False, False)
+        want = {rx: max(lo, min(hi, tof + (p.seq - k) * v)) for rx, (tof, k, v, _, _) in st.items()}
         got = {rx: ws - p.t0 + c.t_v for rx, ws, we in p.windows}
         assert got == want, (p.seq, got, want)
 

@@ -101,8 +101,8 @@ def test_sample_after_a_skipped_pulse_keeps_velocity_gate_and_miss_count():
     m._sample(s, st, window(12), 200_070)                  # gap 2, within the gate
     assert (st.tof, st.seq, st.v, st.miss, st.vel) == (200_070, 12, 40, 2, True)
     assert m._predict(s, st, 13) == 200_110                # the kept velocity predicts
-    m._sample(s, st, window(13), 200_115)                  # the next pulse: a sample with v
-    assert (st.tof, st.seq, st.v, st.miss, st.vel) == (200_115, 13, 45, 0, True)
+    m._sample(s, st, window(13), 200_115)                  # the next pulse: a sample with v,
+    assert (st.tof, st.seq, st.v, st.miss, st.vel) == (200_115, 13, 42, 0, True)   # v + (5 >> 1)
     fresh = _RxState(tracked=True, tof=200_000, seq=10, v=0, miss=1, vel=False)
     s.rx[10] = fresh
     m._sample(s, fresh, window(12), 200_500)               # no velocity yet: as before, v = 0

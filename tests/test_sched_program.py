@@ -310,6 +310,38 @@ def test_hit_kernel_samples_gates_and_reports_as_the_model(seed):
     assert m.regs[12] == int(w.rejected)
 
 
+@pytest.mark.parametrize("gate", [500, 65535])
+@pytest.mark.parametrize("v_kind", ["zero", "slow", "at_vmax", "at_minus_vmax"])
+def test_hit_kernel_smooths_the_velocity_as_the_model(gate, v_kind):
+    """A gated sample of the next pulse with a measured velocity: the track takes the echo's
+    time of flight and the velocity half the residual from the prediction (rounded down, v
+    within +-v_max); residuals of both signs, odd and even, up to the gate's edges."""
+    vs = [VirtualSensor("a", tx=[3], rx=[2, 3, 4], order=2)]
+    model = FastFiringModel(Schedule(LAYOUT, vs), SyntheticEchoSource({}), miss_gate=gate)
+    s, c = model.sensors[0], model.sensors[0].cfg
+    lo, hi = c.te_limits()
+    v = {"zero": 0, "slow": -137, "at_vmax": c.vmax, "at_minus_vmax": -c.vmax}[v_kind]
+    k, t0, rx = 5000, 1 << 24, 3
+    for off in sorted({-gate, -gate + 1, -3, -1, 0, 1, 2, 3, min(1001, gate - 2), gate - 1, gate}):
+        st = _RxState(tracked=True, tof=(lo + hi) // 2, seq=k - 1, v=v, miss=2, init=False, vel=True)
+        s.rx[rx] = st
+        before = pack_state(st)
+        n = t0 + model._predict(s, st, k) + off
+        w = _Window(t0 + lo - 10_000, t0 + hi + 10_000, 0, 0, k, rx, t0, False, s.epoch)
+        model.windows[rx], model.words = [w], []
+        model.now = n + model.latency
+        model._rise(rx, n)
+        assert not w.rejected and st.vel and st.miss == 0
+        assert st.tof == (lo + hi) // 2 + v + off and st.v == max(-c.vmax, min(c.vmax, v + (off >> 1))), off
+        base = TRK + 2 * rx
+        p = prologue(Program("hit")).li(1, n).li(2, t0).li(3, k & 0xFF).li(4, 2).li(5, base)
+        p.li(6, rx).li(7, 0).li(8, gate).li(9, c.vmax).li(10, lo).li(11, hi)
+        m, _ = run_kernel(p, hit_kernel, {base: before[0], base + 1: before[1]}, max_cycles=10_000)
+        assert m.out.events == model.words
+        assert (m.mem[base], m.mem[base + 1]) == pack_state(st), off
+        assert m.regs[12] == 0
+
+
 def test_hit_kernel_clocks():
     """The HIT figure of bench_sched_engine.py: the gated sample path, a few dozen clocks."""
     assert 20 < hit_clocks() < 200
@@ -360,7 +392,7 @@ def test_close_kernel_counts_misses_and_ends_init_as_the_model(seed):
     trk = TRK + 2 * (NUM_RX * sensor + rx)
     mem = {base_s + k: v for k, v in words.items()}
     mem[trk], mem[trk + 1] = pack_state(s.rx[rx])
-    flags = int(init) | int(w.n_edges > 0) << 1 | int(w.rejected) << 2 | (w.epoch & 1) << 3
+    flags = int(init) | (w.epoch & 1) << 1 | int(w.n_edges > 0) << 2 | int(w.rejected) << 3
     model._on_close(w)
     p = prologue(Program("close")).li(1, now).li(2, t0).li(3, we).li(4, w.seq & 0xFF).li(5, flags)
     p.li(6, rx).li(7, sensor).li(8, base_s).li(9, trk)

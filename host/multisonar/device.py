@@ -304,8 +304,9 @@ class Device:
     def set_miss_gate(self, ticks: int) -> int:
         """Set the gated miss rule (RX_FILTER.miss_gate, docs/fast_firing.md section 4.4), taking
         effect at the next :meth:`start`: once a track's velocity is measured, a tracking window's
-        first echo farther than ``ticks`` from the prediction counts as a miss (0 off, reset 600 =
-        12.5 us). The other safety rule is per sensor: ``VirtualSensor(reinit_every=M)``. Returns the
+        first echo farther than ``ticks`` from the prediction counts as a miss, one within it
+        changes the velocity by half its residual (0 off: no gate, the last difference as the
+        velocity; reset 500 = 10.4 us). The other safety rule is per sensor: ``VirtualSensor(reinit_every=M)``. Returns the
         value read back."""
         from .generated import sonar_regs as R
 

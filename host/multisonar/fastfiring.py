@@ -32,8 +32,8 @@ from .schedule import (DEFAULT_GLITCH_MIN, MISS_W, SEQ_W, TIMESTAMP_W, WIN_SLOTS
                        ResolvedSensor, Schedule, effective_order, pulse_period)
 
 SEQ_MASK = (1 << SEQ_W) - 1
-#: RX_FILTER.miss_gate reset value, ticks (12.5 us): the gated miss rule of the RTL scheduler
-DEFAULT_MISS_GATE = 600
+#: RX_FILTER.miss_gate reset value, ticks (10.4 us): the gated miss rule of the RTL scheduler
+DEFAULT_MISS_GATE = 500
 TIMESTAMP_MASK = (1 << TIMESTAMP_W) - 1
 MISS_MAX = (1 << MISS_W) - 1
 
@@ -575,6 +575,13 @@ class FastFiringModel:
                 # gate and the miss count: only a gated sample of the next pulse resets the count
                 # (docs/fast_firing.md section 4.4)
                 st.tof, st.seq = tof, w.seq
+            elif st.vel and self.miss_gate is not None:
+                # a sample the gate passed, with a measured velocity: the velocity takes half
+                # the residual from the prediction (rounded down), so that one echo off the
+                # track (an alias within the gate) bends the prediction only half as much
+                vmax = s.cfg.vmax
+                st.v = max(-vmax, min(vmax, st.v + ((tof - self._predict(s, st, w.seq)) >> 1)))
+                st.tof, st.seq, st.miss = tof, w.seq, 0
             else:
                 vmax = s.cfg.vmax
                 st.vel = gap == 1 and not st.init

@@ -6,7 +6,7 @@ from __future__ import annotations
 from ...event_word import CANCEL_FIELDS, CANCEL_RECORD_BIT, EVENT_FIELDS, PULSE_FIELDS, PULSE_RECORD_BIT
 from ..sched_ucode import Program
 from .layout import (EVT_HI, EVT_LO, F_ANY_TRK, F_EPOCH, F_IN_INIT, F_TRACKING, HC, HD_EL, HD_T, HS,
-                     NUM_RX, R_MASK24, R_SIGN24, SU_EDGE, SU_FLAGS, SU_GO, SU_HEAD, SU_MINC,
+                     NUM_RX, R_MASK24, R_SIGN24, R_STRIDE, SENS_STRIDE, SU_EDGE, SU_FLAGS, SU_GO, SU_HEAD, SU_MINC,
                      SU_SENSOR, SU_TA, SU_VALID, SU_X, S_DUE, S_FLAGS, S_K, S_MODE, S_OPEN, WV)
 
 
@@ -43,9 +43,9 @@ def _tof_event(p: Program, tof: int, seq: int, rx: int, sensor: int, flags: int,
     is seq << 5 rotated right a byte (its bits 2:0 land in the low half, 7:3 in the high one).
     Uses the five ``tmp`` registers; ``tof`` and the inputs stay."""
     a, b, c, d, e = tmp
-    p.li(a, 32).andi(b, seq, 0xFF)
-    p.mul(b, b, a).rotb(c, rx, 1)                       # seq << 5; rx << 24
-    p.rotb(b, b, 1).mul(d, sensor, a)                   # seq << 29; sensor << 5 (bit 37)
+    p.andi(b, seq, 0xFF)
+    p.mul(b, b, R_STRIDE).rotb(c, rx, 1)                # seq << 5 (R_STRIDE = 32); rx << 24
+    p.rotb(b, b, 1).mul(d, sensor, R_STRIDE)            # seq << 29; sensor << 5 (bit 37)
     p.li(e, -0x2000_0000)
     p.and_(a, b, e).andi(b, b, 0x1F)                    # seq bits of the low half; of the high half
     p.or_(c, c, a).or_(b, b, d)
@@ -60,6 +60,9 @@ def _tof_event(p: Program, tof: int, seq: int, rx: int, sensor: int, flags: int,
     return p.st(c, 0, EVT_LO).st(b, 0, EVT_HI)
 
 
+assert SENS_STRIDE == 32, "R_STRIDE doubles as the constant 32 (<< 5) in the kernels below"
+
+
 # ------------------------------------------------------------------ HIT: an echo in a window
 def hit_kernel(p: Program) -> Program:
     """HIT, an edge at tick r1 in a window (t0 r2, pulse seq r3 (8 bits), flags r4: bit 0 init
@@ -68,8 +71,9 @@ def hit_kernel(p: Program) -> Program:
     r10 / r11. The first echo writes its event word (docs/fast_firing.md section 6) and, for a
     window of the current epoch, updates the tracking state (an init ping's first echo starts
     the track; a tracking window's first echo is a sample if the pulse gap is 1..127, with
-    velocity when the gap is 1 after a tracking sample; after a gap a track with velocity keeps
-    it, its gate and its miss count) unless the gated miss rule rejects it: |tof - prediction| >
+    velocity when the gap is 1 after a tracking sample (once measured and with the gate on: v plus
+    half the residual from the prediction, rounded down); after a gap a track with velocity
+    keeps it, its gate and its miss count) unless the gated miss rule rejects it: |tof - prediction| >
     G with a measured velocity, > v_max * gap (unsigned 8-bit gap) for the sample that would
     measure it (not after the init ping's sample); r8 is free after the test
     (r12 = 1: then the window counts as a miss and the event word has its gated bit). The word
@@ -92,14 +96,16 @@ def hit_kernel(p: Program) -> Program:
     p.andi(0, 25, 4).b("ne", "hit_pred")                 # velocity measured: the gate G
     p.andi(0, 25, 2).b("ne", "hit_sample")               # after the init ping's sample: no bound
     p.mul(8, 27, 9)                                      # no velocity yet: v_max per pulse of the gap
-    p.label("hit_pred").xori(21, 27, 0x80)
+    p.label("hit_pred").xori(21, 27, 0x80).sub(17, 0, 8)   # -bound
+    p.li(16, 128)                                        # 2^7, for the update below
     p.addi(21, 21, -128)                                 # the gap, signed
     p.mul(22, 21, 18)
     p.add(22, 22, 20)                                    # prediction, then its clamp
     p.clamp(22, 10, 11)
-    p.sub(22, 14, 22).b("ge", "hit_abs").sub(22, 0, 22)
-    p.label("hit_abs").cmp(22, 8).b("le", "hit_sample")
-    p.li(12, 1).li(13, KIND_GATED).jmp("hit_event")      # rejected: gated; a miss at close
+    p.sub(15, 14, 22)                                    # the residual r (kept for the update)
+    p.cb("gt", 15, 8, "hit_rej")
+    p.cb("ge", 15, 17, "hit_sample")                     # -bound <= r <= bound: a sample
+    p.label("hit_rej").li(12, 1).li(13, KIND_GATED).jmp("hit_event")   # gated; a miss at close
     p.label("hit_sample").tst(27).b("eq", "hit_event")   # gap 0: no sample
     p.andi(0, 27, 0x80).b("ne", "hit_event")             # gap 128..255 (negative): no sample
     p.li(26, 0).li(21, 1)                                # v, flags: tracked
@@ -108,7 +114,18 @@ def hit_kernel(p: Program) -> Program:
     p.mov(26, 18).andi(21, 25, 0xFF)                     # a gap: v, vel and miss count kept
     p.jmp("hit_write")
     p.label("hit_next").andi(0, 25, 2).b("ne", "hit_write")   # after the init ping's sample: no v
-    p.sub(26, 14, 20).sub(22, 0, 9)                      # v = tof - last tof, within +-v_max
+    p.andi(0, 25, 4).b("eq", "hit_raw")                  # the sample that measures v
+    p.tst(8).b("eq", "hit_raw")                          # gate off: v from the last two samples
+    # a gated sample with a measured velocity: v + h, h = r >> 1 for the residual r (|r| <= G, so
+    # r * 2^7 fits 32 bits): bits 23:0 of r * 2^7 rotated a byte, then sign-extended from 24 bits
+    p.mul(17, 15, 16)
+    p.rotb(17, 17, 1)
+    p.add(26, 18, 17)
+    p.and_(26, 26, R_MASK24)
+    p.xor(26, 26, R_SIGN24)
+    p.sub(26, 26, R_SIGN24).jmp("hit_vclamp")
+    p.label("hit_raw").sub(26, 14, 20)                   # v = tof - last tof
+    p.label("hit_vclamp").sub(22, 0, 9)                  # within +-v_max
     p.clamp(26, 22, 9)
     p.li(21, 5)                                          # tracked, vel
     p.label("hit_write").andi(16, 3, 0xFF).and_(26, 26, R_MASK24)
@@ -128,22 +145,22 @@ def hit_kernel(p: Program) -> Program:
 # ------------------------------------------------------------------ CLOSE: a window's result
 def close_kernel(p: Program) -> Program:
     """CLOSE of the head window of receiver r6 at tick r1: window t0 r2, end offset r3, pulse
-    seq r4 (8 bits), flags r5 (bit 0 init ping, bit 1 saw an echo, bit 2 that echo was
-    rejected by the gate, bit 3 the window's epoch), sensor r7 (its words at r8 = SENS + 32 s),
+    seq r4 (8 bits), flags r5 (bit 0 init ping, bit 1 the window's epoch, bit 2 saw an echo,
+    bit 3 that echo was rejected by the gate), sensor r7 (its words at r8 = SENS + 32 s),
     tracking state at r9. An empty window writes its event word; an empty or rejected tracking
     window of the current epoch counts a miss, and K misses while tracking end the tracking
     (due = min(due, now); r10 = 1: the caller cancels the sensor's windows); the last open
     window of an init ping ends the init phase (tracking if the mode is track and a receiver
     got an echo). Model: FastFiringModel._on_close."""
-    p.li(10, 0).ld(11, 8, S_FLAGS).andi(0, 5, 2)
+    p.li(10, 0).ld(11, 8, S_FLAGS).andi(0, 5, 4)
     p.b("ne", "close_hit")                              # an echo came: no event
     p.and_(18, 3, R_MASK24)                             # tof = end - t0
     _tof_event(p, 18, 4, 6, 7, 5, KIND_EMPTY, (12, 13, 14, 15, 16))   # window_empty
     p.jmp("close_miss")
-    p.label("close_hit").andi(0, 5, 4).b("eq", "close_init")   # a sample: no miss
+    p.label("close_hit").andi(0, 5, 8).b("eq", "close_init")   # a sample: no miss
     p.label("close_miss").andi(0, 5, 1).b("ne", "close_init")  # init pings count no misses
-    p.andi(12, 11, F_EPOCH).andi(13, 5, 8)
-    p.add(12, 12, 12)                                   # the sensor's epoch at bit 3
+    p.andi(12, 11, F_EPOCH).andi(13, 5, 2)
+    p.add(13, 13, 13)                                   # the window's epoch at F_EPOCH
     p.cb("ne", 12, 13, "close_done")                    # an earlier epoch's window
     p.ld(12, 9, 1).ld(14, 8, S_K)
     p.rotb(13, 12, 3)
@@ -152,19 +169,16 @@ def close_kernel(p: Program) -> Program:
     p.addi(15, 15, 0x10).li(16, 0x1000_0000)
     p.add(12, 12, 16)                                   # miss + 1 in word B (bits 31:28)
     p.st(12, 9, 1)
-    p.label("close_sat").add(14, 14, 14)
-    p.add(14, 14, 14).andi(0, 11, F_TRACKING)
-    p.b("eq", "close_done")                             # not tracking: no safety
-    p.add(14, 14, 14)
-    p.add(14, 14, 14)                                   # K << 4
-    p.sub(0, 15, 14).b("lt", "close_done")              # fewer than K misses
+    p.label("close_sat").mul(14, 14, R_STRIDE).add(16, 15, 15)   # K << 5; miss << 5
+    p.andi(0, 11, F_TRACKING).b("eq", "close_done")     # not tracking: no safety
+    p.sub(0, 16, 14).b("lt", "close_done")              # fewer than K misses
     p.andi(11, 11, ~F_TRACKING).li(10, 1)      # safety: re-initialise now
     p.ld(12, 8, S_DUE).st(11, 8, S_FLAGS)
     p.sub(0, 1, 12).b("ge", "close_done")
     p.st(1, 8, S_DUE).jmp("close_done")                 # due = min(due, now)
     p.label("close_init").andi(0, 5, 1).b("eq", "close_done")
-    p.andi(12, 11, F_EPOCH).andi(13, 5, 8)
-    p.add(12, 12, 12)
+    p.andi(12, 11, F_EPOCH).andi(13, 5, 2)
+    p.add(13, 13, 13)
     p.cb("ne", 12, 13, "close_done")                    # an earlier epoch's init ping
     p.ld(12, 8, S_OPEN)
     p.addi(12, 12, -1)

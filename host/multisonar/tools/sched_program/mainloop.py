@@ -74,12 +74,14 @@ def _pop_lowest(p: Program, idx: int, mask: int, tmp: int = 11) -> Program:
     return p.lsb(idx, mask).addi(tmp, mask, -1).and_(mask, mask, tmp)
 
 
-def _next_of(p: Program, var: int, idx: int, mask: int, done: str) -> Program:
-    """The lowest set bit of mask variable ``var``: its index into ``idx`` and the variable
-    without it; to ``done`` when none is left."""
+def _next_of(p: Program, var: int, idx: int, mask: int, done: str, idx_var: int) -> Program:
+    """The lowest set bit of mask variable ``var``: its index into ``idx`` and variable
+    ``idx_var``, and the variable without it; to ``done`` when none is left. (The index is
+    stored first: the store of the mask then does not follow the instruction that makes it.)"""
     _get(p, mask, var)
     p.tst(mask).b("eq", done)
     _pop_lowest(p, idx, mask)
+    _put(p, idx, idx_var)
     return _put(p, mask, var)
 
 
@@ -192,8 +194,7 @@ def _idle(p: Program) -> None:
 # ------------------------------------------------------------------ DISPATCH: edges, closes
 def _edges(p: Program) -> None:
     p.label("edge_next")
-    _next_of(p, M_EDGES, 6, 13, "close_next")
-    _put(p, 6, M_RX)
+    _next_of(p, M_EDGES, 6, 13, "close_next", M_RX)
     _get(p, 1, M_CUR)
     _get(p, 2, M_L)
     p.sub(1, 1, 2)                                      # the edge's timestamp n = cur - L
@@ -240,8 +241,7 @@ def _edges(p: Program) -> None:
 
 def _closes(p: Program) -> None:
     p.label("close_next")
-    _next_of(p, M_CLOSES, 6, 14, "sp_phase")
-    _put(p, 6, M_RX)
+    _next_of(p, M_CLOSES, 6, 14, "sp_phase", M_RX)
     _get(p, 1, M_CUR)
     p.ld(12, 6, HS).ld(13, 6, HC)
     p.andi(0, 12, 0x100).b("eq", "close_head")          # no head
@@ -259,15 +259,13 @@ def _closes(p: Program) -> None:
     p.andn(16, 16, 15)
     p.st(16, 6, WV)                                     # the slot is free
     _meta_fields(p, 19, 4, 7, 20)
-    # CLOSE's flags: bit 0 init ping, 1 an echo, 2 the echo was rejected, 3 the window's epoch
-    p.andi(5, 20, 1).andi(20, 20, 2)
-    p.add(20, 20, 20)
-    p.add(20, 20, 20)
-    p.or_(5, 5, 20)
+    # CLOSE's flags: bit 0 init ping, 1 the window's epoch (as in the meta bits), 2 an echo,
+    # 3 the echo was rejected
+    p.andi(5, 20, 3)
     p.and_(0, 17, 15).b("eq", "close_nowh")
-    p.ori(5, 5, 2)
-    p.label("close_nowh").and_(0, 18, 15).b("eq", "close_nowr")
     p.ori(5, 5, 4)
+    p.label("close_nowh").and_(0, 18, 15).b("eq", "close_nowr")
+    p.ori(5, 5, 8)
     p.label("close_nowr")
     _sensor_words(p, 8, 7)
     _tracking_base(p, 9, 7, 6)
@@ -291,8 +289,7 @@ def _sched(p: Program) -> None:
     _get(p, 9, M_ACT)
     _put(p, 9, M_SREM)
     p.label("sp_s")
-    _next_of(p, M_SREM, 7, 9, "sp_end")
-    _put(p, 7, M_S)
+    _next_of(p, M_SREM, 7, 9, "sp_end", M_S)
     _sensor_words(p, 8, 7)
     p.ld(11, 8, S_FLAGS).ld(12, 8, S_NXT).ld(13, 7, ONEHOT)
     _get(p, 15, M_WAKE)
