@@ -306,8 +306,8 @@ class Device:
         effect at the next :meth:`start`: once a track's velocity is measured, a tracking window's
         first echo farther than ``ticks`` from the prediction counts as a miss, one within it
         changes the velocity by half its residual (0 off: no gate, the last difference as the
-        velocity; reset 500 = 10.4 us). The other safety rule is per sensor: ``VirtualSensor(reinit_every=M)``. Returns the
-        value read back."""
+        velocity; reset 500 = 10.4 us). The other safety rule is per sensor:
+        ``VirtualSensor(reinit_every=M)``. Returns the value read back."""
         from .generated import sonar_regs as R
 
         reg = R.REGISTERS["RX_FILTER"]
