@@ -123,14 +123,15 @@ def test_wide_generator_crossings_on_unused_seeds_are_reported_within_the_bound(
 
 
 def test_wide_trial_parameters_are_reproducible_and_in_domain():
-    from multisonar.safety import wide_trial_params
+    from multisonar.safety import nearest_lane_m, wide_trial_params
 
+    assert 0.65 < nearest_lane_m() < 0.7  # ring 0.35 m + 0.26 m of ring-down + 5 cm
     orders = set()
     for seed in range(200):
         p = wide_trial_params(seed)
         assert p == wide_trial_params(seed)
-        assert 1.3 <= p["wall_y"] <= 4.0 and 1 <= p["miss_limit"] <= 3 and 1.0 <= p["spurious_rate_hz"] <= 50.0
-        assert 0.35 + p["person_radius"] < p["person_y"] < p["wall_y"] - p["person_radius"]
+        assert 1.45 <= p["wall_y"] <= 4.0 and 1 <= p["miss_limit"] <= 3 and 1.0 <= p["spurious_rate_hz"] <= 50.0
+        assert nearest_lane_m() + p["person_radius"] < p["person_y"] < p["wall_y"] - p["person_radius"]
         assert abs(p["person_speed"]) <= 2.5 and 0.0 <= p["robot_speed"] <= 2.0
         orders.add(p["order"])
     assert orders == set(range(1, 9))

@@ -38,6 +38,7 @@ person to cross the whole beam.
 from __future__ import annotations
 
 import copy
+import functools
 import math
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -46,14 +47,14 @@ from typing import Any, Iterable, Literal
 import numpy as np
 import yaml
 
-from .constants import DEVICE_DECISION_LEAD, TICK_HZ
+from .constants import DEVICE_DECISION_LEAD, TICK_HZ, speed_of_sound
 from .fastfiring import DEFAULT_MISS_GATE, FastFiringModel, SceneEchoSource
 from .layout import load_layout
 from .schedule import Schedule, ScheduleError, VirtualSensor
 from .scene import parse_scene
 
-__all__ = ["TrialResult", "run_trial", "random_trial_params", "wide_trial_params", "summarise", "as_rows",
-           "FalseFixResult", "run_false_fix_trial", "summarise_false_fixes", "FALSE_FIX_TOL_M"]
+__all__ = ["TrialResult", "run_trial", "random_trial_params", "wide_trial_params", "nearest_lane_m", "summarise",
+           "as_rows", "FalseFixResult", "run_false_fix_trial", "summarise_false_fixes", "FALSE_FIX_TOL_M"]
 
 _SCENE_FILE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "person_crossing.yaml"
 TX, RX = 6, (5, 6, 7)  # element 6 faces +y (the wall side) on ring24
@@ -113,17 +114,27 @@ def random_trial_params(seed: int) -> dict[str, Any]:
                 miss_limit=int(rng.integers(1, 4)))
 
 
+@functools.cache
+def nearest_lane_m() -> float:
+    """Smallest distance from the ring's centre to the person's near surface the wide generator
+    draws: the transmitter's distance from the centre, the sensor's minimum range (its window
+    opens after the ring-down T_dead: c T_dead / 2 = 0.26 m; nothing nearer is heard by any rule)
+    and 5 cm so that the echo is not at the window's first tick."""
+    layout = load_layout()
+    return float(np.hypot(*layout.positions[TX])) + layout.transducer.ring_down_s * speed_of_sound() / 2 + 0.05
+
+
 def wide_trial_params(seed: int) -> dict[str, Any]:
     """Trial ``seed`` of the wide generator (issue #28; a pure function of the seed): wall at
-    1.3-4.0 m, person radius 0.15-0.3 m on a lane between ring and wall, robot 0-2 m/s, the
-    person 1.5-3 m/s faster or slower than the robot (at most 2.5 m/s either way), order 1-8
-    (the highest that schedules the wall is taken), K 1-3, spurious pulses log-uniform 1-50 per
-    second and channel. Other seeds than :func:`random_trial_params` draws, same keys plus
-    ``spurious_rate_hz``."""
+    1.45-4.0 m, person radius 0.15-0.3 m on a lane between the sensor's minimum range
+    (:func:`nearest_lane_m`) and the wall, robot 0-2 m/s, the person 1.5-3 m/s faster or slower
+    than the robot (at most 2.5 m/s either way), order 1-8 (the highest that schedules the wall
+    is taken), K 1-3, spurious pulses log-uniform 1-50 per second and channel. Other seeds than
+    :func:`random_trial_params` draws, same keys plus ``spurious_rate_hz``."""
     rng = np.random.default_rng([28, seed])
-    wall_y = float(rng.uniform(1.3, 4.0))  # >= 1.3 m: room for a person lane
+    wall_y = float(rng.uniform(1.45, 4.0))  # >= 1.45 m: room for a lane beyond the minimum range
     radius = float(rng.uniform(0.15, 0.3))
-    lo, hi = 0.35 + radius + 0.2, wall_y - radius - 0.15
+    lo, hi = nearest_lane_m() + radius, wall_y - radius - 0.15
     person_y = float(rng.uniform(lo, hi))
     robot = float(rng.uniform(0.0, 2.0))
     rel = float(rng.uniform(1.5, 3.0)) * (1 if rng.random() < 0.5 else -1)
