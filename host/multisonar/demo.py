@@ -143,21 +143,41 @@ def _world(scene: Any, t: float, p: Any) -> tuple[np.ndarray, float]:
     return rot @ np.asarray(p, float) + (px, py), ph
 
 
-def _host_fix(scene: Any, name: str, t: float, rx: np.ndarray, paths: np.ndarray, source: np.ndarray) -> Fix | None:
-    """The host geometry's fix (multisonar.geometry.classify) from one pulse's first echoes:
-    receivers ``rx``, path lengths (m) from ``source`` (robot frame), placed with the pose at
-    ``t``; None when the classification gives no valid edge or wall."""
+def _host_fixes(scene: Any, pulses: list[tuple[float, str, np.ndarray, np.ndarray, np.ndarray]]) -> list[Fix]:
+    """The host geometry's fixes of pulses ``(t, sensor name, receivers, path lengths (m) from
+    source (robot frame))``: the classification (multisonar.geometry.classify) and, where it
+    says edge or wall, that model's fit, placed with the pose at ``t``; a pulse whose
+    classification gives no valid edge or wall makes no fix. One vectorised call per receiver
+    count (a per-pulse classify fits every model twice), fixes in pulse order."""
     from . import geometry
 
-    cls = geometry.classify(scene.layout.positions[rx], paths, source=source)
-    if cls.kind == "wall" and cls.wall.valid:
-        foot, ph = _world(scene, t, cls.wall.foot)
-        return Fix(t, name, "wall", *foot, cls.wall.normal_angle + ph,
-                   _truth_distance(foot, scene, walls=True, points=False))
-    if cls.kind == "edge" and cls.point.valid:
-        p, _ = _world(scene, t, cls.point.position)
-        return Fix(t, name, "edge", *p, 0.0, _truth_distance(p, scene, walls=True, points=True))
-    return None
+    pos = scene.layout.positions
+    fixes: dict[int, Fix] = {}
+    by_n: dict[int, list[int]] = {}
+    for i, pulse in enumerate(pulses):
+        by_n.setdefault(len(pulse[2]), []).append(i)
+    for rows in by_n.values():
+        C = np.stack([pos[pulses[i][2]] for i in rows])
+        R = np.stack([pulses[i][3] for i in rows])
+        S = np.stack([pulses[i][4] for i in rows])
+        kind = geometry.classify_batch(C, R, S).kind
+        for code, solve in ((geometry.KINDS.index("wall"), geometry.solve_wall_batch),
+                            (geometry.KINDS.index("edge"), geometry.solve_point_batch)):
+            sel = np.flatnonzero(kind == code)
+            if not sel.size:
+                continue
+            fit = solve(C[sel], R[sel], S[sel], tol=np.inf, max_gdop=np.inf)
+            for j in np.flatnonzero(fit.valid):
+                i = rows[sel[j]]
+                t, name = pulses[i][0], pulses[i][1]
+                if solve is geometry.solve_wall_batch:
+                    foot, ph = _world(scene, t, fit.foot[j])
+                    fixes[i] = Fix(t, name, "wall", *foot, float(fit.normal_angle[j]) + ph,
+                                   _truth_distance(foot, scene, walls=True, points=False))
+                else:
+                    p, _ = _world(scene, t, fit.position[j])
+                    fixes[i] = Fix(t, name, "edge", *p, 0.0, _truth_distance(p, scene, walls=True, points=True))
+    return [fixes[i] for i in sorted(fixes)]
 
 
 def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: str = "demo") -> DemoRun:
@@ -200,16 +220,15 @@ def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: s
             cands = [seq for t0, seq in issued.get((e.sensor, e.seq), []) if t0 <= e.tick]
             if cands:
                 by_pulse.setdefault((e.sensor, cands[-1]), {})[e.rx] = e.tof
-    fixes: list[Fix] = []
+    todo = []
     for (sid, seq), tofs in by_pulse.items():
         r = resolved[sid]
         if len(tofs) < 3 or (sid, seq) not in t0_of:
             continue
         rx = np.array(sorted(tofs))
         source, paths = sensor_paths(layout, r, np.array([tofs[i] for i in rx]), c)
-        fix = _host_fix(scene, r.name, t0_of[(sid, seq)] / TICK_HZ, rx, paths, source)
-        if fix is not None:
-            fixes.append(fix)
+        todo.append((t0_of[(sid, seq)] / TICK_HZ, r.name, rx, paths, source))
+    fixes = _host_fixes(scene, todo)
     ev = {k: np.array([getattr(e, k) for e in events]) for k in
           ("tick", "sensor", "seq", "rx", "tof", "in_window", "first_echo", "window_empty", "init_ping", "gated")}
     return DemoRun("golden", duration, wall_s, list(resolved),
@@ -426,16 +445,14 @@ def _host_fixes_of_frames(scene: Any, resolved: list[Any], frames: list[Any], sc
     from . import protocol as P
 
     layout, c = scene.layout, scene.speed_of_sound
-    fixes: list[Fix] = []
+    todo = []
     for f in frames:
         got = None if f.is_geometry or f.flags & P.FRAME_LOST else _first_echo_paths(layout, resolved, f, c)
         if got is None:
             continue
         r, rxs, source, paths = got
-        fix = _host_fix(scene, r.name, scene_time(f.t0), rxs, paths, source)
-        if fix is not None:
-            fixes.append(fix)
-    return fixes
+        todo.append((scene_time(f.t0), r.name, rxs, paths, source))
+    return _host_fixes(scene, todo)
 
 
 def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) -> dict[str, Any]:
