@@ -472,6 +472,7 @@ def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) ->
     compared = mismatches = 0
     max_mm = uncertain_max_mm = 0.0
     examples: list[str] = []
+    pairs = []  # (geometry frame, sensor, receivers, source, path lengths of its pulse's ToF frame)
     for f in frames:
         key = (f.vs, f.pulse_seq)
         if not f.is_geometry:
@@ -479,10 +480,18 @@ def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) ->
             continue
         tf = last_tof.get(key)
         got = None if tf is None or tf.t0 != f.t0 else _first_echo_paths(layout, resolved, tf, c)
-        if got is None:
-            continue
-        r, rxs, source, paths = got
-        want = geo_records(layout.positions[rxs], paths[None, :], source)[0]
+        if got is not None:
+            pairs.append((f, *got))
+    wants: list[Any] = [None] * len(pairs)
+    by_n: dict[int, list[int]] = {}
+    for i, (_, _, rxs, _, _) in enumerate(pairs):
+        by_n.setdefault(len(rxs), []).append(i)
+    for rows in by_n.values():  # one vectorised geometry call per receiver count
+        recs = geo_records(np.stack([layout.positions[pairs[i][2]] for i in rows]),
+                           np.stack([pairs[i][4] for i in rows]), np.stack([pairs[i][3] for i in rows]))
+        for i, rec in zip(rows, recs):
+            wants[i] = rec
+    for (f, r, rxs, source, paths), want in zip(pairs, wants):
         for g in f.geo:
             compared += 1
             if want is None:

@@ -48,11 +48,13 @@ def sensor_paths(layout: Any, sensor: Any, tofs: np.ndarray, c: float, shift: in
 def geo_records(receivers: np.ndarray, paths: np.ndarray, source: np.ndarray) -> list[np.void | None]:
     """One GEO_DTYPE record per row of ``paths`` (m, receivers in ``receivers``' order, >= 3):
     the classification's kind, the winning model's fit (a cylinder reports its point fit), the
-    quality 255 * (1 - chi2 / threshold); None where the fit is not finite."""
+    quality 255 * (1 - chi2 / threshold); None where the fit is not finite. ``receivers`` (N,2)
+    or one set per row (M,N,2), ``source`` (2,) or (M,2)."""
     from . import geometry
 
     C = np.asarray(receivers, float)
     paths = np.atleast_2d(np.asarray(paths, float))
+    n_rx = paths.shape[1]
     with np.errstate(all="ignore"):
         cb = geometry.classify_batch(C, paths, source)
         pb = geometry.solve_point_batch(C, paths, source, tol=np.inf, max_gdop=np.inf)
@@ -61,7 +63,7 @@ def geo_records(receivers: np.ndarray, paths: np.ndarray, source: np.ndarray) ->
     for m in range(len(paths)):
         g = np.zeros((), P.GEO_DTYPE)
         kind = int(cb.kind[m]) + 1  # KINDS index -> GEO_CLASSES index
-        g["cls"], g["n_rx"] = kind, len(C)
+        g["cls"], g["n_rx"] = kind, n_rx
         k = 1 if kind == 2 else 0
         thr = max(float(cb.threshold[k]), 1e-12)
         q = 1.0 - min(float(cb.chi2[m, k]) / thr, 1.0) if kind in (1, 2) else 0.0
