@@ -4,12 +4,13 @@ Each trial is :func:`multisonar.safety.run_trial` on the wide generator
 (:func:`multisonar.safety.wide_trial_params`: wall 1.45-4 m, person lane beyond the sensor's
 minimum range, radius and speed, robot 0-2 m/s, order 1-8 as far as the wall allows, K 1-3,
 spurious pulses 1-50 /s per channel), on the golden model (tick-identical to the RTL scheduler)
-with the acoustic model in the loop. A trial passes when the person is reported within N + K + 1 pulses of hiding the tracked wall. Each seed
-runs twice: with the device's defaults (the firing rules under test) and with the gate-only
-default of the issue's time (gated miss rule 2400 ticks), whose tracking samples are the
-reference of ``sample_fraction``. Fixes are made from every pulse with first echoes (not gated)
-on the sensor's three receivers, as the firmware does; a fix farther than 50 mm from every true
-surface is false (``false_fix_rate`` = false fixes / fixes).
+with the acoustic model in the loop. A trial passes when the person is reported within
+N + K + 1 pulses of hiding the tracked wall. Each seed runs twice: with the device's defaults (the
+firing rules under test) and with the gate-only default of the issue's time (gated miss rule
+2400 ticks), whose tracking samples are the reference of ``sample_fraction``. Fixes are made from
+every pulse with first echoes (not gated) on the sensor's three receivers, as the firmware does;
+a fix farther than 50 mm from every true surface is false (``false_fix_rate`` = false fixes /
+fixes).
 """
 
 from __future__ import annotations
