@@ -45,6 +45,8 @@ $(TWIN_DIR)/fast/libmstwin.so: $(TWIN_DEPS)
 $(TWIN_DIR)/fst/libmstwin.so: $(TWIN_DEPS)
 	@mkdir -p $(@D)
 	@echo "twin: verilating with FST tracing -> $@"
-	verilator $(TWIN_VFLAGS) --trace-fst --trace-structs --Mdir $(TWIN_DIR)/fst $(RTL_SOURCES) \
+	@# C++ at -O1: a traced run's time is the tracing's (-O2 was no faster on 300k clocks) and
+	@# the compile takes two thirds of the CPU time (28 s instead of 42)
+	verilator $(TWIN_VFLAGS) -CFLAGS -O1 --trace-fst --trace-structs --Mdir $(TWIN_DIR)/fst $(RTL_SOURCES) \
 	    sim/twin/ms_twin_top.sv sim/twin/ms_twin.cpp
 	@touch $@
