@@ -161,16 +161,15 @@ def _host_fixes(scene: Any, pulses: list[tuple[float, str, np.ndarray, np.ndarra
         R = np.stack([pulses[i][3] for i in rows])
         S = np.stack([pulses[i][4] for i in rows])
         kind = geometry.classify_batch(C, R, S).kind
-        for code, solve in ((geometry.KINDS.index("wall"), geometry.solve_wall_batch),
-                            (geometry.KINDS.index("edge"), geometry.solve_point_batch)):
-            sel = np.flatnonzero(kind == code)
+        for what, solve in (("wall", geometry.solve_wall_batch), ("edge", geometry.solve_point_batch)):
+            sel = np.flatnonzero(kind == geometry.KINDS.index(what))
             if not sel.size:
                 continue
             fit = solve(C[sel], R[sel], S[sel], tol=np.inf, max_gdop=np.inf)
             for j in np.flatnonzero(fit.valid):
                 i = rows[sel[j]]
                 t, name = pulses[i][0], pulses[i][1]
-                if solve is geometry.solve_wall_batch:
+                if what == "wall":
                     foot, ph = _world(scene, t, fit.foot[j])
                     fixes[i] = Fix(t, name, "wall", *foot, float(fit.normal_angle[j]) + ph,
                                    _truth_distance(foot, scene, walls=True, points=False))
