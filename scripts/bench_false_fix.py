@@ -82,6 +82,9 @@ def main() -> int:
               f"{s['gated']} ({s['gated_false'] + s['gated_alias']}) | {s['fixes']} | {s['fixes_per_s']:.1f} | {s['false_fixes']} ({s['false_fixes_spurious']} / {s['false_fixes_alias']} / {other}) | "
               f"{s['false_fix_rate']:.2%} | {s['false_fixes_per_s']:.3f} | {s['max_fix_error_m'] * 1e3:.1f} | "
               f"{s['uncertain_points']} ({s['false_uncertain_points']}) |")
+    for out in (a.json, a.csv, a.plot):  # the output files' folders, e.g. build/bench/ on a fresh clone
+        if out:
+            out.parent.mkdir(parents=True, exist_ok=True)
     if a.json:
         a.json.write_text(json.dumps({
             "trials_per_condition": a.trials, "first_seed": a.first_seed, "person": not a.no_person,
