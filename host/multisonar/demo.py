@@ -26,7 +26,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -143,6 +143,19 @@ def _world(scene: Any, t: float, p: Any) -> tuple[np.ndarray, float]:
     return rot @ np.asarray(p, float) + (px, py), ph
 
 
+def _by_receiver_count(positions: np.ndarray, inputs: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+                       ) -> Iterator[tuple[list[int], np.ndarray, np.ndarray, np.ndarray]]:
+    """Geometry inputs ``(receivers, path lengths, source)`` stacked for the vectorised solvers,
+    one group per receiver count: (the group's indices into ``inputs``, receiver positions
+    (M,N,2), path lengths (M,N), sources (M,2))."""
+    by_n: dict[int, list[int]] = {}
+    for i, (rx, _, _) in enumerate(inputs):
+        by_n.setdefault(len(rx), []).append(i)
+    for rows in by_n.values():
+        yield (rows, np.stack([positions[inputs[i][0]] for i in rows]), np.stack([inputs[i][1] for i in rows]),
+               np.stack([inputs[i][2] for i in rows]))
+
+
 def _host_fixes(scene: Any, pulses: list[tuple[float, str, np.ndarray, np.ndarray, np.ndarray]]) -> list[Fix]:
     """The host geometry's fixes of pulses ``(t, sensor name, receivers, path lengths (m) from
     source (robot frame))``: the classification (multisonar.geometry.classify) and, where it
@@ -151,15 +164,8 @@ def _host_fixes(scene: Any, pulses: list[tuple[float, str, np.ndarray, np.ndarra
     count (a per-pulse classify fits every model twice), fixes in pulse order."""
     from . import geometry
 
-    pos = scene.layout.positions
     fixes: dict[int, Fix] = {}
-    by_n: dict[int, list[int]] = {}
-    for i, pulse in enumerate(pulses):
-        by_n.setdefault(len(pulse[2]), []).append(i)
-    for rows in by_n.values():
-        C = np.stack([pos[pulses[i][2]] for i in rows])
-        R = np.stack([pulses[i][3] for i in rows])
-        S = np.stack([pulses[i][4] for i in rows])
+    for rows, C, R, S in _by_receiver_count(scene.layout.positions, [p[2:] for p in pulses]):
         kind = geometry.classify_batch(C, R, S).kind
         for what, solve in (("wall", geometry.solve_wall_batch), ("edge", geometry.solve_point_batch)):
             sel = np.flatnonzero(kind == geometry.KINDS.index(what))
@@ -482,13 +488,9 @@ def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) ->
         if got is not None:
             pairs.append((f, *got))
     wants: list[Any] = [None] * len(pairs)
-    by_n: dict[int, list[int]] = {}
-    for i, (_, _, rxs, _, _) in enumerate(pairs):
-        by_n.setdefault(len(rxs), []).append(i)
-    for rows in by_n.values():  # one vectorised geometry call per receiver count
-        recs = geo_records(np.stack([layout.positions[pairs[i][2]] for i in rows]),
-                           np.stack([pairs[i][4] for i in rows]), np.stack([pairs[i][3] for i in rows]))
-        for i, rec in zip(rows, recs):
+    for rows, C, R, S in _by_receiver_count(layout.positions, [(rxs, paths, source)
+                                                               for _, _, rxs, source, paths in pairs]):
+        for i, rec in zip(rows, geo_records(C, R, S)):
             wants[i] = rec
     for (f, r, rxs, source, paths), want in zip(pairs, wants):
         for g in f.geo:
