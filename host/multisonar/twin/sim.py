@@ -16,6 +16,7 @@ USB packet:
 from __future__ import annotations
 
 import ctypes
+import fcntl
 import os
 import subprocess
 from collections.abc import Callable
@@ -65,14 +66,19 @@ _BUILT: set[bool] = set()
 
 def build(fst: bool = False, *, quiet: bool = False) -> Path:
     """`make twin` (or twin-fst) in the repository: verilates the device when a source changed
-    (once per process)."""
+    (once per process). Processes build one at a time (a lock file beside the libraries): two
+    makes of the same files at once (pytest workers) broke each other's firmware image."""
     root = repo_root()
     lib = library_path(fst)
     assert root is not None
     if fst in _BUILT and lib.exists():
         return lib
     cmd = ["make", "-s", "--no-print-directory", "-C", str(root), "twin-fst" if fst else "twin"]
-    r = subprocess.run(cmd, capture_output=quiet, text=True)
+    lock = lib.parents[1] / "build.lock"
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    with open(lock, "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)  # released when the file closes
+        r = subprocess.run(cmd, capture_output=quiet, text=True)
     if r.returncode != 0:
         tail = (r.stdout or "")[-2000:] + (r.stderr or "")[-2000:] if quiet else ""
         raise TwinError(f"building the twin failed ({' '.join(cmd)}){': ' + tail if tail else ''}")
