@@ -52,7 +52,7 @@ RDL          := rtl/regs/sonar_regs.rdl
 LAYOUT_FILE  := sim/layouts/$(LAYOUT).yaml
 PY_REGS      := host/multisonar/generated/sonar_regs.py
 GEN_OUTPUTS  := $(GEN)/rtl/ms_layout_pkg.sv $(GEN)/rtl/ms_ucode_pkg.sv $(GEN)/rtl/ms_sched_io_pkg.sv \
-                $(GEN)/rtl/ms_sched_ucode.hex $(GEN)/sv/sonar_regs.sv $(GEN)/sv/sonar_regs_pkg.sv \
+                $(GEN)/rtl/ms_sched_ucode.hex $(GEN)/rtl/ms_sched_ucode_hi.hex $(GEN)/sv/sonar_regs.sv $(GEN)/sv/sonar_regs_pkg.sv \
                 $(GEN)/firmware/sonar_regs.h $(GEN)/firmware/ms_layout.h $(GEN)/firmware/ms_sched_layout.h \
                 $(GEN)/firmware/ms_protocol.h $(GEN)/firmware/ms_geom_reasons.h $(GEN)/rtl/ms_protocol_pkg.sv $(GEN)/rtl/ms_usb_desc.hex \
                 $(GEN)/rtl/ms_usb_desc_pkg.sv $(GEN)/firmware/ms_event_word.h $(GEN)/rtl/ms_event_pkg.sv $(PY_REGS)

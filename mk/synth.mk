@@ -72,11 +72,14 @@ ifeq ($(TARGET),ecp5)
   # I-cache also the USB IN endpoint's 128-byte buffer: as block RAM they take three DP16KD
   # and one, which the 25F does not have. VexRiscv's register file (32 x 32, two read ports,
   # two DP16KD) stays in block RAM: in LUT-RAM (~320 LUT4 and 32 DPR16X4 more) its read sat on
-  # the slowest paths. Set here, not as attributes in the RTL: simulation and lint do not need them
+  # the slowest paths. The scheduler's microcode words beyond its two DP16KD (ms_sched_engine's
+  # rom_hi_q, 64 x 36) are a table in logic: as block RAM it would take one more DP16KD.
+  # Set here, not as attributes in the RTL: simulation and lint do not need them
   # every block's reset copy (ms_reset_copy) stays a flop of its own, placed near its block:
   # without keep, Yosys merges the copies back into one flop that drives the whole chip
   SYNTH_PREP   := setattr -set ram_style "distributed" m:*vs_m \
                   $(if $(SYNTH_VEX_ICACHE),,m:*u_ep_in.mem_q); \
+                  setattr -set ram_style "logic" m:*rom_hi_q; \
                   setattr -set keep 1 w:*rst_copy_q %ci1 c:* %i
   # router2: on the board top router1 had not converged after 50 min, router2 routes in 6
   # (docs/synthesis.md, "What keeps timing"). The electrostatic placer

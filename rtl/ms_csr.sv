@@ -237,12 +237,14 @@ module ms_csr
   assign burst_half_period_o = hwif_out.BURST.half_period.value;
   assign burst_cycles_o      = hwif_out.BURST.cycles.value;
   assign glitch_min_o        = hwif_out.RX_FILTER.glitch_min.value;
-  // RX_FILTER.miss_gate reaches the scheduler through the firmware's load image; named here for
-  // the testbenches that read the register file's contents through the hierarchy
+  // RX_FILTER.miss_gate and .miss_hold reach the scheduler through the firmware's load image;
+  // named here for the testbenches that read the register file's contents through the hierarchy
   logic [15:0] miss_gate;
-  logic        unused_miss_gate;
-  assign miss_gate        = hwif_out.RX_FILTER.miss_gate.value;
-  assign unused_miss_gate = ^miss_gate;
+  logic        miss_hold;
+  logic        unused_miss_rules;
+  assign miss_gate         = hwif_out.RX_FILTER.miss_gate.value;
+  assign miss_hold         = hwif_out.RX_FILTER.miss_hold.value;
+  assign unused_miss_rules = ^{miss_gate, miss_hold};
   // LOAD_DATA's value is the written word from the clock after its swmod strobe
   always_ff @(posedge clk_i) ld_we_o <= !rst_i && hwif_out.LOAD_DATA.data.swmod;
   assign ld_addr_o           = hwif_out.LOAD_ADDR.addr.value;

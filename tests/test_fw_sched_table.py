@@ -31,7 +31,8 @@ PUT = ctypes.CFUNCTYPE(None, ctypes.c_void_p, U32, U32)
 
 class Src(ctypes.Structure):
     _fields_ = [("vs", ctypes.POINTER(U32)), ("delay", ctypes.POINTER(U32)), ("delay_over", U32 * 8),
-                ("burst_half_period", U32), ("lead", U32), ("glitch_min", U32), ("miss_gate", U32)]
+                ("burst_half_period", U32), ("lead", U32), ("glitch_min", U32), ("miss_gate", U32),
+                ("miss_hold", U32)]
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +47,7 @@ def lib():
     return L
 
 
-def source(regs, *, glitch_min: int, miss_gate: int) -> tuple[Src, list]:
+def source(regs, *, glitch_min: int, miss_gate: int, miss_hold: int = 1) -> tuple[Src, list]:
     """The C view of a RegisterFile: VS words at the register map's stride, the DELAY memory."""
     stride = R.REGISTERS["VS_TX_MASK"].addr(1) - R.REGISTERS["VS_TX_MASK"].addr(0)
     assert stride == 64, "sched_table.c reads 16 words per entry"
@@ -62,7 +63,7 @@ def source(regs, *, glitch_min: int, miss_gate: int) -> tuple[Src, list]:
         i = (a - mem.address) // mem.stride
         over[i // 32] |= 1 << (i % 32)
     src = Src(ctypes.cast(vs, ctypes.POINTER(U32)), ctypes.cast(delay, ctypes.POINTER(U32)), (U32 * 8)(*over),
-              regs.field("BURST", "HALF_PERIOD"), DEVICE_DECISION_LEAD, glitch_min, miss_gate)
+              regs.field("BURST", "HALF_PERIOD"), DEVICE_DECISION_LEAD, glitch_min, miss_gate, miss_hold)
     return src, [vs, delay]   # the arrays stay alive with the structure
 
 

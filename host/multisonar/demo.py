@@ -185,8 +185,10 @@ def _host_fixes(scene: Any, pulses: list[tuple[float, str, np.ndarray, np.ndarra
     return [fixes[i] for i in sorted(fixes)]
 
 
-def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: str = "demo") -> DemoRun:
-    """The golden model on the demo's sensors: tick-exact scheduler and gating, host geometry."""
+def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: str = "demo",
+               miss_hold: bool = True) -> DemoRun:
+    """The golden model on the demo's sensors: tick-exact scheduler and gating, host geometry
+    (``miss_hold``: RX_FILTER.miss_hold, default its reset value)."""
     from .fastfiring import SEQ_W, FastFiringModel, SceneEchoSource
     from .georecord import sensor_paths
     from .schedule import Schedule
@@ -195,7 +197,8 @@ def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: s
     schedule = Schedule(layout, demo_sensors(sensors), temperature_c=scene.temperature_c)
     resolved = schedule.validate()
     # the device's decision lead: the model of the device, not the paper's zero-latency rule
-    model = FastFiringModel(schedule, SceneEchoSource(scene), decision_lead=DEVICE_DECISION_LEAD)
+    model = FastFiringModel(schedule, SceneEchoSource(scene), decision_lead=DEVICE_DECISION_LEAD,
+                            miss_hold=miss_hold)
     c = scene.speed_of_sound
     t_wall = time.time()
     chunk = int(0.05 * TICK_HZ)

@@ -317,6 +317,19 @@ class Device:
         self.write_regs([(reg.addr(), v)])
         return reg.fields["MISS_GATE"].get(self.read_regs([reg.addr()])[0])
 
+    def set_miss_hold(self, on: bool) -> bool:
+        """Set the miss hold (RX_FILTER.miss_hold, docs/fast_firing.md section 4.4), taking effect
+        at the next :meth:`start`: while a tracked receiver of a sensor has a missed window, the
+        sensor decides its next tracking pulse only once its last pulse's windows have closed,
+        at order 0 if the miss is still pending, so that an obstacle cannot hide behind the echo
+        of a pulse fired after the miss (reset: on). Returns the value read back."""
+        from .generated import sonar_regs as R
+
+        reg = R.REGISTERS["RX_FILTER"]
+        v = reg.fields["MISS_HOLD"].put(self.read_regs([reg.addr()])[0], int(bool(on)))
+        self.write_regs([(reg.addr(), v)])
+        return bool(reg.fields["MISS_HOLD"].get(self.read_regs([reg.addr()])[0]))
+
     def configure(self, sensors: Sequence[VirtualSensor] | Schedule, *, layout: Any = None,
                   temperature_c: float = 20.0, verify: bool = True) -> Schedule:
         """Validate ``sensors`` with the golden model's Schedule (ScheduleError names the sensor

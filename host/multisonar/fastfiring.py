@@ -32,6 +32,8 @@ from .schedule import (DEFAULT_GLITCH_MIN, MISS_W, SEQ_W, TIMESTAMP_W, WIN_SLOTS
                        ResolvedSensor, Schedule, effective_order, pulse_period)
 
 SEQ_MASK = (1 << SEQ_W) - 1
+#: RX_FILTER.miss_hold reset value: a sensor with a missed window stops interlacing (section 4.4)
+DEFAULT_MISS_HOLD = True
 #: RX_FILTER.miss_gate reset value, ticks (10.4 us): the gated miss rule of the RTL scheduler
 DEFAULT_MISS_GATE = 500
 TIMESTAMP_MASK = (1 << TIMESTAMP_W) - 1
@@ -365,6 +367,7 @@ class _SensorState:
     quiet: int = 0  # an init ping may not go before this tick (last t0 + max_tof - blank)
     rx: dict[int, _RxState] = field(default_factory=dict)
     track_pulses: int = 0  # tracking pulses since the last init ping (reinit_every option)
+    wins_close: int = 0  # close tick of the last tracking pulse's windows (miss hold)
 
 
 class _Line:
@@ -422,7 +425,7 @@ class FastFiringModel:
     def __init__(self, schedule: Schedule, echo_source: EchoSource, *, glitch_min: int = DEFAULT_GLITCH_MIN,
                  max_echoes_per_window: int = 1, win_slots: int = WIN_SLOTS, start_tick: int = 0,
                  decision_lead: int = 0, miss_gate: int | None = DEFAULT_MISS_GATE,
-                 reinit_every: int | None = None) -> None:
+                 reinit_every: int | None = None, miss_hold: bool = DEFAULT_MISS_HOLD) -> None:
         self.schedule = schedule
         self.cfg = schedule.validate()
         self.source = echo_source
@@ -450,12 +453,18 @@ class FastFiringModel:
         #: its last init ping cancels its windows and sends an init ping next, bounding the time an
         #: obstacle can hide behind an alias that passes the gate. The ``reinit_every`` argument,
         #: when given, overrides it for every sensor (experiments: multisonar.safety).
+        #: Miss hold (RTL: RX_FILTER.miss_hold, taken when the firmware loads the table; section
+        #: 4.4): while a tracked receiver of a sensor has a miss, the sensor does not interlace:
+        #: it decides its next tracking pulse only once its last tracking pulse's windows have
+        #: closed, and if a miss is still pending then, at order 0; so no pulse fired after the
+        #: miss can put an alias into a window in flight. False: the rule before the register.
         if miss_gate is not None and not 0 <= miss_gate < (1 << 16):
             raise ValueError(f"miss_gate {miss_gate} must be 0..65535 ticks (RX_FILTER.miss_gate, 0 = off) or None")
         if reinit_every is not None and not 1 <= reinit_every <= 255:
             raise ValueError(f"reinit_every {reinit_every} must be 1..255 pulses (MODE.reinit_every) or None")
         self.miss_gate = int(miss_gate) if miss_gate else None
         self.reinit_every = reinit_every
+        self.miss_hold = bool(miss_hold)
         self.now = int(start_tick)
         n_el = schedule.layout.n
         self.windows: list[list[_Window]] = [[] for _ in range(n_el)]
@@ -659,6 +668,13 @@ class FastFiringModel:
             te = {e: self._predict(s, st, k) for e, st in s.rx.items() if st.tracked}
             lo, hi = min(te.values()), max(te.values())
             n_eff = effective_order(c.order, lo, hi, c.t_v, c.t_n, c.blank)
+            if self.miss_hold and any(st.miss for st in s.rx.values()):
+                if self.now < s.wins_close:  # decide again once the windows in flight closed
+                    s.due = s.wins_close + self.lead
+                    self._push(s.wins_close, _SCHED, c.id, None)
+                    self._wake(after=c.id)  # sensors it held by its earlier due
+                    return
+                n_eff = 0
             period = pulse_period(n_eff, lo, hi, c.t_v, c.t_n, c.blank)
             wins = [(e, v - c.t_v, v + c.t_n) for e, v in sorted(te.items())]
         blanks = c.blank_intervals()
@@ -675,6 +691,7 @@ class FastFiringModel:
             s.track_pulses = 0
         else:
             s.track_pulses += 1
+            s.wins_close = t + hi + c.t_n - 1 + self.latency
         for e, a, b in blanks:
             self.blank_until[e] = max(self.blank_until[e], t + b)
         for e, a, b in blanks[:len(c.tx)]:

@@ -75,14 +75,16 @@ def schedule_writes(schedule: Schedule) -> list[tuple[int, int]]:
     return writes
 
 
-def load_writes(schedule: Schedule, *, glitch_min: int, miss_gate: int, lead: int) -> list[tuple[int, int]]:
+def load_writes(schedule: Schedule, *, glitch_min: int, miss_gate: int, lead: int,
+                miss_hold: bool = True) -> list[tuple[int, int]]:
     """(address, value) bus writes of the scheduler's load image for ``schedule`` through
     LOAD_ADDR / LOAD_DATA, as the firmware's START writes them (firmware/app/sonar/sched_table.c;
-    the scheduler stopped), before CTRL.enable | CTRL.start. ``glitch_min`` and ``miss_gate``
-    are RX_FILTER's fields, ``lead`` the scheduler's decision lead."""
+    the scheduler stopped), before CTRL.enable | CTRL.start. ``glitch_min``, ``miss_gate`` and
+    ``miss_hold`` are RX_FILTER's fields, ``lead`` the scheduler's decision lead."""
     from .tools.sched_program.system import load_image, load_sequence
 
     R = _regs()
-    image = load_image(schedule.validate(), lead=lead, glitch_min=glitch_min, miss_gate=miss_gate)
+    image = load_image(schedule.validate(), lead=lead, glitch_min=glitch_min, miss_gate=miss_gate,
+                       miss_hold=miss_hold)
     at_addr, at_data = R.REGISTERS["LOAD_ADDR"].addr(), R.REGISTERS["LOAD_DATA"].addr()
     return [x for a, w in load_sequence(image) for x in ((at_addr, a), (at_data, w))]

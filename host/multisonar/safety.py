@@ -48,7 +48,7 @@ import numpy as np
 import yaml
 
 from .constants import DEVICE_DECISION_LEAD, TICK_HZ, speed_of_sound
-from .fastfiring import DEFAULT_MISS_GATE, FastFiringModel, SceneEchoSource
+from .fastfiring import DEFAULT_MISS_GATE, DEFAULT_MISS_HOLD, FastFiringModel, SceneEchoSource
 from .layout import load_layout
 from .schedule import Schedule, ScheduleError, VirtualSensor
 from .scene import parse_scene
@@ -203,12 +203,13 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
               duration: float = 1.6, margin_db: float = 6.0, tol_ticks: int = 600,
               params: dict[str, Any] | None = None, miss_gate: int | None = DEFAULT_MISS_GATE,
               reinit_every: int | Literal["bound"] | None = None,
-              decision_lead: int = DEVICE_DECISION_LEAD) -> TrialResult:
+              decision_lead: int = DEVICE_DECISION_LEAD, miss_hold: bool = DEFAULT_MISS_HOLD) -> TrialResult:
     """One randomised person-crossing trial (see the module docstring). ``miss_gate``: the
     gated miss rule, ticks (RX_FILTER.miss_gate; default its reset value, 0 or None = off);
     ``reinit_every``: the sensor's forced re-initialisation after that many tracking pulses
     (``VirtualSensor.reinit_every``, MODE.reinit_every in the RTL; ``"bound"``: N + K + 1 of
-    this trial); ``decision_lead``: the scheduler's lead P, ticks (default the device's)."""
+    this trial); ``decision_lead``: the scheduler's lead P, ticks (default the device's);
+    ``miss_hold``: RX_FILTER.miss_hold (default its reset value, on)."""
     p = dict(params) if params is not None else random_trial_params(seed)
     if spurious_rate_hz is None:
         spurious_rate_hz = p.get("spurious_rate_hz")
@@ -220,7 +221,7 @@ def run_trial(seed: int, *, spurious_rate_hz: float | None = None, t_cross: floa
     if reinit:  # as a user configures it: on the sensor (the device's MODE.reinit_every)
         sched = Schedule(layout, [replace(sched.sensors[0], reinit_every=int(reinit))])
     src = SceneEchoSource(scene, rng=np.random.default_rng(p["seed"]))
-    model = FastFiringModel(sched, src, decision_lead=decision_lead, miss_gate=miss_gate)
+    model = FastFiringModel(sched, src, decision_lead=decision_lead, miss_gate=miss_gate, miss_hold=miss_hold)
     res = model.run(int(duration * TICK_HZ))
     pulses = [q for q in res.pulses if q.sensor == 0]
     ac = src.model

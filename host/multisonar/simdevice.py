@@ -545,6 +545,7 @@ class SimDevice(UsbFunction):
                                          glitch_min=self.params[P.Param.GLITCH_MIN],
                                          max_echoes_per_window=self.params[P.Param.MAX_ECHOES],
                                          miss_gate=self.regs.field("RX_FILTER", "MISS_GATE"),  # latched at start
+                                         miss_hold=bool(self.regs.field("RX_FILTER", "MISS_HOLD")),
                                          start_tick=self.now, decision_lead=DEVICE_DECISION_LEAD)
         self._wall0, self._tick0 = time.monotonic(), self.now
         self.running = True
@@ -556,7 +557,7 @@ class SimDevice(UsbFunction):
         from .fastfiring import FastFiringModel, SceneEchoSource
 
         key = (self.scene_name, self.replay_s, self.params[P.Param.GEOMETRY], self.params[P.Param.TOF_RECORDS],
-               self.regs.field("RX_FILTER", "MISS_GATE"),
+               self.regs.field("RX_FILTER", "MISS_GATE"), self.regs.field("RX_FILTER", "MISS_HOLD"),
                self.params[P.Param.GLITCH_MIN], self.params[P.Param.MAX_ECHOES],
                tuple((r.id, int(r.tx.sum()), tuple(r.rx), r.order, r.max_tof, r.phase, r.mode, r.reinit_every)
                      for r in resolved))
@@ -567,6 +568,7 @@ class SimDevice(UsbFunction):
         self.model = FastFiringModel(sched, SceneEchoSource(self.scene), glitch_min=self.params[P.Param.GLITCH_MIN],
                                      max_echoes_per_window=self.params[P.Param.MAX_ECHOES],
                                      miss_gate=self.regs.field("RX_FILTER", "MISS_GATE"),
+                                     miss_hold=bool(self.regs.field("RX_FILTER", "MISS_HOLD")),
                                      decision_lead=DEVICE_DECISION_LEAD)
         self._open, self._closing, self._ready, self.now = {}, [], [], 0
         total = int(self.replay_s * TICK_HZ)

@@ -27,12 +27,17 @@
 //     or link write; the R stage's branch is overridden), so the target is in the R stage in
 //     clock k + 3.
 //   - UCODE_FILE: the ROM's $readmemh image (multisonar.tools.sched_ucode.Image.hex); empty:
-//     the ROM is written by the testbench.
+//     the ROM is written by the testbench. With UCODE_BRAM < UCODE_WORDS the ROM is two: the
+//     first UCODE_BRAM words (UCODE_FILE) in block RAM, the rest (UCODE_FILE_HI) a table in
+//     logic, both read in the same clock (a 2:1 multiplexer behind their output registers):
+//     the words beyond a power of two of block RAM cost a few LUTs instead of block RAMs.
 module ms_sched_engine
   import ms_ucode_pkg::*;
 #(
   parameter int    UCODE_WORDS = 512,  // ROM depth (one DP16KD of 36-bit words)
   parameter string UCODE_FILE  = "",
+  parameter int    UCODE_BRAM  = UCODE_WORDS,  // of which in block RAM (a power of two)
+  parameter string UCODE_FILE_HI = "",         // the words from UCODE_BRAM on
   parameter int    AW          = 12,   // bus address width
   localparam int   PW          = $clog2(UCODE_WORDS)
 ) (
@@ -50,7 +55,15 @@ module ms_sched_engine
   localparam int IW = 15;              // immediate field width
 
   // ------------------------------------------------------------------ fetch (F) -> R
-  logic [UC_WORD_BITS-1:0] rom_q [UCODE_WORDS];
+  localparam int HI_WORDS = UCODE_WORDS - UCODE_BRAM;
+  localparam int BW       = $clog2(UCODE_BRAM);
+  localparam int HW       = HI_WORDS > 1 ? $clog2(HI_WORDS) : 1;
+  if (UCODE_BRAM < 1 || (1 << BW) != UCODE_BRAM || HI_WORDS < 0
+      || (HI_WORDS > 0 && (1 << HW) > UCODE_BRAM)) begin : g_bad_rom
+    $error("ms_sched_engine: UCODE_BRAM %0d must be a power of two <= UCODE_WORDS %0d, and the",
+           " rest at most UCODE_BRAM", UCODE_BRAM, UCODE_WORDS);
+  end
+  logic [UC_WORD_BITS-1:0] rom_q [UCODE_BRAM];
   initial if (UCODE_FILE != "") $readmemh(UCODE_FILE, rom_q);
 
   logic [UC_WORD_BITS-1:0] ir_q;       // the instruction in the R stage (executed unless rst_i)
@@ -107,11 +120,29 @@ module ms_sched_engine
   end
 
   always_ff @(posedge clk_i) begin
-    ir_q     <= rom_q[pc_d];
     pc_q     <= pc_d;
     lr_q     <= lr_d;
   end
   assign pc_o = pc_q;
+
+  if (HI_WORDS > 0) begin : g_rom_hi
+    // the words from UCODE_BRAM on: pc_d[HW-1:0] indexes them (UCODE_BRAM is a multiple of
+    // 2^HW), the flag says which table the R stage takes
+    logic [UC_WORD_BITS-1:0] rom_hi_q [HI_WORDS];
+    initial if (UCODE_FILE_HI != "") $readmemh(UCODE_FILE_HI, rom_hi_q);
+    logic [UC_WORD_BITS-1:0] ir_lo_q, ir_hi_q;
+    logic                    hi_q;
+    always_ff @(posedge clk_i) begin
+      ir_lo_q <= rom_q[pc_d[BW-1:0]];
+      ir_hi_q <= rom_hi_q[pc_d[HW-1:0]];
+      hi_q    <= pc_d >= PW'(UCODE_BRAM);
+    end
+    assign ir_q = hi_q ? ir_hi_q : ir_lo_q;
+  end else begin : g_rom
+    logic [UC_WORD_BITS-1:0] ir_lo_q;
+    always_ff @(posedge clk_i) ir_lo_q <= rom_q[pc_d];
+    assign ir_q = ir_lo_q;
+  end
 
   // register file: two asynchronous read ports (distributed RAM), one write port (W stage);
   // r0 is never written and reads 0; all registers are 0 at power-up, a reset keeps them

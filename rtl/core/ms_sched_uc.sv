@@ -25,11 +25,11 @@
 //     kept (a start_i runs it afresh).
 //   - enable_i low (registered: a clock later) stops at once: windows dropped, armed triggers
 //     still fire.
-// Storage, all block RAM with a registered read (six DP16KD): the microcode ROM (UCODE_WORDS
-// x 36, two), the data memory (1024 x 32, two) and WINB (two): the window slots {t0, we, seq,
-// epoch, init, sensor} (no start: a window is [t0 + we - len, t0 + we), len from the table of
-// the sensors' window lengths) and, in its spare rows, the blank offsets of every (sensor,
-// element), read on the bus at BLK.
+// Storage, block RAM with a registered read (six DP16KD): the microcode ROM (UCODE_BRAM x 36,
+// two; its UCODE_WORDS - UCODE_BRAM further words are a table in logic), the data memory (1024
+// x 32, two) and WINB (two): the window slots {t0, we, seq, epoch, init, sensor} (no start: a
+// window is [t0 + we - len, t0 + we), len from the table of the sensors' window lengths) and,
+// in its spare rows, the blank offsets of every (sensor, element), read on the bus at BLK.
 module ms_sched_uc
   import ms_sched_io_pkg::*;
 #(
@@ -168,7 +168,9 @@ module ms_sched_uc
   logic [$clog2(UCODE_WORDS)-1:0] eng_pc;
   assign eng_rst = rst_i || ctl_q == C_OFF;
   localparam string UCODE_IMAGE = UCODE_FILE == "" ? UCODE_HEX : UCODE_FILE;
-  ms_sched_engine #(.UCODE_WORDS(UCODE_WORDS), .UCODE_FILE(UCODE_IMAGE), .AW(AW)) u_eng (
+  localparam string UCODE_IMAGE_HI = UCODE_FILE == "" ? UCODE_HEX_HI : {UCODE_FILE, ".hi"};
+  ms_sched_engine #(.UCODE_WORDS(UCODE_WORDS), .UCODE_FILE(UCODE_IMAGE), .UCODE_BRAM(UCODE_BRAM),
+                    .UCODE_FILE_HI(UCODE_IMAGE_HI), .AW(AW)) u_eng (
     .clk_i, .rst_i(eng_rst), .bus_re_o(bus_re), .bus_we_o(bus_we), .bus_addr_o(bus_a),
     .bus_abs_o(bus_abs), .bus_imm_o(bus_ia), .bus_wdata_o(bus_wd), .bus_rdata_i(bus_rd),
     .pc_o(eng_pc)

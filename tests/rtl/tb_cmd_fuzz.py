@@ -467,7 +467,8 @@ async def hw_table(dut) -> dict[int, int]:
     for i in range(R.MEMORIES["DELAY"].entries):
         out[R.MEMORIES["DELAY"].address + 4 * i] = int(mem[i].value)
     out[R.REGISTERS["BURST"].addr()] = int(csr.burst_half_period_o.value) | int(csr.burst_cycles_o.value) << 16
-    out[R.REGISTERS["RX_FILTER"].addr()] = int(csr.glitch_min_o.value) | int(csr.miss_gate.value) << 16
+    out[R.REGISTERS["RX_FILTER"].addr()] = (int(csr.glitch_min_o.value) | int(csr.miss_hold.value) << 8
+                                            | int(csr.miss_gate.value) << 16)
     await Timer(1, unit="ns")
     assert set(out) == set(table_addrs())
     return out

@@ -77,9 +77,11 @@ class CoreBench:
             await self.bus.write(R.RX_FILTER_ADDR, gate.put(await self.bus.read(R.RX_FILTER_ADDR), self.miss_gate))
         rx_filter = await self.bus.read(R.RX_FILTER_ADDR)
         self.gate = gate.get(rx_filter)
+        self.hold = bool(R.REGISTERS["RX_FILTER"].fields["MISS_HOLD"].get(rx_filter))
         # the firmware's START: the load image through LOAD_ADDR / LOAD_DATA, then enable and start
         glitch = R.REGISTERS["RX_FILTER"].fields["GLITCH_MIN"].get(rx_filter)
-        for addr, value in load_writes(self.sched, glitch_min=glitch, miss_gate=self.gate, lead=LEAD):
+        for addr, value in load_writes(self.sched, glitch_min=glitch, miss_gate=self.gate, lead=LEAD,
+                                       miss_hold=self.hold):
             await self.bus.write(addr, value)
         self.tasks += [cocotb.start_soon(self._fire_loop()), cocotb.start_soon(self._pins())]
         ctrl = R.REGISTERS["CTRL"].fields
@@ -160,7 +162,8 @@ async def core_scoreboard(dut, what: str, sensor: VirtualSensor, factory, dur_ti
     assert b.fires, f"{what}: the core never fired"
     # The model starts where the RTL took the table: its first pulse is due max(phase, P) later.
     e0 = b.fires[0] - max(b.cfg.phase, LEAD)
-    model = FastFiringModel(b.sched, factory(), start_tick=e0, decision_lead=LEAD, miss_gate=b.gate)
+    model = FastFiringModel(b.sched, factory(), start_tick=e0, decision_lead=LEAD, miss_gate=b.gate,
+                            miss_hold=b.hold)
     res = model.run(b.fires[-1] - e0 + 1)
     m_fires = [p.t0 for p in res.pulses]
     assert b.fires == m_fires[:len(b.fires)] and len(m_fires) >= len(b.fires), f"{what}: pulse ticks differ"
@@ -267,7 +270,8 @@ async def event_fifo_full_counted_and_flagged(dut):
     dropped = await b.bus.read(R.OVERFLOWS_ADDR)
     produced = await b.bus.read(R.EVENTS_ADDR)
     e0 = b.fires[0] - max(b.cfg.phase, LEAD)
-    model = FastFiringModel(b.sched, SyntheticEchoSource(ranges), start_tick=e0, decision_lead=LEAD, miss_gate=b.gate)
+    model = FastFiringModel(b.sched, SyntheticEchoSource(ranges), start_tick=e0, decision_lead=LEAD, miss_gate=b.gate,
+                            miss_hold=b.hold)
     res = model.run(b.fires[-1] - e0 + 1)
     assert [p.t0 for p in res.pulses][:len(b.fires)] == b.fires, "scheduling must not depend on the FIFO"
     m = in_rtl_ticks(res.words, b.tick_offset)

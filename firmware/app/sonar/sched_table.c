@@ -235,6 +235,7 @@ uint32_t ms_table_load(const ms_table_src_t *t, ms_table_put_fn put, void *ctx)
     put(ctx, MS_SCHED_MAIN + MS_SCHED_M_P, t->lead);
     put(ctx, MS_SCHED_MAIN + MS_SCHED_M_L, latency);
     put(ctx, MS_SCHED_MAIN + MS_SCHED_M_GATE, t->miss_gate);
+    put(ctx, MS_SCHED_MAIN + MS_SCHED_M_MHOLD, t->miss_hold);
     put(ctx, MS_SCHED_MAIN + MS_SCHED_M_ACT, act);
     return act;
 }

@@ -21,6 +21,7 @@ typedef struct {
     uint32_t lead;                  /* the scheduler's decision lead P, ticks */
     uint32_t glitch_min;            /* RX_FILTER.glitch_min, ticks */
     uint32_t miss_gate;             /* the gated miss rule, ticks (0: off) */
+    uint32_t miss_hold;             /* the miss hold (0: off, 1: on) */
 } ms_table_src_t;
 
 /* The first refusal in the order of decode_vs_table: a MS_CFG_ERROR_* code (0: accepted) and,

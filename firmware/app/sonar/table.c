@@ -42,6 +42,8 @@ static void source(ms_table_src_t *t)
     t->glitch_min = (rx & SONAR_REGS__RX_FILTER__GLITCH_MIN_bm)
                     >> SONAR_REGS__RX_FILTER__GLITCH_MIN_bp;
     t->miss_gate = (rx & SONAR_REGS__RX_FILTER__MISS_GATE_bm) >> SONAR_REGS__RX_FILTER__MISS_GATE_bp;
+    t->miss_hold = (rx & SONAR_REGS__RX_FILTER__MISS_HOLD_bm)
+                   >> SONAR_REGS__RX_FILTER__MISS_HOLD_bp;
 }
 
 uint32_t table_check(void)

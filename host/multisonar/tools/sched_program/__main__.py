@@ -20,7 +20,7 @@ import argparse
 from pathlib import Path
 
 from . import layout
-from .layout import UCODE_WORDS
+from .layout import UCODE_BRAM, UCODE_WORDS
 from .mainloop import main_program
 
 def sv_package(hex_path: Path | None = None) -> str:
@@ -35,8 +35,14 @@ def sv_package(hex_path: Path | None = None) -> str:
             lines.append(f"  localparam int {sv} = {value};")
     if hex_path is not None:
         lines.append(f'  localparam string UCODE_HEX = "{hex_path.resolve().as_posix()}";')
+        lines.append(f'  localparam string UCODE_HEX_HI = "{hi_path(hex_path).resolve().as_posix()}";')
     lines.append("endpackage")
     return "\n".join(lines) + "\n"
+
+
+def hi_path(hex_path: Path) -> Path:
+    """The image of the ROM's words from UCODE_BRAM on (the part in logic), next to ``hex_path``."""
+    return hex_path.with_name(hex_path.stem + "_hi" + hex_path.suffix)
 
 
 def c_header() -> str:
@@ -62,7 +68,9 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     if args.hex:
         args.hex.parent.mkdir(parents=True, exist_ok=True)
-        args.hex.write_text(main_program().assemble(depth=UCODE_WORDS).hex(UCODE_WORDS))
+        lines = main_program().assemble(depth=UCODE_WORDS).hex(UCODE_WORDS).splitlines(keepends=True)
+        args.hex.write_text("".join(lines[:UCODE_BRAM]))
+        hi_path(args.hex).write_text("".join(lines[UCODE_BRAM:]))
     if args.pkg:
         args.pkg.parent.mkdir(parents=True, exist_ok=True)
         args.pkg.write_text(sv_package(args.hex))

@@ -17,9 +17,10 @@ def cand_kernel(p: Program) -> Program:
     tracking state (base address in r2) is tracked, the prediction for pulse seq r3 (8 bits),
     ``tof + gap * v`` with gap = (r3 - seq) mod 256, clamped to [r4, r5] (the sensor's
     te_limits), stored at CAND + r; r6 / r7 the least / greatest prediction (0x7FFFFFFF / 0
-    when none), r8 the receivers that got one (one-hot bits), r9 how many. Model:
+    when none), r8 the receivers that got one (one-hot bits), r9 how many, r21 the OR of every
+    receiver's flags byte (bits 7:4: a miss count is pending, the miss hold). Model:
     FastFiringModel._predict and the te_min / te_max of _try_issue."""
-    p.li(6, 0x7FFF_FFFF).li(7, 0).li(8, 0).li(9, 0)
+    p.li(6, 0x7FFF_FFFF).li(7, 0).li(8, 0).li(9, 0).li(21, 0)
     p.tst(1).b("eq", "cand_done")
     p.label("cand_loop")
     p.lsb(10, 1).addi(11, 1, -1)
@@ -27,6 +28,7 @@ def cand_kernel(p: Program) -> Program:
     p.add(12, 12, 2).and_(1, 1, 11)        # its state's address, the mask without it
     p.ld(14, 12, 0).ld(15, 12, 1)          # words A and B
     p.rotb(16, 15, 3).and_(19, 14, R_MASK24)   # flags byte; tof
+    p.or_(21, 21, 16)
     p.andi(16, 16, 1)
     p.b("eq", "cand_next")                 # not tracked: no window
     p.rotb(17, 14, 3).and_(18, 15, R_MASK24)   # seq byte; v (24 bits)

@@ -10,7 +10,7 @@ per sensor s at ``SENS + 32 s``: due (S_DUE), quiet, pulse id (S_SEQ), flags (S_
 tracking, in_init, epoch, any receiver tracked), open init windows (S_OPEN), tracking pulses
 since the last init ping (S_TRK, saturating at 255), miss limit K (S_K), reinit_every M
 (S_REINIT, 0 off), mode (S_MODE: 1 track), the other sensors sharing an element (S_SHARE,
-one bit per sensor).
+one bit per sensor), the close tick of its last tracking pulse's windows (S_CLR, miss hold).
 """
 
 from __future__ import annotations
@@ -74,6 +74,7 @@ LD_WLEN, LD_BURST, LD_TXM, LD_RXANY = 0x480, 0x490, 0x498, 0x4A0
 SENS = 0x000
 S_DUE, S_QUIET, S_SEQ, S_FLAGS, S_OPEN, S_TRK, S_K, S_MODE = 0, 1, 3, 4, 5, 6, 18, 23
 S_REINIT, S_SHARE = 22, 24
+S_CLR = 26            # the close tick of the sensor's last tracking pulse's windows (miss hold)
 # the table's words the main loop reads (the firmware's load writes them): next evaluation (as a t0),
 # element masks (tx, rx, with a blank interval), order, T_V, T_N, blanking D, max ToF R, T_E
 # limits, v_max, R - D, start phase, receivers
@@ -81,7 +82,8 @@ S_NXT, S_TX, S_RX, S_BLK, S_ORDER, S_TV, S_TN, S_D, S_RMAX = 2, 7, 8, 9, 10, 11,
 S_LO, S_HI, S_VMAX, S_QOFF, S_PHASE, S_NRX = 15, 16, 19, 20, 21, 25
 F_TRACKING, F_IN_INIT, F_EPOCH, F_ANY_TRK = 1, 2, 4, 8    # S_FLAGS bits
 NUM_VS = 8
-UCODE_WORDS = 1024    # ms_sched_uc's ROM depth: two DP16KD of 512 x 36 (the program is 1,016 words)
+UCODE_WORDS = 1088    # ms_sched_uc's ROM depth: 1,024 words in two DP16KD (UCODE_BRAM), 64 in logic
+UCODE_BRAM = 1024
 # main-loop variables at MAIN + M_*: the start tick, decision lead P, L = edge latency, the
 # miss gate, the next logical tick, the current one, its edges and closes left, td and armed,
 # the sensor of the SCHED phase, saved kernel results; sensor masks: the table's sensors
@@ -91,6 +93,7 @@ M_START, M_P, M_L, M_GATE, M_ENG, M_CUR, M_EDGES, M_CLOSES = range(8)
 M_TD, M_ARMED, M_S, M_RX, M_SLOT, M_RES, M_QUIET, M_INIT = range(8, 16)
 M_WIN, M_NWIN, M_TV, M_TN, M_PERIOD, M_T0, M_FLAGS = range(16, 23)
 M_ACT, M_WAKE, M_HOLD, M_SREM = range(23, 27)
+M_MHOLD, M_WEND = 27, 28   # RX_FILTER.miss_hold (0 / 1); the candidate's te_max + T_N
 MISS_MAX = 15
 
 # register conventions of the kernels

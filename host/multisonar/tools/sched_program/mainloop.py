@@ -33,9 +33,9 @@ from .decision import (SCHED_HOLD, SCHED_NOT_YET, SCHED_QUIET, cand_kernel, conf
 from .events import close_kernel, edge_kernel, head_kernel, hit_kernel, safe_kernel
 from .layout import (BA, BB, BLK, BU, CAND, F_ANY_TRK, F_EPOCH, F_IN_INIT, HALT, HC, HS, LAG_CUR,
                      MAIN, M_ACT, M_ARMED, M_CLOSES, M_CUR, M_EDGES, M_ENG, M_FLAGS, M_GATE, M_HOLD,
-                     M_INIT, M_L, M_NWIN, M_P, M_PERIOD, M_QUIET, M_RES, M_RX, M_S, M_SLOT, M_SREM,
-                     M_START, M_T0, M_TD, M_TN, M_TV, M_WAKE, M_WIN, NUM_RX, NUM_VS, ONEHOT, Q_C,
-                     Q_E, Q_POP, Q_STAT, Q_T, SENS, STOP_AT, STOP_REQ, S_BLK, S_D, S_DUE, S_FLAGS,
+                     M_INIT, M_L, M_MHOLD, M_NWIN, M_P, M_PERIOD, M_QUIET, M_RES, M_RX, M_S, M_SLOT, M_SREM,
+                     M_START, M_T0, M_TD, M_TN, M_TV, M_WAKE, M_WEND, M_WIN, NUM_RX, NUM_VS, ONEHOT, Q_C,
+                     Q_E, Q_POP, Q_STAT, Q_T, SENS, STOP_AT, STOP_REQ, S_BLK, S_CLR, S_D, S_DUE, S_FLAGS,
                      S_HI, S_LO, S_NRX, S_NXT, S_OPEN, S_ORDER, S_PHASE, S_QOFF, S_QUIET, S_RMAX,
                      S_RX, S_SEQ, S_TN, S_TRK, S_TV, S_TX, S_VMAX, SU_TA, TICK, TRK, TU, T_DONE,
                      WH, WIN_META, WIN_RA, WIN_T0, WIN_WE, WR, WSLOTS, WV, R_STRIDE, prologue)
@@ -367,8 +367,26 @@ def _decision(p: Program) -> None:
     p.ld(1, 8, S_ORDER).ld(4, 8, S_TV).ld(5, 8, S_TN).ld(6, 8, S_D)
     _put(p, 4, M_TV)
     _put(p, 5, M_TN)
-    order_kernel(p)                                     # r8 = the period
+    # the miss hold (docs/fast_firing.md section 4.4): with a miss pending on a receiver the
+    # sensor decides only once its last tracking pulse's windows have closed (S_CLR), then at
+    # order 0
+    _get(p, 22, M_MHOLD)
+    p.andi(21, 21, 0xF0)                                # cand's OR of the flags: the miss counts
+    p.tst(22).b("eq", "dec_order")                      # RX_FILTER.miss_hold off
+    p.tst(21).b("eq", "dec_order")                      # no miss pending
+    _get(p, 23, M_CUR)
+    p.ld(24, 8, S_CLR)
+    p.sub(0, 23, 24).b("ge", "dec_order0")              # the windows in flight have closed
+    _get(p, 25, M_P)
+    p.add(24, 24, 25)                                   # due = the close tick + P (a t0)
+    p.st(24, 8, S_DUE).st(24, 8, S_NXT)
+    _wake_others(p, 7)                                  # the sensors its earlier due held
+    p.jmp("sp_s")
+    p.label("dec_order0").li(1, 0)
+    p.label("dec_order")
+    order_kernel(p)                                     # r8 = the period, r10 = te_max + T_N
     _put(p, 8, M_PERIOD)
+    _put(p, 10, M_WEND)
     # the sensor's blank offsets into BA / BB
     p.label("dec_blank")
     _current_sensor(p)
@@ -398,6 +416,15 @@ def _decision(p: Program) -> None:
     _current_sensor(p)
     p.ld(13, 8, S_DUE)
     p.st(13, 8, S_NXT)                                  # next evaluation at the new due
+    _get(p, 12, M_INIT)
+    p.tst(12).b("ne", "dec_clr")                        # an init ping: no S_CLR
+    _get(p, 13, M_WEND)
+    _get(p, 14, M_T0)
+    _get(p, 15, M_L)
+    p.add(13, 13, 14).addi(15, 15, -1)
+    p.add(13, 13, 15)
+    p.st(13, 8, S_CLR)                                  # t0 + te_max + T_N - 1 + L
+    p.label("dec_clr")
     _wake_others(p, 7)
     # the windows' meta word: the pulse's seq (before ISSUE's + 1), init, the new epoch, sensor
     p.ld(13, 8, S_SEQ).ld(14, 8, S_FLAGS)

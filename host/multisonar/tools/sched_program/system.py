@@ -17,12 +17,12 @@ from typing import Any
 
 from ...fastfiring import _Line, _rows, share_matrix
 from ..sched_ucode import MASK32
-from .layout import (BLK, EVT_HI, HD_EL, LAG_CUR, LD_BURST, LD_RXANY, LD_TXM, LD_WLEN, MAIN, M_ACT, M_ARMED, M_GATE, M_L, M_P, M_START,
-                     M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C, Q_E, Q_POP, Q_STAT, Q_T, SENS, SENS_STRIDE,
-                     STOP_AT, STOP_REQ, S_BLK, S_D, S_HI, S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE,
-                     S_QOFF, S_REINIT, S_RMAX, S_RX, S_SHARE, S_TN, S_TV, S_TX, S_VMAX, SU_FLAGS, TICK,
-                     TRIG_EL,
-                     T_DONE, UCODE_WORDS, WIN_META, WIN_RA, WIN_T0, WIN_WE, W_ADDR)
+from .layout import (BLK, EVT_HI, HD_EL, LAG_CUR, LD_BURST, LD_RXANY, LD_TXM, LD_WLEN, MAIN, M_ACT,
+                     M_ARMED, M_GATE, M_L, M_MHOLD, M_P, M_START, M_TD, NUM_RX, NUM_VS, ONEHOT, Q_C,
+                     Q_E, Q_POP, Q_STAT, Q_T, SENS, SENS_STRIDE, STOP_AT, STOP_REQ, S_BLK, S_D, S_HI,
+                     S_K, S_LO, S_MODE, S_NRX, S_ORDER, S_PHASE, S_QOFF, S_REINIT, S_RMAX, S_RX,
+                     S_SHARE, S_TN, S_TV, S_TX, S_VMAX, SU_FLAGS, TICK, TRIG_EL, T_DONE, UCODE_WORDS,
+                     WIN_META, WIN_RA, WIN_T0, WIN_WE, W_ADDR)
 from .units import EngineWithUnits, Slot
 
 
@@ -112,17 +112,17 @@ def sensor_words(c: Any, shares: int, reinit_every: int | None = None) -> dict[i
 
 
 def load_image(cfg: Any, *, lead: int, glitch_min: int, miss_gate: int | None,
-               reinit_every: int | None = None) -> dict[int, int]:
+               reinit_every: int | None = None, miss_hold: bool = True) -> dict[int, int]:
     """What a configuration load writes on the engine's bus, {address: word}, for the resolved
     table ``cfg``: every enabled sensor's words and blank offsets (sensor_words), its share
     word, and the main loop's constants (decision lead P, edge latency L = 1 + max(glitch_min,
-    1) from RX_FILTER.glitch_min, miss gate, enabled sensors); not the start tick, which the
+    1) from RX_FILTER.glitch_min, miss gate, miss hold, enabled sensors); not the start tick, which the
     start writes. The firmware's load
     (firmware/app/sonar/sched_table.c) writes the same words. Besides the engine's bus (data
     memory, blank offsets) the load port takes the hardware's own tables at LD_* (window
     lengths, burst cycles, tx and rx masks)."""
     mem = {MAIN + M_P: int(lead), MAIN + M_L: edge_latency(glitch_min),
-           MAIN + M_GATE: int(miss_gate or 0),
+           MAIN + M_GATE: int(miss_gate or 0), MAIN + M_MHOLD: int(bool(miss_hold)),
            MAIN + M_ACT: sum(1 << c.id for c in cfg)}
     share = share_matrix(cfg)
     for i, c in enumerate(cfg):
@@ -227,7 +227,7 @@ class EngineSystem:
 
     def __init__(self, schedule: Any, source: Any, *, decision_lead: int, glitch_min: int,
                  miss_gate: int | None, reinit_every: int | None = None, start_tick: int = 0,
-                 qdepth: int = 32) -> None:
+                 qdepth: int = 32, miss_hold: bool = True) -> None:
         from .mainloop import POLL, main_program   # mainloop imports this package's kernels
         self.cfg = schedule.validate()
         n_el = schedule.layout.n
@@ -241,7 +241,8 @@ class EngineSystem:
         self.lead, self.start, self.qdepth = int(decision_lead), int(start_tick), qdepth
         mem: dict[int, int] = {ONEHOT + k: 1 << k for k in range(32)}
         mem.update({a: w for a, w in load_image(self.cfg, lead=self.lead, glitch_min=glitch_min,
-                                                 miss_gate=miss_gate, reinit_every=reinit_every).items()
+                                                 miss_gate=miss_gate, reinit_every=reinit_every,
+                                                 miss_hold=miss_hold).items()
                     if not LD_WLEN <= a <= LD_RXANY})    # the hardware's tables: win_len below
         mem[MAIN + M_START] = self.start
         self.win_len = {(c.id, init): window_length(c, bool(init)) for c in self.cfg for init in (0, 1)}
