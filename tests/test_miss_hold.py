@@ -10,36 +10,22 @@ import pytest
 
 from multisonar.constants import DEVICE_DECISION_LEAD
 from multisonar.device import Device
-from multisonar.fastfiring import FastFiringModel, SyntheticEchoSource
+from multisonar.fastfiring import FastFiringModel
 from multisonar.generated import sonar_regs as R
 from multisonar.layout import load_layout
 from multisonar.safety import run_trial, wide_trial_params
 from multisonar.schedule import Schedule, VirtualSensor
 from multisonar.simdevice import SimDevice
+from fade_source import FadeSource  # tests/rtl (on sys.path, tests/conftest.py)
 
 MS = 48_000
 LAYOUT = load_layout()
 
 
-class _Fade(SyntheticEchoSource):
-    """A wall at 2.5 m whose echo on receiver 10 is lost for the first pulse fired at or after
-    60 ms: one missed window, then the track recovers."""
-
-    def __init__(self) -> None:
-        super().__init__(2.5)
-        self.faded = False
-
-    def fire(self, t0_tick, elements, delay_ticks):
-        rows = super().fire(t0_tick, elements, delay_ticks)
-        if self.faded or t0_tick < 60 * MS:
-            return rows
-        self.faded = True
-        return [r for r in rows if r[0] != 10]
-
-
 def _fade_run(hold: bool, order: int):
     sched = Schedule(LAYOUT, [VirtualSensor("s", tx=[10], rx=[9, 10, 11], order=order, miss_limit=3)])
-    m = FastFiringModel(sched, _Fade(), decision_lead=DEVICE_DECISION_LEAD, miss_hold=hold)
+    m = FastFiringModel(sched, FadeSource(2.5, rx=10, fade_tick=60 * MS), decision_lead=DEVICE_DECISION_LEAD,
+                         miss_hold=hold)
     res = m.run(120 * MS)
     assert sum(p.init for p in res.pulses) == 1, "one missed window: no re-initialisation"
     empty = [e.tick for e in res.events if e.window_empty and not e.init_ping]

@@ -667,7 +667,6 @@ class FastFiringModel:
         else:
             te = {e: self._predict(s, st, k) for e, st in s.rx.items() if st.tracked}
             lo, hi = min(te.values()), max(te.values())
-            n_eff = effective_order(c.order, lo, hi, c.t_v, c.t_n, c.blank)
             if self.miss_hold and any(st.miss for st in s.rx.values()):
                 if self.now < s.wins_close:  # decide again once the windows in flight closed
                     s.due = s.wins_close + self.lead
@@ -675,6 +674,8 @@ class FastFiringModel:
                     self._wake(after=c.id)  # sensors it held by its earlier due
                     return
                 n_eff = 0
+            else:
+                n_eff = effective_order(c.order, lo, hi, c.t_v, c.t_n, c.blank)
             period = pulse_period(n_eff, lo, hi, c.t_v, c.t_n, c.blank)
             wins = [(e, v - c.t_v, v + c.t_n) for e, v in sorted(te.items())]
         blanks = c.blank_intervals()

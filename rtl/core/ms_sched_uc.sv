@@ -39,7 +39,8 @@ module ms_sched_uc
   parameter int    LEAD       = 32768,
   parameter int    WSLOTS     = 16,
   parameter int    QDEPTH     = 32,
-  parameter string UCODE_FILE = ""          // empty: the gen step's image (UCODE_HEX)
+  parameter string UCODE_FILE = "",         // empty: the gen step's image (UCODE_HEX)
+  parameter string UCODE_FILE_HI = ""       // its words from UCODE_BRAM on (empty: UCODE_HEX_HI)
 ) (
   input  logic                  clk_i,
   input  logic                  rst_i,
@@ -168,7 +169,7 @@ module ms_sched_uc
   logic [$clog2(UCODE_WORDS)-1:0] eng_pc;
   assign eng_rst = rst_i || ctl_q == C_OFF;
   localparam string UCODE_IMAGE = UCODE_FILE == "" ? UCODE_HEX : UCODE_FILE;
-  localparam string UCODE_IMAGE_HI = UCODE_FILE == "" ? UCODE_HEX_HI : {UCODE_FILE, ".hi"};
+  localparam string UCODE_IMAGE_HI = UCODE_FILE_HI == "" ? UCODE_HEX_HI : UCODE_FILE_HI;
   ms_sched_engine #(.UCODE_WORDS(UCODE_WORDS), .UCODE_FILE(UCODE_IMAGE), .UCODE_BRAM(UCODE_BRAM),
                     .UCODE_FILE_HI(UCODE_IMAGE_HI), .AW(AW)) u_eng (
     .clk_i, .rst_i(eng_rst), .bus_re_o(bus_re), .bus_we_o(bus_we), .bus_addr_o(bus_a),

@@ -33,6 +33,7 @@ from multisonar.schedule import Schedule, VirtualSensor
 from multisonar.tools.sched_program.layout import WSLOTS  # WSLOTS: window slots per element
 from multisonar.tools.sched_program.system import load_image, load_sequence
 from echo_driver import EchoDriver
+from fade_source import FadeSource
 from tbutil import CLK_PERIOD_PS
 
 LEAD = int(os.environ.get("SCHED_LEAD", str(DEVICE_DECISION_LEAD)))
@@ -347,20 +348,16 @@ async def step_occlusion_kmiss(dut):
                   len(res.pulses), inits, len(res.cancelled), len(m_words), (dur + 3000) / (time.perf_counter() - wall0))
 
 
-class FadeSource(SyntheticEchoSource):
-    """Static ranges whose echoes on receiver ``rx`` are lost for the first pulse fired at or
-    after ``fade_tick`` (set once the start tick is known): one missed window, then samples."""
+class _BySensor:
+    """Echo source: each pulse's echoes from the source of its sensor (the first sensor's tx
+    element is 0), so that each sensor sees only its own reflectors."""
 
-    def __init__(self, ranges, rx: int, **kw):
-        super().__init__(ranges, **kw)
-        self.rx, self.fade_tick, self.faded = rx, 1 << 62, False
+    def __init__(self, srcs):
+        self.srcs = srcs
 
     def fire(self, t0_tick, elements, delay_ticks):
-        rows = super().fire(t0_tick, elements, delay_ticks)
-        if self.faded or t0_tick < self.fade_tick:
-            return rows
-        self.faded = True
-        return [r for r in rows if r[0] != self.rx]
+        src = self.srcs[0] if 0 in list(elements) else self.srcs[1]
+        return src.fire(t0_tick, elements, delay_ticks)
 
 
 @cocotb.test()
@@ -372,22 +369,22 @@ async def miss_hold_fade(dut):
     sensors = [VirtualSensor("front", order=1, miss_limit=3, **FRONT),
                VirtualSensor("side", tx=[12], rx=[11, 12, 13], order=3, miss_limit=3)]
     sched = Schedule(LAYOUT, sensors)
-    front, side = {23: 2.0, 0: 2.0, 1: 2.1}, {11: 2.6, 12: 2.5, 13: 2.6}
+
+    def sources(fade_tick: int = 1 << 62) -> list[FadeSource]:
+        return [FadeSource({23: 2.0, 0: 2.0, 1: 2.1}, rx=0, fade_tick=fade_tick),
+                FadeSource({11: 2.6, 12: 2.5, 13: 2.6}, rx=12, fade_tick=fade_tick)]
     for hold in (True, False):
         b = Bench(dut, sched, miss_hold=hold)
-        srcs = [FadeSource(front, rx=0), FadeSource(side, rx=12)]
-        src_rtl = _Both(srcs)
-        e0 = await b.start(src_rtl, 0)
+        srcs = sources()
+        e0 = await b.start(_BySensor(srcs), 0)
         for src in srcs:
             src.fade_tick = e0 + 60 * MS
         dur = 120 * MS
         await b.run_until(e0 + dur + 3000)
         words, trig = await b.read_logs()
         assert int(dut.overrun_o.value) == 0
-        m_srcs = [FadeSource(front, rx=0), FadeSource(side, rx=12)]
-        for src in m_srcs:
-            src.fade_tick = e0 + 60 * MS
-        model = CountingModel(sched, _Both(m_srcs), start_tick=e0, decision_lead=LEAD, miss_hold=hold)
+        model = CountingModel(sched, _BySensor(sources(e0 + 60 * MS)), start_tick=e0, decision_lead=LEAD,
+                              miss_hold=hold)
         res = model.run(dur)
         compare(f"miss hold {hold}", b, res, words, trig, e0 + dur)
         empty = sum(e.window_empty and not e.init_ping for e in res.events)
@@ -396,18 +393,6 @@ async def miss_hold_fade(dut):
         assert (order0 > 0) == hold, (hold, order0)
         dut._log.info("miss hold %s: %d pulses, %d empty windows, %d order-0 pulses after the fade",
                       hold, len(res.pulses), empty, order0)
-
-
-class _Both:
-    """Echo source: each pulse's echoes from the source of its tx element's sensor (both
-    FadeSource instances fade their own receiver)."""
-
-    def __init__(self, srcs):
-        self.srcs = srcs
-
-    def fire(self, t0_tick, elements, delay_ticks):
-        src = self.srcs[0] if 0 in list(elements) else self.srcs[1]
-        return src.fire(t0_tick, elements, delay_ticks)
 
 
 @cocotb.test()
