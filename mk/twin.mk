@@ -3,6 +3,8 @@
 #                    sonar core, host link, USB device on its transaction-level port) verilated
 #                    with the C++ harness sim/twin/ms_twin.cpp, loaded by multisonar.twin (ctypes)
 #   make twin-fst    the same with FST tracing compiled in (build/twin/fst/), for --fst
+#   make twin-prof   the same with debug line tables (build/twin/prof/), for the per-block cost
+#                    profile of scripts/bench_twin_profile.py --callgrind
 # The RTL is read from rtl/sources.f (the list lint, the cocotb tests and synthesis read).
 # Firmware: firmware/app/sonar built as build/fw/sonar_app.hex is, but with the demo's
 # table compiled in (multisonar.tools.fw_schedule --config demo: the power-on default and the
@@ -26,20 +28,22 @@ $(TWIN_DIR)/fw/sonar_app.hex: $(TWIN_DIR)/fw/sonar_app.elf
 	$(VPY) -m multisonar.tools.bin2memh $(@:.hex=.bin) $@ --words $(FW_WORDS)
 # the image is read by $readmemh when the simulation starts (INIT_FILE is its path): a firmware
 # change rebuilds the image, not the verilated model
-TWIN_DEPS    := sim/twin/ms_twin_top.sv sim/twin/ms_twin.cpp rtl/sources.f $(wildcard rtl/*.sv rtl/*/*.sv) \
+TWIN_DEPS    := sim/twin/ms_twin_top.sv sim/twin/ms_twin.cpp sim/twin/ms_twin.vlt rtl/sources.f $(wildcard rtl/*.sv rtl/*/*.sv) \
                 $(STAMPS)/gen mk/twin.mk
 TWIN_VFLAGS  := --cc --exe --build -j 2 -O3 --x-assign fast --x-initial fast -Wno-fatal -Wno-lint -Wno-style \
                 --quiet --timescale 1ns/1ps --top-module ms_twin_top -GINIT_FILE='"$(abspath $(TWIN_HEX))"' \
                 -CFLAGS "-fPIC -O2 -std=c++17" -LDFLAGS "-shared" -o libmstwin.so
 
-.PHONY: twin twin-fst
+.PHONY: twin twin-fst twin-prof
 twin: $(TWIN_HEX) $(TWIN_DIR)/fast/libmstwin.so
 twin-fst: $(TWIN_HEX) $(TWIN_DIR)/fst/libmstwin.so
+twin-prof: $(TWIN_HEX) $(TWIN_DIR)/prof/libmstwin.so
 
 $(TWIN_DIR)/fast/libmstwin.so: $(TWIN_DEPS)
 	@mkdir -p $(@D)
 	@echo "twin: verilating ms_system_usb + sim/twin/ms_twin.cpp -> $@ (about 2 min on 2 cores)"
-	verilator $(TWIN_VFLAGS) --Mdir $(TWIN_DIR)/fast $(RTL_SOURCES) sim/twin/ms_twin_top.sv sim/twin/ms_twin.cpp
+	verilator $(TWIN_VFLAGS) --Mdir $(TWIN_DIR)/fast sim/twin/ms_twin.vlt $(RTL_SOURCES) sim/twin/ms_twin_top.sv \
+	    sim/twin/ms_twin.cpp
 	@touch $@  # verilator leaves an up-to-date library untouched: make would re-run it every time
 
 $(TWIN_DIR)/fst/libmstwin.so: $(TWIN_DEPS)
@@ -47,6 +51,13 @@ $(TWIN_DIR)/fst/libmstwin.so: $(TWIN_DEPS)
 	@echo "twin: verilating with FST tracing -> $@"
 	@# C++ at -O1: a traced run's time is the tracing's (-O2 was no faster on 300k clocks) and
 	@# the compile takes two thirds of the CPU time (28 s instead of 42)
-	verilator $(TWIN_VFLAGS) -CFLAGS -O1 --trace-fst --trace-structs --Mdir $(TWIN_DIR)/fst $(RTL_SOURCES) \
+	verilator $(TWIN_VFLAGS) -CFLAGS -O1 --trace-fst --trace-structs --Mdir $(TWIN_DIR)/fst sim/twin/ms_twin.vlt \
+	    $(RTL_SOURCES) sim/twin/ms_twin_top.sv sim/twin/ms_twin.cpp
+	@touch $@
+
+$(TWIN_DIR)/prof/libmstwin.so: $(TWIN_DEPS)
+	@mkdir -p $(@D)
+	@echo "twin: verilating with debug line tables (the cost profile) -> $@"
+	verilator $(TWIN_VFLAGS) -CFLAGS -g --Mdir $(TWIN_DIR)/prof sim/twin/ms_twin.vlt $(RTL_SOURCES) \
 	    sim/twin/ms_twin_top.sv sim/twin/ms_twin.cpp
 	@touch $@

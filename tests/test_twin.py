@@ -63,8 +63,11 @@ def test_twin_matches_golden_model():
     scene = load_scene("corridor")
     src = _source(scene)
     with open_twin(scene, usbip=False, echo_source=src) as tw:
+        tw.sim.start_profile()
+        t_prof = tw.sim.tick
         run = stream(tw, demo_sensors(), 0.12, temperature_c=scene.temperature_c)
         offset = src.t_offset
+        _check_activity(tw.sim.activity(), run.fires, t_prof, tw.sim.tick)
     c = run.counters
     assert c["frames_dropped"] == 0 and c["fifo_overflows"] == 0 and c["host_lost"] == 0, c
     assert c["host_bad_crc"] == 0 and c["watchdog"] == 0, c
@@ -82,6 +85,27 @@ def test_twin_matches_golden_model():
                 assert abs(abs(float(y) + int(g["y_mm"]) * 1e-3 * math.cos(float(ph))) - 1.2) < 0.01, g
                 n_wall += 1
     assert n["frames"] >= 30 and n["records"] >= 100 and n_wall >= 5, (n, n_wall)
+
+
+def _check_activity(act, fires, t_from: int, t_to: int) -> None:
+    """The activity profile (multisonar.twin.activity) against what the harness saw: a burst runs
+    in exactly the clocks t + 1 .. t + 2 H B of its triggers (H = 600, B = 8, the demo's), and
+    every class lies within the clocks in which some unit works."""
+    half, cycles = 600, 8
+    run = np.zeros(t_to - t_from + 1, bool)
+    for t0, _vs, _el, delays in fires:
+        for d in delays:
+            a = t0 + int(d) + 1 - t_from
+            run[max(a, 0):max(a + 2 * half * cycles, 0)] = True
+    n = act.counts
+    assert n["clocks"] == t_to - t_from, (n, t_to - t_from)
+    assert abs(n["tx_run"] - int(run[1:].sum())) <= 2, (n["tx_run"], int(run[1:].sum()))
+    for k in ("engine", "tx_run", "rx_settle", "usb"):
+        assert 0 < n[k] <= n["sonar"], (k, n)
+    assert max(n["sonar"], n["cpu"]) <= n["any"] <= n["clocks"], n
+    assert 0 < n["cpu"] < n["clocks"] / 2, n                   # the firmware idles most of the time
+    assert sum(act.functions.values()) == n["clocks"], "a clock whose PC is outside the firmware's code"
+    assert {"main", "poll_events", "handle_command"} <= set(act.functions), act.functions
 
 
 # seed 11: two sensors share a tx element (before rule 5, docs/fast_firing.md section 5, they

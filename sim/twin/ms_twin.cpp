@@ -15,14 +15,17 @@
 // order the pulses were decided. twin_run() returns as soon as a fire is ready (the decision
 // is LEAD = 4096 ticks before t0, so Python adds the echoes before the first can start).
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <memory>
 #include <queue>
+#include <string>
 #include <vector>
 
 #include "Vms_twin_top.h"
 #include "verilated.h"
+#include "verilated_syms.h"
 #if VM_TRACE_FST
 #include "verilated_fst_c.h"
 #endif
@@ -49,6 +52,46 @@ struct EchoEdge {
   bool operator>(const EchoEdge& o) const { return tick > o.tick; }
 };
 
+// Activity profile (twin_profile): what each clock holds, counted per clock while enabled. A
+// clock is "calm" for a unit when the unit's state changes in it only in counters that advance
+// with time (the tick, the phaser's phase, the CPU's cycle timer): the engine spins in its poll
+// loop, no burst runs, every receive conditioner has settled on its input, no USB packet is in
+// flight, the CPU runs the main loop's idle pass. Those are the clocks an exact skip could
+// leave out (issue #30); the rest bound its gain.
+enum Act { kActClocks, kActEngine, kActTxRun, kActRxSettle, kActUsb, kActCpu, kActSonar, kActAny,
+           kActN };
+
+// A register the profile reads in place (public_flat_rd in sim/twin/ms_twin.vlt).
+struct Probe {
+  const void* p = nullptr;
+  int bytes = 0;
+  uint32_t get() const {
+    switch (bytes) {
+      case 1: return *static_cast<const uint8_t*>(p);
+      case 2: return *static_cast<const uint16_t*>(p);
+      case 4: return *static_cast<const uint32_t*>(p);
+      default: return 0;
+    }
+  }
+};
+
+Probe probe(const VerilatedScope* sc, const char* var) {
+  Probe pr;
+  const VerilatedVar* v = sc->varFind(var);
+  if (!v) return pr;
+  pr.p = v->datap();
+  switch (v->vltype()) {
+    case VLVT_UINT8: pr.bytes = 1; break;
+    case VLVT_UINT16: pr.bytes = 2; break;
+    case VLVT_UINT32: pr.bytes = 4; break;
+    default: pr.p = nullptr;
+  }
+  return pr;
+}
+
+struct RxProbe { Probe meta, sync, level, rise; };
+struct TxProbe { Probe trig, p_cyc, cyc; };
+
 struct Twin {
   std::unique_ptr<VerilatedContext> ctx;
   std::unique_ptr<Vms_twin_top> top;
@@ -70,6 +113,16 @@ struct Twin {
   int64_t run_start = -1;        // tick before the scheduler's running_o rose (its start tick)
   int64_t first_start = -1;      // the same for the first rise
   uint64_t run_starts = 0;       // rises of running_o (START, re-aims restart the schedule)
+  bool profiling = false;
+  uint32_t poll_lo = 0, poll_hi = 0;  // the engine's poll loop, [lo, hi)
+  uint32_t cpu_base = 0;              // firmware word 0's byte address
+  std::vector<uint8_t> cpu_idle;      // per firmware word: code of the main loop's idle pass
+  std::vector<uint64_t> pc_clocks;    // per firmware word: clocks its instruction was last
+  RxProbe rx_probe[kNumCh];
+  TxProbe tx_probe[kNumCh];
+  Probe eng_pc, cpu_pc;
+  uint64_t act[kActN] = {};
+  bool usb_busy = false;
   uint32_t mailbox[4096];
   uint32_t mailbox_n = 0;
   uint64_t mailbox_total = 0;
@@ -103,7 +156,66 @@ struct Twin {
     observe();
   }
 
+  // The profiled registers by scope name (the conditioners', transmit channels', the engine's
+  // and the CPU's); the number found (24 + 24 + 2 when all are there).
+  int bind_probes() {
+    int found = 0;
+    for (const auto& kv : *ctx->scopeNameMap()) {
+      const std::string name = kv.first;
+      const VerilatedScope* sc = kv.second;
+      const size_t br = name.rfind('[');
+      const int i = br == std::string::npos ? -1 : std::atoi(name.c_str() + br + 1);
+      auto ends = [&](const char* tail) {
+        const size_t n = std::strlen(tail);
+        return name.size() >= n && name.compare(name.size() - n, n, tail) == 0;
+      };
+      if (ends(".u_rx") && i >= 0 && i < kNumCh) {
+        rx_probe[i] = {probe(sc, "meta_q"), probe(sc, "sync_q"), probe(sc, "level_q"),
+                       probe(sc, "rise_q")};
+        found += rx_probe[i].meta.p && rx_probe[i].sync.p && rx_probe[i].level.p &&
+                 rx_probe[i].rise.p;
+      } else if (ends(".u_ch") && i >= 0 && i < kNumCh) {
+        tx_probe[i] = {probe(sc, "trig_q"), probe(sc, "p_cyc_q"), probe(sc, "cyc_q")};
+        found += tx_probe[i].trig.p && tx_probe[i].p_cyc.p && tx_probe[i].cyc.p;
+      } else if (ends(".u_sched.u_eng")) {
+        eng_pc = probe(sc, "pc_q");
+        found += eng_pc.p != nullptr;
+      } else if (ends(".g_vex.u_cpu")) {
+        cpu_pc = probe(sc, "lastStagePc");
+        found += cpu_pc.p != nullptr;
+      }
+    }
+    return found;
+  }
+
+  void profile() {
+    const uint32_t pc = eng_pc.get();
+    const bool eng = pc < poll_lo || pc >= poll_hi;
+    bool tx = false, rx = false;
+    for (int i = 0; i < kNumCh; ++i) {
+      const TxProbe& t = tx_probe[i];
+      tx |= t.trig.get() ? t.p_cyc.get() != 0 : t.cyc.get() != 0;  // ms_tx_channel's run
+      const RxProbe& r = rx_probe[i];
+      const uint32_t meta = r.meta.get(), sync = r.sync.get();
+      rx |= meta != ((top->echo_i >> i) & 1u) || sync != meta || r.level.get() != sync ||
+            r.rise.get() != 0;
+    }
+    const uint32_t w = (cpu_pc.get() - cpu_base) >> 2;
+    const bool cpu = w >= cpu_idle.size() || !cpu_idle[w];
+    if (w < pc_clocks.size()) ++pc_clocks[w];
+    const bool sonar = eng || tx || rx || usb_busy;
+    ++act[kActClocks];
+    act[kActEngine] += eng;
+    act[kActTxRun] += tx;
+    act[kActRxSettle] += rx;
+    act[kActUsb] += usb_busy;
+    act[kActCpu] += cpu;
+    act[kActSonar] += sonar;
+    act[kActAny] += sonar || cpu;
+  }
+
   void observe() {
+    if (profiling) profile();
     if (top->running_o && !running) {
       run_start = tick - 1;
       if (first_start < 0) first_start = run_start;
@@ -238,6 +350,35 @@ uint64_t twin_counter(void* p, int which) {
   }
 }
 
+// The activity profile: on (poll loop [poll_lo, poll_hi) of the engine, the firmware's idle
+// code as one flag per word from cpu_base) or off (on = 0). Counters and PC clocks start at 0.
+// Returns the number of registers found for it (50: 24 conditioners, 24 transmit channels, the
+// engine's PC, the CPU's); the profile stays off unless all are there.
+int twin_profile(void* p, int on, uint32_t poll_lo, uint32_t poll_hi, uint32_t cpu_base,
+                 const uint8_t* cpu_idle, int words) {
+  auto* t = static_cast<Twin*>(p);
+  const int found = t->bind_probes();
+  t->profiling = on != 0 && found == 2 * kNumCh + 2;
+  t->poll_lo = poll_lo;
+  t->poll_hi = poll_hi;
+  t->cpu_base = cpu_base;
+  t->cpu_idle.assign(cpu_idle, cpu_idle + (words > 0 ? words : 0));
+  t->pc_clocks.assign(t->cpu_idle.size(), 0);
+  std::memset(t->act, 0, sizeof(t->act));
+  return found;
+}
+
+// Copy out the activity counters (enum Act order, up to n) and, with pc_clocks, the clocks per
+// firmware word (as many as the profile's words).
+int twin_activity(void* p, uint64_t* out, int n, uint64_t* pc_clocks) {
+  auto* t = static_cast<Twin*>(p);
+  const int k = n < kActN ? n : kActN;
+  std::memcpy(out, t->act, sizeof(uint64_t) * k);
+  if (pc_clocks && !t->pc_clocks.empty())
+    std::memcpy(pc_clocks, t->pc_clocks.data(), sizeof(uint64_t) * t->pc_clocks.size());
+  return k;
+}
+
 // Copy out (and clear) the firmware's mailbox words (sim_out_o strobes), up to cap.
 int twin_mailbox(void* p, uint32_t* out, int cap) {
   auto* t = static_cast<Twin*>(p);
@@ -311,6 +452,7 @@ void twin_bus_reset(void* p, int cycles) {
 int twin_usb_packet(void* p, const uint8_t* tx, int len, int listen, uint8_t* rx, int cap, int* delay) {
   auto* t = static_cast<Twin*>(p);
   Vms_twin_top* top = t->top.get();
+  t->usb_busy = true;
   top->tl_rx_start_i = 1;
   t->step();
   top->tl_rx_start_i = 0;
@@ -338,6 +480,7 @@ int twin_usb_packet(void* p, const uint8_t* tx, int len, int listen, uint8_t* rx
     if (receiving && top->tl_tx_end_o) break;
     if (waited > listen + 4096) break;  // a device that never ends its packet
   }
+  t->usb_busy = false;
   return n;
 }
 

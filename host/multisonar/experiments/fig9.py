@@ -36,7 +36,6 @@ sensor (no re-aim) is run alongside for reference.
 from __future__ import annotations
 
 import math
-import sys
 import time
 from concurrent.futures import Executor
 from pathlib import Path
@@ -288,11 +287,10 @@ def run(executor: Executor, *, quick: bool = False, cases: int | None = None, st
         if bad or not t_orient:
             raise ValueError(f"twin cases: configurations {bad} unknown (known: {', '.join(CONFIGS)})" if bad else
                              f"twin cases: none of the orientations {twin_orient} is one of the model's {orient}")
-        todo = [(o, c) for o in t_orient for c in (twin_configs or CONFIGS)]
-        for k, (o, c) in enumerate(todo):
-            if progress:
-                print(f"  fig9: twin case {k + 1}/{len(todo)}: {o:g} deg, {c}", file=sys.stderr)
-            twin_cases.append(twin_case(o, c, distance_m, seed, progress))
+        # one twin per case, as many at once as the executor has workers (each its own process)
+        tasks = [{"orientation_deg": o, "config": c, "distance_m": distance_m, "seed": seed, "progress": False}
+                 for o in t_orient for c in (twin_configs or CONFIGS)]
+        twin_cases = run_sweep(executor, twin_case, tasks, label="fig9 twin", progress=progress)
     t_twin = time.time() - t_twin
     tw_of = {(t["orientation_deg"], t["config"]): t for t in twin_cases}
     for r in rows:

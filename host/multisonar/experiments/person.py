@@ -21,7 +21,6 @@ a shorter window, ``TWIN_WINDOW_QUICK`` / ``TWIN_WINDOW``), its rows next to the
 from __future__ import annotations
 
 import math
-import sys
 from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
@@ -244,10 +243,11 @@ def run(executor: Executor, *, quick: bool = False, miss_limits: list[int] | Non
     twin_parts = []
     tw_off, tw_dur = twin_window or (TWIN_WINDOW_QUICK if quick else TWIN_WINDOW)
     if backend == "twin":
-        for i, k in enumerate(ks):
-            if progress:
-                print(f"  person: twin case {i + 1}/{len(ks)}: K = {k}", file=sys.stderr)
-            twin_parts.append(twin_crossing(k, order, tw_off, tw_dur, seed, progress))
+        # one twin per K, as many at once as the executor has workers (each its own process)
+        twin_parts = run_sweep(executor, twin_crossing,
+                               [{"miss_limit": k, "order": order, "t_offset_s": tw_off, "duration_s": tw_dur,
+                                 "seed": seed, "progress": False} for k in ks],
+                               label="person twin", progress=progress)
     p_path = scene.people[0].path
     t_mid = t_off + dur / 2
     v_truth = (p_path.at(t_mid + 1e-3) - p_path.at(t_mid - 1e-3)) / 2e-3
@@ -281,8 +281,9 @@ def run(executor: Executor, *, quick: bool = False, miss_limits: list[int] | Non
             "with an init ping. The twin's noise is drawn per pulse, so its pulses see other noise than the model's. "
             "The tracking period is the median over the window: the wall at order 2 (4.7 ms) before the detection, "
             "the person (~3 ms) after it, in other shares in the shorter window. "
-            f"Twin: {len(twin_parts)} runs, {sonar:.2f} s of sonar time in {wall:.0f} s wall "
-            f"({sonar / max(wall, 1e-9):.4f} sonar-s per wall-s, boots included); device / harness: "
+            f"Twin: {len(twin_parts)} runs, {sonar:.2f} s of sonar time in {wall:.0f} s of run time summed over the "
+            f"runs ({sonar / max(wall, 1e-9):.4f} sonar-s per wall-s of one twin, boots included; with --workers they "
+            f"run side by side, one twin per process); device / harness: "
             f"{', '.join(bad) or 'nothing dropped, lost or clipped'}.")
     else:
         twin_note = "Twin rows: not run (`--backend twin` runs each K on the full-system twin)."

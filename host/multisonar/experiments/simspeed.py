@@ -165,40 +165,18 @@ def twin_rows(seconds: float = 0.1) -> list[dict[str, Any]]:
     return rows
 
 
-def clock_activity(seconds: float = 0.5, scene_name: str = "corridor") -> dict[str, Any]:
-    """Which clocks of the demo's workload an exact idle-clock skip could leave out (issue #30).
+def twin_activity(seconds: float = 0.1) -> dict[str, Any]:
+    """Where the twin's clocks go on the demo's workload (multisonar.twin.activity, issue #30): per
+    clock, which units can change state beyond the counters that advance with time. A clock in
+    none of them is calm; skipping calm clocks exactly gains at most 1 / (fraction with activity)."""
+    from ..twin import TwinError
+    from ..twin.activity import profile_demo
 
-    The golden model is the sonar core tick for tick, so its pulses say when the core has work: from a
-    pulse's decision (t0 - DEVICE_DECISION_LEAD) to the close of its last window (+ the FIFO and commit
-    latency, 256 ticks), a window may take an echo, a close or a trigger is due, the scheduler decides. A
-    clock outside every such interval is one in which the sonar core can do nothing; skipping exactly those
-    (and nothing else) gains at most 1 / busy_fraction, even with the CPU asleep meanwhile; skipping also
-    the clocks of a pulse in flight with no window open, 1 / window_open_fraction."""
-    import numpy as np
-
-    from ..constants import DEVICE_DECISION_LEAD
-    from ..demo import demo_sensors
-    from ..fastfiring import FastFiringModel, SceneEchoSource
-    from ..scene import load_scene
-    from ..schedule import Schedule
-
-    sc = load_scene(scene_name)
-    model = FastFiringModel(Schedule(sc.layout, demo_sensors(), temperature_c=sc.temperature_c),
-                            SceneEchoSource(sc), decision_lead=DEVICE_DECISION_LEAD)
-    total = int(seconds * TICK_HZ)
-    res = model.run(total)
-    busy = np.zeros(total, bool)
-    window = np.zeros(total, bool)
-    for p in res.pulses:
-        ends = [w[2] for w in p.windows] or [p.t0]
-        busy[max(p.t0 - DEVICE_DECISION_LEAD, 0):min(max(ends) + 256, total)] = True
-        for _rx, a, b in p.windows:
-            window[max(a, 0):min(b, total)] = True
-    busy_fraction = float(busy.mean())
-    return {"scene": scene_name, "sensors": len(demo_sensors()), "sonar_s": seconds, "pulses": len(res.pulses),
-            "busy_fraction": busy_fraction, "window_open_fraction": float(window.mean()),
-            "skip_speedup_bound": 1.0 / busy_fraction if busy_fraction > 0 else float("inf"),
-            "window_skip_speedup_bound": 1.0 / float(window.mean()) if window.any() else float("inf")}
+    try:
+        r = profile_demo(seconds)
+    except TwinError as e:
+        raise ExperimentError(f"twin activity: {e}") from None
+    return {"scene": r["scene"], "sensors": 5, "sonar_s": round(r["sonar_s"], 4)} | r["activity"].as_dict()
 
 
 def run(executor: Executor | None = None, *, quick: bool = False, seconds: float | None = None, rtl: bool = False,
@@ -218,14 +196,19 @@ def run(executor: Executor | None = None, *, quick: bool = False, seconds: float
         note = ("RTL rows: the full-system twin (multisonar.twin: Verilator, harness in C++, Python per pulse and "
                 "per USB packet); the ms_system scene test (tests/rtl/tb_system_scene.py with SCENE_MS set, cocotb: "
                 "wall time includes the checks; not with --quick).")
-    activity = clock_activity(0.1 if quick else 0.5)
-    activity_md = (f"Clock activity ({activity['scene']}, the demo's {activity['sensors']} sensors, "
-                   f"{activity['sonar_s']:g} s, golden model = the sonar core tick for tick): a pulse is in flight "
-                   f"(decided, windows pending or open) in {activity['busy_fraction']:.2%} of the clocks, a window "
-                   f"is open in {activity['window_open_fraction']:.1%}; skipping the clocks in which the sonar core "
-                   f"can do nothing would speed the twin up {activity['skip_speedup_bound']:.3g}x at most on this "
-                   f"workload (fast firing keeps the core busy); even skipping every clock without an open window "
-                   f"would give {activity['window_skip_speedup_bound']:.3g}x at most.")
+    activity: dict[str, Any] | None = None
+    activity_md = "Twin activity (where its clocks go, the bound of an exact idle-clock skip): with --rtl."
+    if rtl:
+        activity = twin_activity(0.05 if quick else 0.2)
+        f = activity["fractions"]
+        activity_md = (f"Twin activity ({activity['scene']}, the demo's {activity['sensors']} sensors, "
+                       f"{activity['sonar_s']:g} sonar-s, multisonar.twin.activity): the scheduler engine works in "
+                       f"{f['engine']:.1%} of the clocks, a transmit burst runs in {f['tx_run']:.1%}, a receive "
+                       f"conditioner settles in {f['rx_settle']:.1%}, USB in {f['usb']:.1%}, the CPU is out of its "
+                       f"idle pass in {f['cpu']:.1%}; some unit works in {f['any']:.1%}, so an exact skip of the "
+                       f"calm clocks would speed the twin up {activity['skip_speedup_bound']:.3g}x at most on this "
+                       f"workload ({activity['sonar_only_skip_speedup_bound']:.3g}x counting the sonar side alone). "
+                       f"scripts/bench_twin_profile.py --callgrind adds the cost per clock by RTL block.")
     cols = [("case", "case"), ("fidelity", "fidelity"), ("sonar_s", "sonar time (s)"), ("wall_s", "wall time (s)"),
             ("speed", "sonar-s per wall-s"), ("pulses_per_wall_s", "pulses (frames) per wall-s"), ("note", "note")]
     md = "\n".join(["# Simulation speed: sonar-seconds per wall-second", "",
@@ -252,5 +235,5 @@ def run(executor: Executor | None = None, *, quick: bool = False, seconds: float
 
     columns = ["case", "fidelity", "sonar_s", "wall_s", "speed", "pulses_per_wall_s", "events", "note"]
     return ExperimentResult("simspeed", "simulation speed", columns, rows, md, plot,
-                            summary={"rows": rows, "clock_activity": activity},
-                            json_data={"rows": rows, "clock_activity": activity})
+                            summary={"rows": rows, "twin_activity": activity},
+                            json_data={"rows": rows, "twin_activity": activity})

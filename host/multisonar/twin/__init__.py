@@ -65,9 +65,10 @@ class Twin:
 @contextmanager
 def open_twin(scene: Any = "corridor", *, usbip: bool = True, fst: str | os.PathLike[str] | None = None,
               build_first: bool = True, echo_source: Any = None, timeout_s: float = TWIN_TIMEOUT_S,
-              seed: int | None = None) -> Iterator[Twin]:
+              seed: int | None = None, library: str | os.PathLike[str] | None = None) -> Iterator[Twin]:
     """Build (if needed) and boot the twin on a scene (name, path or Scene), enumerate it and
-    open a Device on it: over our USB/IP server on 127.0.0.1 (default) or in-process."""
+    open a Device on it: over our USB/IP server on 127.0.0.1 (default) or in-process.
+    ``library``: another build of the harness (a profiling build, say) instead of make's."""
     from ..device import Device
     from ..fastfiring import SceneEchoSource
     from ..scene import load_scene
@@ -80,7 +81,7 @@ def open_twin(scene: Any = "corridor", *, usbip: bool = True, fst: str | os.Path
             import numpy as np
 
             echo_source = SceneEchoSource(sc, rng=np.random.default_rng(seed))
-    sim = TwinSim(echo_source, fst=fst, build_first=build_first)
+    sim = TwinSim(echo_source, fst=fst, build_first=build_first and library is None, library=library)
     server = None
     try:
         sim.reset()

@@ -109,6 +109,10 @@ def _load(path: Path) -> ctypes.CDLL:
         "twin_add_echoes": (None, [vp, _I64P, ctypes.c_int]),
         "twin_bus_reset": (None, [vp, ctypes.c_int]),
         "twin_usb_packet": (ctypes.c_int, [vp, _U8P, ctypes.c_int, ctypes.c_int, _U8P, ctypes.c_int, _INTP]),
+        "twin_profile": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32, _U8P,
+                                ctypes.c_int]),
+        "twin_activity": (ctypes.c_int, [vp, ctypes.POINTER(ctypes.c_uint64), ctypes.c_int,
+                                         ctypes.POINTER(ctypes.c_uint64)]),
     }
     for name, (res, args) in sig.items():
         f = getattr(lib, name)
@@ -224,6 +228,39 @@ class TwinSim:
         n = self.lib.twin_mailbox(self._h, self._mailbuf, len(self._mailbuf))
         if n:
             self._mail += self._mailbuf[:n]
+
+    # ------------------------------------------------------------------ activity profile
+    def start_profile(self, elf: str | os.PathLike[str] | None = None) -> None:
+        """Count from now where the clocks go (:mod:`multisonar.twin.activity`); ``elf``: the
+        firmware the twin runs (default: the twin's build/twin/fw/sonar_app.elf)."""
+        from .activity import firmware_symbols, idle_map, poll_range
+
+        root = repo_root()
+        path = Path(elf) if elf is not None else (root / "build/twin/fw/sonar_app.elf" if root else None)
+        if path is None or not path.exists():
+            raise TwinError(f"no firmware ELF for the profile ({path}): run `make twin`")
+        self._symbols = firmware_symbols(path)
+        words = max((s.start + s.size + 3) // 4 for s in self._symbols)
+        m = idle_map(self._symbols, words)
+        buf = (ctypes.c_uint8 * words).from_buffer_copy(m)
+        lo, hi = poll_range()
+        found = self.lib.twin_profile(self._h, 1, lo, hi, 0, buf, words)
+        if found != 2 * NUM_CH + 2:
+            raise TwinError(f"the activity profile found {found} of its {2 * NUM_CH + 2} registers in the model "
+                            "(sim/twin/ms_twin.vlt names them): rebuild the twin (make twin)")
+        self._profile_words = words
+
+    def activity(self) -> Any:
+        """The activity since :meth:`start_profile` (an :class:`~multisonar.twin.activity.Activity`)."""
+        from .activity import COUNTERS, Activity, by_function
+
+        words = getattr(self, "_profile_words", 0)
+        if not words:
+            raise TwinError("activity(): start_profile() first")
+        counts = (ctypes.c_uint64 * len(COUNTERS))()
+        pcs = (ctypes.c_uint64 * words)()
+        self.lib.twin_activity(self._h, counts, len(COUNTERS), pcs)
+        return Activity(dict(zip(COUNTERS, (int(c) for c in counts))), by_function(self._symbols, list(pcs)))
 
     # ------------------------------------------------------------------ time
     def run(self, cycles: int) -> None:

@@ -1,0 +1,155 @@
+"""Where the twin's clocks go: the activity profile of the verilated device (issue #30).
+
+The harness (sim/twin/ms_twin.cpp, ``twin_profile``) classifies every clock by what can change
+in it besides the counters that advance with time (the tick, the phaser's phase, the CPU's
+cycle timer):
+
+* ``engine``: the scheduler's microcode engine is outside its idle poll loop (it dispatches an
+  edge, a close or a decision);
+* ``tx_run``: a transmit burst runs on some element (its drive toggles every half period);
+* ``rx_settle``: a receive conditioner has not settled on its input (an echo edge passes the
+  synchroniser and the glitch filter);
+* ``usb``: a USB packet is in flight on the transaction-level port;
+* ``cpu``: the CPU is outside the main loop's idle pass (by its program counter: code other
+  than ``main``, ``geo_step`` and ``reaim_step`` when they find nothing to do; the callees of
+  a busy pass count as busy).
+
+A clock in none of them is *calm*: the device would leave it exactly as it found it, but for
+those counters. Skipping calm clocks (with the counters advanced as the RTL would) is the
+exact idle-clock skip issue #30 names; its gain on a workload is at most ``1 / any``, with
+``any`` the fraction of clocks in which some unit works. The firmware's profile (clocks per
+function, by the CPU's last-stage PC) comes with it.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+#: the harness's counters, in its order (enum Act in ms_twin.cpp)
+COUNTERS = ("clocks", "engine", "tx_run", "rx_settle", "usb", "cpu", "sonar", "any")
+#: firmware functions whose code is the main loop's idle pass (their callees are work)
+IDLE_FUNCTIONS = ("main", "geo_step", "reaim_step")
+
+
+def poll_range() -> tuple[int, int]:
+    """ROM addresses [lo, hi) of the engine's idle poll loop (the microcode's ``poll`` label up
+    to ``poll_stop``, the stop path)."""
+    from ..tools.sched_program.mainloop import POLL, main_program
+    from ..tools.sched_program.system import UCODE_WORDS
+
+    labels = main_program().assemble(depth=UCODE_WORDS).labels
+    return int(labels[POLL]), int(labels["poll_stop"])
+
+
+@dataclass
+class Symbol:
+    name: str
+    start: int  #: byte address
+    size: int  #: bytes
+
+
+def firmware_symbols(elf: Path) -> list[Symbol]:
+    """Function symbols (text) of a firmware ELF, by address (riscv64-unknown-elf-nm)."""
+    nm = shutil.which("riscv64-unknown-elf-nm")
+    if nm is None:
+        raise FileNotFoundError("riscv64-unknown-elf-nm not found (make setup installs gcc-riscv64-unknown-elf)")
+    out = subprocess.run([nm, "-S", "--defined-only", str(elf)], capture_output=True, text=True, check=True).stdout
+    syms = []
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) == 4 and parts[2] in ("T", "t"):
+            syms.append(Symbol(parts[3], int(parts[0], 16), int(parts[1], 16)))
+    return sorted(syms, key=lambda s: s.start)
+
+
+def idle_map(symbols: list[Symbol], words: int, idle: tuple[str, ...] = IDLE_FUNCTIONS) -> bytes:
+    """One byte per firmware word: 1 where the code belongs to the idle pass's functions."""
+    m = bytearray(words)
+    for s in symbols:
+        if s.name in idle:
+            for w in range(s.start // 4, min((s.start + s.size + 3) // 4, words)):
+                m[w] = 1
+    return bytes(m)
+
+
+@dataclass
+class Activity:
+    """Clock counts of one profiled stretch of the twin (see the module's doc)."""
+
+    counts: dict[str, int]
+    functions: dict[str, int] = field(default_factory=dict)  #: firmware clocks per function
+
+    @property
+    def clocks(self) -> int:
+        return self.counts["clocks"]
+
+    def fraction(self, name: str) -> float:
+        return self.counts[name] / self.clocks if self.clocks else 0.0
+
+    @property
+    def skip_bound(self) -> float:
+        """The most an exact skip of the calm clocks could speed this workload up."""
+        busy = self.fraction("any")
+        return 1.0 / busy if busy > 0 else float("inf")
+
+    def as_dict(self, top: int = 12) -> dict[str, Any]:
+        fw = sorted(self.functions.items(), key=lambda kv: -kv[1])
+        total = sum(self.functions.values()) or 1
+        return {"clocks": self.clocks,
+                "fractions": {k: round(self.fraction(k), 4) for k in COUNTERS[1:]},
+                "skip_speedup_bound": round(self.skip_bound, 3),
+                "sonar_only_skip_speedup_bound": round(1.0 / self.fraction("sonar"), 3)
+                if self.fraction("sonar") > 0 else float("inf"),
+                "firmware_functions": [{"function": k, "clocks": v, "fraction": round(v / total, 4)}
+                                       for k, v in fw[:top]]}
+
+
+def by_function(symbols: list[Symbol], pc_clocks: list[int]) -> dict[str, int]:
+    """Clocks per firmware function from clocks per word ("?" for words outside every symbol)."""
+    out: dict[str, int] = {}
+    k = 0
+    for w, n in enumerate(pc_clocks):
+        if not n:
+            continue
+        a = 4 * w
+        while k + 1 < len(symbols) and symbols[k + 1].start <= a:
+            k += 1
+        s = symbols[k] if symbols and symbols[k].start <= a < symbols[k].start + max(symbols[k].size, 4) else None
+        name = s.name if s else "?"
+        out[name] = out.get(name, 0) + int(n)
+    return out
+
+
+def profile_demo(seconds: float = 0.2, *, scene: str = "corridor", library: str | Path | None = None,
+                 activity: bool = True) -> dict[str, Any]:
+    """The demo's workload on the twin (the scene, the demo's five sensors, frames streamed to the
+    in-process driver) for ``seconds`` of sonar time, with the activity profile on (``activity``;
+    its bookkeeping costs ~15 % of a clock): the profile (or None), the clocks run and the wall
+    time."""
+    import time
+
+    from ..demo import demo_sensors
+    from ..scene import load_scene
+    from . import open_twin
+
+    sc = load_scene(scene)
+    with open_twin(sc, usbip=False, library=library) as tw:
+        tw.device.configure(demo_sensors(), temperature_c=sc.temperature_c)
+        tw.start()
+        if activity:
+            tw.sim.start_profile()
+        c0, t = tw.sim.cycles, time.perf_counter()
+        frames = 0
+        for _ in tw.device.stream(idle_timeout_s=300):
+            frames += 1
+            if tw.sim.cycles - c0 >= seconds * 48e6:
+                break
+        wall = time.perf_counter() - t
+        act = tw.sim.activity() if activity else None
+        cycles = tw.sim.cycles
+    return {"scene": scene, "sonar_s": (cycles - c0) / 48e6, "wall_s": wall, "frames": frames, "activity": act,
+            "clocks_from_reset": cycles}
