@@ -112,7 +112,7 @@ def callgrind_blocks(seconds: float) -> dict:
         out, side = Path(tmp) / "cg.out", Path(tmp) / "run.json"
         child = ("import json, sys; sys.path.insert(0, %r); "
                  "from multisonar.twin.activity import profile_demo; "
-                 "r = profile_demo(%r, library=%r, activity=False); "
+                 "r = profile_demo(%r, library=%r, activity=False, warmup_s=0.0); "
                  "json.dump({'clocks': r['clocks_from_reset']}, open(%r, 'w'))") % (
                      str(ROOT / "host"), seconds, str(lib), str(side))
         subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", sys.executable, "-c", child],
@@ -136,6 +136,8 @@ def callgrind_blocks(seconds: float) -> dict:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=0.2, help="sonar time of the activity profile (default 0.2)")
+    ap.add_argument("--warmup", type=float, default=0.05,
+                    help="sonar time streamed from START before the activity profile starts (default 0.05)")
     ap.add_argument("--callgrind", action="store_true", help="also the cost per clock by RTL block (valgrind)")
     ap.add_argument("--callgrind-seconds", type=float, default=0.02,
                     help="sonar time streamed under callgrind after boot and START (default 0.02: ~3 min)")
@@ -143,10 +145,11 @@ def main() -> int:
     ap.add_argument("--plot", type=Path, help="write a bar chart (PNG)")
     args = ap.parse_args()
 
-    r = profile_demo(args.seconds)
+    r = profile_demo(args.seconds, warmup_s=args.warmup)
     act = r["activity"]
     d = act.as_dict()
-    print(f"# Activity of the twin: {r['scene']}, the demo's five sensors, {r['sonar_s']:.3f} sonar-s "
+    print(f"# Activity of the twin: {r['scene']}, the demo's five sensors, {r['sonar_s']:.3f} sonar-s after "
+          f"{args.warmup:g} s from START "
           f"({act.clocks:,} clocks; {r['sonar_s'] / r['wall_s']:.4f} sonar-s per wall-s with the profile on)\n")
     print("| class | clocks | fraction |\n|---|---:|---:|")
     for k in COUNTERS[1:]:
@@ -156,7 +159,7 @@ def main() -> int:
     print("| firmware function | clocks | of the CPU's |\n|---|---:|---:|")
     for f in d["firmware_functions"]:
         print(f"| {f['function']} | {f['clocks']:,} | {f['fraction']:.1%} |")
-    out = {"scene": r["scene"], "sonar_s": r["sonar_s"], "wall_s": round(r["wall_s"], 2),
+    out = {"scene": r["scene"], "warmup_s": args.warmup, "sonar_s": r["sonar_s"], "wall_s": round(r["wall_s"], 2),
            "sonar_s_per_wall_s_profiled": round(r["sonar_s"] / r["wall_s"], 5), "activity": d}
     if args.callgrind:
         cg = callgrind_blocks(args.callgrind_seconds)

@@ -168,7 +168,8 @@ def twin_rows(seconds: float = 0.1) -> list[dict[str, Any]]:
 def twin_activity(seconds: float = 0.1) -> dict[str, Any]:
     """Where the twin's clocks go on the demo's workload (multisonar.twin.activity, issue #30): per
     clock, which units can change state beyond the counters that advance with time. A clock in
-    none of them is calm; skipping calm clocks exactly gains at most 1 / (fraction with activity)."""
+    none of them is calm; skipping calm clocks exactly gains at most 1 / (fraction with activity).
+    The stretch varies: 0.05 s (--quick) after start-up is calmer than 1 s (docs/twin.md)."""
     from ..twin import TwinError
     from ..twin.activity import profile_demo
 
@@ -202,7 +203,8 @@ def run(executor: Executor | None = None, *, quick: bool = False, seconds: float
         activity = twin_activity(0.05 if quick else 0.2)
         f = activity["fractions"]
         activity_md = (f"Twin activity ({activity['scene']}, the demo's {activity['sensors']} sensors, "
-                       f"{activity['sonar_s']:g} sonar-s, multisonar.twin.activity): the scheduler engine works in "
+                       f"{activity['sonar_s']:g} sonar-s after 0.05 s from START, multisonar.twin.activity): the scheduler engine "
+                       f"works in "
                        f"{f['engine']:.1%} of the clocks, a transmit burst runs in {f['tx_run']:.1%}, a receive "
                        f"conditioner settles in {f['rx_settle']:.1%}, USB in {f['usb']:.1%}, the CPU is out of its "
                        f"idle pass in {f['cpu']:.1%}; some unit works in {f['any']:.1%}, so an exact skip of the "
