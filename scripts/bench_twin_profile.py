@@ -34,7 +34,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "host"))
 
-from multisonar.twin.activity import COUNTERS, profile_demo  # noqa: E402
+from multisonar.experiments.simspeed import profile_demo  # noqa: E402
+from multisonar.twin.activity import COUNTERS  # noqa: E402
 
 #: RTL blocks by the instance path of a generated line (first match wins)
 BLOCKS = (
@@ -111,7 +112,7 @@ def callgrind_blocks(seconds: float) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         out, side = Path(tmp) / "cg.out", Path(tmp) / "run.json"
         child = ("import json, sys; sys.path.insert(0, %r); "
-                 "from multisonar.twin.activity import profile_demo; "
+                 "from multisonar.experiments.simspeed import profile_demo; "
                  "r = profile_demo(%r, library=%r, activity=False, warmup_s=0.0); "
                  "json.dump({'clocks': r['clocks_from_reset']}, open(%r, 'w'))") % (
                      str(ROOT / "host"), seconds, str(lib), str(side))

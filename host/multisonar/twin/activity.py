@@ -123,34 +123,3 @@ def by_function(symbols: list[Symbol], pc_clocks: list[int]) -> dict[str, int]:
         out[name] = out.get(name, 0) + int(n)
     return out
 
-
-def profile_demo(seconds: float = 0.2, *, scene: str = "corridor", library: str | Path | None = None,
-                 activity: bool = True, warmup_s: float = 0.05) -> dict[str, Any]:
-    """The demo's workload on the twin (the scene, the demo's five sensors, frames streamed to the
-    in-process driver): ``warmup_s`` of sonar time from START (the init pings, sensors locking
-    on), then ``seconds`` with the activity profile on (``activity``; its bookkeeping costs ~15 %
-    of a clock): the profile (or None), the clocks run and the wall time of the profiled part."""
-    import time
-
-    from ..demo import demo_sensors
-    from ..scene import load_scene
-    from . import open_twin
-
-    sc = load_scene(scene)
-    with open_twin(sc, usbip=False, library=library) as tw:
-        tw.device.configure(demo_sensors(), temperature_c=sc.temperature_c)
-        tw.start()
-        c0, t, frames, on = tw.sim.cycles, time.perf_counter(), 0, False
-        for _ in tw.device.stream(idle_timeout_s=300):
-            if not on and tw.sim.cycles - c0 >= warmup_s * 48e6:
-                if activity:
-                    tw.sim.start_profile()
-                c0, t, frames, on = tw.sim.cycles, time.perf_counter(), 0, True
-            frames += on
-            if on and tw.sim.cycles - c0 >= seconds * 48e6:
-                break
-        wall = time.perf_counter() - t
-        act = tw.sim.activity() if activity else None
-        cycles = tw.sim.cycles
-    return {"scene": scene, "sonar_s": (cycles - c0) / 48e6, "wall_s": wall, "frames": frames, "activity": act,
-            "clocks_from_reset": cycles}

@@ -1,0 +1,38 @@
+"""The twin's activity profile helpers (multisonar.twin.activity) on made-up symbol tables: the
+firmware's idle-code map and the clocks-per-function fold. The profile itself runs in
+tests/test_twin.py::test_twin_matches_golden_model against the harness's own record."""
+
+from __future__ import annotations
+
+import math
+
+from multisonar.twin.activity import COUNTERS, IDLE_FUNCTIONS, Activity, Symbol, by_function, idle_map, poll_range
+
+
+def test_idle_map_marks_exactly_the_idle_functions_words():
+    syms = [Symbol("_start", 0, 8), Symbol("main", 8, 12), Symbol("poll_events", 20, 8), Symbol("geo_step", 28, 6)]
+    m = idle_map(syms, 10)
+    # words 2-4 are main, 5-6 poll_events (work), 7-8 geo_step (6 bytes: a partial last word counts)
+    assert list(m) == [0, 0, 1, 1, 1, 0, 0, 1, 1, 0]
+    assert set(IDLE_FUNCTIONS) == {"main", "geo_step", "reaim_step"}
+
+
+def test_by_function_folds_words_and_names_the_gaps():
+    syms = [Symbol("a", 0, 8), Symbol("b", 8, 4), Symbol("c", 16, 4)]
+    clocks = [1, 2, 3, 4, 5, 0]  # word 3 (byte 12) lies in no symbol; word 5 never ran
+    assert by_function(syms, clocks) == {"a": 3, "b": 3, "?": 4, "c": 5}
+
+
+def test_activity_fractions_and_bound():
+    counts = dict.fromkeys(COUNTERS, 0) | {"clocks": 1000, "engine": 100, "cpu": 150, "sonar": 200, "any": 250}
+    a = Activity(counts, {"main": 600, "poll_events": 400})
+    assert a.fraction("any") == 0.25 and a.skip_bound == 4.0
+    d = a.as_dict()
+    assert d["skip_speedup_bound"] == 4.0 and d["sonar_only_skip_speedup_bound"] == 5.0
+    assert d["firmware_functions"][0] == {"function": "main", "clocks": 600, "fraction": 0.6}
+    assert math.isinf(Activity(dict.fromkeys(COUNTERS, 0) | {"clocks": 10}).skip_bound)
+
+
+def test_poll_range_is_the_engines_poll_loop():
+    lo, hi = poll_range()
+    assert 0 < lo < hi and hi - lo < 32  # a short loop near the program's start (IDLE follows INIT)
