@@ -183,18 +183,18 @@ def profile_demo(seconds: float = 0.2, *, scene: str = "corridor", library: str 
         tw.start()
         c0, t, frames, on = tw.sim.cycles, time.perf_counter(), 0, False
         for _ in tw.device.stream(idle_timeout_s=300):
-            if not on and tw.sim.cycles - c0 >= warmup_s * 48e6:
+            if not on and tw.sim.cycles - c0 >= warmup_s * TICK_HZ:
                 if activity:
                     tw.sim.start_profile()
                 c0, t, frames, on = tw.sim.cycles, time.perf_counter(), 0, True
             frames += on
-            if on and tw.sim.cycles - c0 >= seconds * 48e6:
+            if on and tw.sim.cycles - c0 >= seconds * TICK_HZ:
                 break
         wall = time.perf_counter() - t
         act = tw.sim.activity() if activity else None
         cycles = tw.sim.cycles
-    return {"scene": scene, "sonar_s": (cycles - c0) / 48e6, "wall_s": wall, "frames": frames, "activity": act,
-            "clocks_from_reset": cycles}
+    return {"scene": scene, "sensors": len(demo_sensors()), "sonar_s": (cycles - c0) / TICK_HZ, "wall_s": wall,
+            "frames": frames, "activity": act, "clocks_from_reset": cycles}
 
 
 def twin_activity(seconds: float = 0.1) -> dict[str, Any]:
@@ -208,7 +208,7 @@ def twin_activity(seconds: float = 0.1) -> dict[str, Any]:
         r = profile_demo(seconds)
     except TwinError as e:
         raise ExperimentError(f"twin activity: {e}") from None
-    return {"scene": r["scene"], "sensors": 5, "sonar_s": round(r["sonar_s"], 4)} | r["activity"].as_dict()
+    return {"scene": r["scene"], "sensors": r["sensors"], "sonar_s": round(r["sonar_s"], 4)} | r["activity"].as_dict()
 
 
 def run(executor: Executor | None = None, *, quick: bool = False, seconds: float | None = None, rtl: bool = False,
@@ -234,9 +234,8 @@ def run(executor: Executor | None = None, *, quick: bool = False, seconds: float
         activity = twin_activity(0.05 if quick else 0.2)
         f = activity["fractions"]
         activity_md = (f"Twin activity ({activity['scene']}, the demo's {activity['sensors']} sensors, "
-                       f"{activity['sonar_s']:g} sonar-s after 0.05 s from START, multisonar.twin.activity): the scheduler engine "
-                       f"works in "
-                       f"{f['engine']:.1%} of the clocks, a transmit burst runs in {f['tx_run']:.1%}, a receive "
+                       f"{activity['sonar_s']:g} sonar-s after 0.05 s from START, multisonar.twin.activity): "
+                       f"the scheduler engine works in {f['engine']:.1%} of the clocks, a transmit burst runs in {f['tx_run']:.1%}, a receive "
                        f"conditioner settles in {f['rx_settle']:.1%}, USB in {f['usb']:.1%}, the CPU is out of its "
                        f"idle pass in {f['cpu']:.1%}; some unit works in {f['any']:.1%}, so an exact skip of the "
                        f"calm clocks would speed the twin up {activity['skip_speedup_bound']:.3g}x at most on this "
