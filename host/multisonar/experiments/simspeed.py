@@ -129,9 +129,7 @@ def twin_rows(seconds: float = 0.1) -> list[dict[str, Any]]:
     """Time the full-system twin (multisonar.twin; built by `make twin` when needed): the bare
     verilated device with no echoes and no host, then the corridor with the demo's sensors
     streamed through the driver in-process and over USB/IP (what `make demo` runs)."""
-    from ..demo import demo_sensors
-    from ..scene import load_scene
-    from ..twin import TwinError, TwinSim, open_twin
+    from ..twin import TwinError, TwinSim
 
     rows = []
     try:
@@ -143,34 +141,23 @@ def twin_rows(seconds: float = 0.1) -> list[dict[str, Any]]:
             wall = time.perf_counter() - t
         rows.append(_row("twin: bare device clock", "RTL: whole device, Verilator, no echoes, no host", seconds, wall,
                          0, 0, f"{seconds * TICK_HZ / wall / 1e6:.3f} M clocks/s (firmware idle)"))
-        scene = load_scene("corridor")
         for usbip in (False, True):
-            with open_twin(scene, usbip=usbip) as tw:
-                tw.device.configure(demo_sensors(), temperature_c=scene.temperature_c)
-                start = tw.start()
-                end = start + int(seconds * TICK_HZ)
-                n = 0
-                t = time.perf_counter()
-                for _ in tw.device.stream(idle_timeout_s=300):
-                    n += 1
-                    if tw.sim.tick >= end:
-                        break
-                wall = time.perf_counter() - t
-                sonar = (tw.sim.tick - start) / TICK_HZ
+            r = profile_demo(seconds, usbip=usbip, activity=False, warmup_s=0.0)
             how = "USB/IP on 127.0.0.1" if usbip else "in-process pyusb backend"
             rows.append(_row(f"twin: corridor, driver {how}", "RTL twin: acoustics + device RTL + USB + driver",
-                             sonar, wall, n, 0, "5 demo sensors, frames to numpy (make demo)"))
+                             r["sonar_s"], r["wall_s"], r["frames"], 0, "5 demo sensors, frames to numpy (make demo)"))
     except TwinError as e:
         raise ExperimentError(f"twin rows: {e}") from None
     return rows
 
 
 def profile_demo(seconds: float = 0.2, *, scene: str = "corridor", library: str | os.PathLike[str] | None = None,
-                 activity: bool = True, warmup_s: float = 0.05) -> dict[str, Any]:
+                 activity: bool = True, warmup_s: float = 0.05, usbip: bool = False) -> dict[str, Any]:
     """The demo's workload on the twin (the scene, the demo's five sensors, frames streamed to the
-    in-process driver): ``warmup_s`` of sonar time from START (the init pings, sensors locking
-    on), then ``seconds`` with the activity profile on (``activity``; its bookkeeping costs ~15 %
-    of a clock): the profile (or None), the clocks run and the wall time of the profiled part."""
+    driver, in-process or over USB/IP with ``usbip``): ``warmup_s`` of sonar time from START (the
+    init pings, sensors locking on), then ``seconds`` with the activity profile on (``activity``;
+    its bookkeeping costs ~15 % of a clock): the profile (or None), the clocks run and the wall
+    time of the profiled part. twin_rows times the twin with it, bench_twin_profile.py profiles."""
     import time
 
     from ..demo import demo_sensors
@@ -178,10 +165,13 @@ def profile_demo(seconds: float = 0.2, *, scene: str = "corridor", library: str 
     from ..twin import open_twin
 
     sc = load_scene(scene)
-    with open_twin(sc, usbip=False, library=library) as tw:
+    with open_twin(sc, usbip=usbip, library=library) as tw:
         tw.device.configure(demo_sensors(), temperature_c=sc.temperature_c)
         tw.start()
-        c0, t, frames, on = tw.sim.cycles, time.perf_counter(), 0, False
+        on = warmup_s <= 0  # no warm-up: profile and time from START
+        if on and activity:
+            tw.sim.start_profile()
+        c0, t, frames = tw.sim.cycles, time.perf_counter(), 0
         for _ in tw.device.stream(idle_timeout_s=300):
             if not on and tw.sim.cycles - c0 >= warmup_s * TICK_HZ:
                 if activity:

@@ -90,11 +90,16 @@ class Activity:
     def fraction(self, name: str) -> float:
         return self.counts[name] / self.clocks if self.clocks else 0.0
 
+    def bound(self, busy: str = "any") -> float:
+        """The most an exact skip could speed this workload up if only the clocks of class
+        ``busy`` had to be simulated: 1 / their fraction."""
+        f = self.fraction(busy)
+        return 1.0 / f if f > 0 else float("inf")
+
     @property
     def skip_bound(self) -> float:
         """The most an exact skip of the calm clocks could speed this workload up."""
-        busy = self.fraction("any")
-        return 1.0 / busy if busy > 0 else float("inf")
+        return self.bound("any")
 
     def as_dict(self, top: int = 12) -> dict[str, Any]:
         fw = sorted(self.functions.items(), key=lambda kv: -kv[1])
@@ -102,8 +107,7 @@ class Activity:
         return {"clocks": self.clocks,
                 "fractions": {k: round(self.fraction(k), 4) for k in COUNTERS[1:]},
                 "skip_speedup_bound": round(self.skip_bound, 3),
-                "sonar_only_skip_speedup_bound": round(1.0 / self.fraction("sonar"), 3)
-                if self.fraction("sonar") > 0 else float("inf"),
+                "sonar_only_skip_speedup_bound": round(self.bound("sonar"), 3),
                 "firmware_functions": [{"function": k, "clocks": v, "fraction": round(v / total, 4)}
                                        for k, v in fw[:top]]}
 
