@@ -4,12 +4,17 @@
 # The schedule header comes from multisonar.tools.fw_schedule (SONAR_APP_CFG: a configuration
 # named there; default 'scene', the whole-system test's table, tests/rtl/test_system_scene.py).
 # Memory: the board's 60 KiB (ms_ulx3s RAM_WORDS 15360: 30 DP16KD, the 25F has 56): 40 KiB
-# image at 0, 20 KiB data/bss/stack at 0xA000 (the stack from 0xF000 down). In the simulated
-# SoC's 64 KiB the top 4 KiB stay unused. The link fails when either part outgrows its room
-# (34 KB image, ~14 KB data + bss with 32 pulse groups, ~2.5 KB stack as of issue #26).
-SONAR_APP_LDFLAGS := -Wl,--defsym=__flash=0x0 -Wl,--defsym=__flash_size=0xA000 \
-                     -Wl,--defsym=__ram=0xA000 -Wl,--defsym=__ram_size=0x5000 -Wl,--gc-sections \
-                     -Wl,--sort-section=name
+# image at 0, then 3.5 KiB of stack (growing down from 0xAE00) and 16.5 KiB of data + bss from
+# 0xAE00 (firmware/app/sonar/sonar_app.ld). In the simulated SoC's 64 KiB the top 4 KiB stay
+# unused. The link fails when the image or data + bss outgrows its room (~40 KB image, ~16.3 KB
+# data + bss with 32 pulse groups; the deepest call path takes ~1 KB of stack, firmware/README.md). The stack sits below the data
+# so that the gp window (4 KiB from the data) starts 3.5 KiB above the image's end: GNU ld 2.40
+# relaxes against the unrelaxed layout, and with the data right after the image, an unrelaxed
+# image over 40 KiB (~1.1 KiB above the relaxed one) broke the link ("relocation truncated to
+# fit: R_RISCV_GPREL_I" against __data_source).
+SONAR_APP_LDFLAGS := -T firmware/app/sonar/sonar_app.ld -Wl,--defsym=__flash=0x0 \
+                     -Wl,--defsym=__flash_size=0xA000 -Wl,--defsym=__ram=0xAE00 \
+                     -Wl,--defsym=__ram_size=0x4200 -Wl,--gc-sections -Wl,--sort-section=name
 
 SONAR_APP_CFG ?= scene
 SONAR_APP_SRC := $(sort $(wildcard firmware/app/sonar/*.c))
@@ -22,7 +27,7 @@ $(BUILD)/fw/sonar_app_cfg.h: host/multisonar/tools/fw_schedule.py host/multisona
 
 $(BUILD)/fw/sonar_app.elf: $(SONAR_APP_SRC) $(GEOM_SRC) $(GEOM_HDR) \
                            $(BUILD)/fw/sonar_app_cfg.h $(SONAR_APP_HDR) $(STAMPS)/gen Makefile \
-                           mk/firmware_app.mk
+                           mk/firmware_app.mk firmware/app/sonar/sonar_app.ld
 	@mkdir -p $(@D)
 	$(FW_CC) $(FW_CFLAGS) -ffunction-sections -fdata-sections -Ifirmware/geometry -Ifirmware/app -I$(BUILD)/fw \
 	    -DMS_GEOM_ARITH=MS_ARITH_Q $(SONAR_APP_SRC) $(GEOM_SRC) -o $@ $(SONAR_APP_LDFLAGS) -Wl,--print-memory-usage

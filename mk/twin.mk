@@ -18,7 +18,8 @@ $(TWIN_DIR)/fw/sonar_app_cfg.h: host/multisonar/tools/fw_schedule.py host/multis
 	$(VPY) -m multisonar.tools.fw_schedule --header $@ --config demo
 
 $(TWIN_DIR)/fw/sonar_app.elf: $(SONAR_APP_SRC) $(GEOM_SRC) $(GEOM_HDR) \
-                              $(TWIN_DIR)/fw/sonar_app_cfg.h $(SONAR_APP_HDR) $(STAMPS)/gen Makefile mk/twin.mk
+                              $(TWIN_DIR)/fw/sonar_app_cfg.h $(SONAR_APP_HDR) $(STAMPS)/gen Makefile mk/twin.mk \
+                              mk/firmware_app.mk firmware/app/sonar/sonar_app.ld
 	@mkdir -p $(@D)
 	$(FW_CC) $(FW_CFLAGS) -ffunction-sections -fdata-sections -Ifirmware/geometry -Ifirmware/app -I$(TWIN_DIR)/fw \
 	    -DMS_GEOM_ARITH=MS_ARITH_Q $(SONAR_APP_SRC) $(GEOM_SRC) -o $@ $(SONAR_APP_LDFLAGS)

@@ -74,7 +74,7 @@ module ms_system #(
     .sonar_wr_data_o (wr_data), .sonar_wr_biten_o (wr_biten),
     .sonar_req_stall_wr_i (stall_wr), .sonar_req_stall_rd_i (stall_rd),
     .sonar_rd_ack_i (rd_ack), .sonar_rd_err_i (rd_err), .sonar_rd_data_i (rd_data),
-    .sonar_wr_ack_i (wr_ack), .sonar_wr_err_i (wr_err),
+    .sonar_wr_ack_i (wr_ack), .sonar_wr_err_i (wr_err), .wake_evt_i (evt_available_o),
     .cmd_valid_i, .cmd_data_i, .cmd_end_i, .cmd_zlp_i, .cmd_ready_o,
     .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o

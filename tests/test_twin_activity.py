@@ -1,20 +1,12 @@
 """The twin's activity profile helpers (multisonar.twin.activity) on made-up symbol tables: the
-firmware's idle-code map and the clocks-per-function fold. The profile itself runs in
+clocks-per-function fold, the bound. The profile itself runs in
 tests/test_twin.py::test_twin_matches_golden_model against the harness's own record."""
 
 from __future__ import annotations
 
 import math
 
-from multisonar.twin.activity import COUNTERS, IDLE_FUNCTIONS, Activity, Symbol, by_function, idle_map, poll_range
-
-
-def test_idle_map_marks_exactly_the_idle_functions_words():
-    syms = [Symbol("_start", 0, 8), Symbol("main", 8, 12), Symbol("poll_events", 20, 8), Symbol("geo_step", 28, 6)]
-    m = idle_map(syms, 10)
-    # words 2-4 are main, 5-6 poll_events (work), 7-8 geo_step (6 bytes: a partial last word counts)
-    assert list(m) == [0, 0, 1, 1, 1, 0, 0, 1, 1, 0]
-    assert set(IDLE_FUNCTIONS) == {"main", "geo_step", "reaim_step"}
+from multisonar.twin.activity import COUNTERS, Activity, Symbol, by_function, poll_range
 
 
 def test_by_function_folds_words_and_names_the_gaps():

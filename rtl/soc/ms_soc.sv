@@ -15,6 +15,9 @@
 // Watchdog: when WDT_TIMEOUT is non-zero and that many clocks pass without a write to
 // WDT_KICK, the CPU alone is held in reset for 16 clocks and WDT_RESETS counts it; the
 // registers, the sonar core and the host link keep running (the sonar keeps firing).
+// Idle wait: a read of WAIT stalls the CPU until wake_evt_i (the sonar core's event FIFO is not
+// empty), a complete command transfer, or the cycle timer's low word reaching WAKE_AT; a
+// watchdog reset of the CPU ends it too (the register block's read must complete).
 // Host link (rtl/link/ms_link.sv, docs/protocol.md section 8): cmd_* takes the bytes of the USB
 // bulk OUT endpoint (ms_usb_device out_*), the firmware reads whole command transfers through
 // CMD_STATUS / CMD_DATA; it writes reply packets to REPLY_TX and frame packets to HOST_TX
@@ -46,6 +49,7 @@ module ms_soc #(
   input  logic [31:0]         sonar_rd_data_i,
   input  logic                sonar_wr_ack_i,
   input  logic                sonar_wr_err_i,
+  input  logic                wake_evt_i,        // an event word waits (ends a WAIT read)
   // host link: bulk OUT bytes in (ms_usb_device out_*), bulk IN bytes out (in_*)
   input  logic                cmd_valid_i,
   input  logic [7:0]          cmd_data_i,
@@ -261,10 +265,10 @@ module ms_soc #(
   // ---- peripherals
   logic        soc_req, soc_req_is_wr, soc_stall_wr, soc_stall_rd;
   logic        soc_rd_ack, soc_rd_err, soc_wr_ack, soc_wr_err;
-  logic [5:0]  soc_addr;
+  logic [6:0]  soc_addr;
   logic [31:0] soc_wr_data, soc_wr_biten, soc_rd_data;
 
-  ms_pico_bridge #(.ADDR_W(6)) u_soc_bridge (
+  ms_pico_bridge #(.ADDR_W(7)) u_soc_bridge (
     .clk_i (clk_i), .rst_i (cpu_rst), .sel_i (sel_soc),
     .mem_valid_i (per_valid), .mem_addr_i (per_addr), .mem_wdata_i (per_wdata), .mem_wstrb_i (per_wstrb),
     .mem_ready_o (soc_ready), .mem_rdata_o (soc_rdata), .err_o (soc_err),
@@ -358,6 +362,19 @@ module ms_soc #(
     end
   end
 
+  // idle wait: WAIT's read pends until one of its reasons holds (one clock at the least)
+  logic        wait_q, wait_done;
+  logic [2:0]  wait_why;
+  logic [31:0] wake_left;  // WAKE_AT - TIMER_LO: negative or 0 once reached (wraps as C's)
+  assign wake_left = hwif_out.WAKE_AT.cycles.value - cycles_q[31:0];
+  assign wait_why  = {cmd_avail, wake_evt_i, wake_left[31] | (wake_left == '0)};
+  assign wait_done = wait_q & ((wait_why != '0) | cpu_rst_q);
+  always_ff @(posedge clk_i) begin
+    if (rst_i)                                             wait_q <= 1'b0;
+    else if (hwif_out.WAIT.req & ~hwif_out.WAIT.req_is_wr) wait_q <= 1'b1;
+    else if (wait_done)                                    wait_q <= 1'b0;
+  end
+
   always_comb begin
     hwif_in.TIMER_LO.count.next          = cycles_q[31:0];
     hwif_in.TIMER_HI.count.next          = cycles_q[63:32];
@@ -374,6 +391,10 @@ module ms_soc #(
     hwif_in.CMD_STATUS.bytes.next        = cmd_bytes;
     hwif_in.CMD_DATA.rd_ack              = cmd_rd_ack;
     hwif_in.CMD_DATA.rd_data.data        = cmd_rd_data;
+    hwif_in.WAIT.rd_ack                  = wait_done;
+    hwif_in.WAIT.rd_data.timer           = wait_why[0];
+    hwif_in.WAIT.rd_data.fifo            = wait_why[1];
+    hwif_in.WAIT.rd_data.cmd             = wait_why[2];
   end
 
   // mailbox: the strobe follows the write by one clock, when the register holds the value

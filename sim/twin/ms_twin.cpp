@@ -56,8 +56,8 @@ struct EchoEdge {
 // clock is "calm" for a unit when the unit's state changes in it only in counters that advance
 // with time (the tick, the phaser's phase, the CPU's cycle timer): the engine spins in its poll
 // loop, no burst runs, every receive conditioner has settled on its input, no USB packet is in
-// flight, the CPU runs the main loop's idle pass. Those are the clocks an exact skip could
-// leave out (issue #30); the rest bound its gain.
+// flight, the CPU is stalled in a read of WAIT (the firmware's idle wait, ms_soc). Those are
+// the clocks an exact skip could leave out (issue #30); the rest bound its gain.
 enum Act { kActClocks, kActEngine, kActTxRun, kActRxSettle, kActUsb, kActCpu, kActSonar, kActAny,
            kActN };
 
@@ -115,12 +115,10 @@ struct Twin {
   uint64_t run_starts = 0;       // rises of running_o (START, re-aims restart the schedule)
   bool profiling = false;
   uint32_t poll_lo = 0, poll_hi = 0;  // the engine's poll loop, [lo, hi)
-  uint32_t cpu_base = 0;              // firmware word 0's byte address
-  std::vector<uint8_t> cpu_idle;      // per firmware word: code of the main loop's idle pass
-  std::vector<uint64_t> pc_clocks;    // per firmware word: clocks its instruction was last
+  std::vector<uint64_t> pc_clocks;    // per firmware word (from 0): clocks its instruction was last
   RxProbe rx_probe[kNumCh];
   TxProbe tx_probe[kNumCh];
-  Probe eng_pc, cpu_pc;
+  Probe eng_pc, cpu_pc, cpu_wait;
   uint64_t act[kActN] = {};
   bool usb_busy = false;
   uint32_t mailbox[4096];
@@ -156,8 +154,8 @@ struct Twin {
     observe();
   }
 
-  // The profiled registers by scope name (the conditioners', transmit channels', the engine's
-  // and the CPU's); the number found (24 + 24 + 2 when all are there).
+  // The profiled registers by scope name (the conditioners', transmit channels', the engine's,
+  // the CPU's PC and the SoC's WAIT state); the number found (24 + 24 + 3 when all are there).
   int bind_probes() {
     int found = 0;
     for (const auto& kv : *ctx->scopeNameMap()) {
@@ -183,6 +181,9 @@ struct Twin {
       } else if (ends(".g_vex.u_cpu")) {
         cpu_pc = probe(sc, "lastStagePc");
         found += cpu_pc.p != nullptr;
+      } else if (ends(".u_soc")) {
+        cpu_wait = probe(sc, "wait_q");
+        found += cpu_wait.p != nullptr;
       }
     }
     return found;
@@ -200,8 +201,8 @@ struct Twin {
       rx |= meta != ((top->echo_i >> i) & 1u) || sync != meta || r.level.get() != sync ||
             r.rise.get() != 0;
     }
-    const uint32_t w = (cpu_pc.get() - cpu_base) >> 2;
-    const bool cpu = w >= cpu_idle.size() || !cpu_idle[w];
+    const uint32_t w = cpu_pc.get() >> 2;
+    const bool cpu = cpu_wait.get() == 0;
     if (w < pc_clocks.size()) ++pc_clocks[w];
     const bool sonar = eng || tx || rx || usb_busy;
     ++act[kActClocks];
@@ -350,20 +351,17 @@ uint64_t twin_counter(void* p, int which) {
   }
 }
 
-// The activity profile: on (poll loop [poll_lo, poll_hi) of the engine, the firmware's idle
-// code as one flag per word from cpu_base) or off (on = 0). Counters and PC clocks start at 0.
-// Returns the number of registers found for it (50: 24 conditioners, 24 transmit channels, the
-// engine's PC, the CPU's); the profile stays off unless all are there.
-int twin_profile(void* p, int on, uint32_t poll_lo, uint32_t poll_hi, uint32_t cpu_base,
-                 const uint8_t* cpu_idle, int words) {
+// The activity profile: on (the engine's poll loop is ROM [poll_lo, poll_hi); the PC histogram
+// covers `words` firmware words from address 0) or off (on = 0). Counters and PC clocks start
+// at 0. Returns the number of registers found for it (51: 24 conditioners, 24 transmit
+// channels, the engine's PC, the CPU's, the SoC's WAIT state); it stays off unless all are.
+int twin_profile(void* p, int on, uint32_t poll_lo, uint32_t poll_hi, int words) {
   auto* t = static_cast<Twin*>(p);
   const int found = t->bind_probes();
-  t->profiling = on != 0 && found == 2 * kNumCh + 2;
+  t->profiling = on != 0 && found == 2 * kNumCh + 3;
   t->poll_lo = poll_lo;
   t->poll_hi = poll_hi;
-  t->cpu_base = cpu_base;
-  t->cpu_idle.assign(cpu_idle, cpu_idle + (words > 0 ? words : 0));
-  t->pc_clocks.assign(t->cpu_idle.size(), 0);
+  t->pc_clocks.assign(words > 0 ? words : 0, 0);
   std::memset(t->act, 0, sizeof(t->act));
   return found;
 }

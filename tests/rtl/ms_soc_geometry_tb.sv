@@ -35,7 +35,7 @@ module ms_soc_geometry_tb #(
     .sonar_wr_data_o (wr_data), .sonar_wr_biten_o (wr_biten),
     .sonar_req_stall_wr_i (1'b0), .sonar_req_stall_rd_i (1'b0),
     .sonar_rd_ack_i (req & ~req_is_wr), .sonar_rd_err_i (1'b1), .sonar_rd_data_i (32'd0),
-    .sonar_wr_ack_i (req & req_is_wr), .sonar_wr_err_i (1'b1),
+    .sonar_wr_ack_i (req & req_is_wr), .sonar_wr_err_i (1'b1), .wake_evt_i (1'b0),
     .cmd_valid_i (1'b0), .cmd_data_i (8'd0), .cmd_end_i (1'b0), .cmd_zlp_i (1'b0), .cmd_ready_o (),
     .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o

@@ -1,12 +1,14 @@
 // Testbench top for the SoC: ms_soc with the sonar core's register block (ms_csr) on its
 // sonar port, so firmware reads the real generated registers. No commands (cmd_* tied off);
-// host_* is the link's bulk IN byte stream (tests/rtl/link_reader.py).
+// host_* is the link's bulk IN byte stream (tests/rtl/link_reader.py); wake_evt_i stands for
+// the sonar core's "an event waits" (it ends a WAIT read).
 module ms_soc_tb #(
   parameter int    CLK_HALF_PS = 10417,  // tests/rtl/tbutil.py CLK_PERIOD_PS / 2
   parameter string INIT_FILE = "",
   parameter string CPU       = "picorv32"
 ) (
   input  logic        rst_i,
+  input  logic        wake_evt_i,
   input  logic        host_rd_i,
   output logic        host_rvalid_o,
   output logic [7:0]  host_rdata_o,
@@ -32,7 +34,7 @@ module ms_soc_tb #(
     .sonar_wr_data_o (wr_data), .sonar_wr_biten_o (wr_biten),
     .sonar_req_stall_wr_i (stall_wr), .sonar_req_stall_rd_i (stall_rd),
     .sonar_rd_ack_i (rd_ack), .sonar_rd_err_i (rd_err), .sonar_rd_data_i (rd_data),
-    .sonar_wr_ack_i (wr_ack), .sonar_wr_err_i (wr_err),
+    .sonar_wr_ack_i (wr_ack), .sonar_wr_err_i (wr_err), .wake_evt_i,
     .cmd_valid_i (1'b0), .cmd_data_i (8'd0), .cmd_end_i (1'b0), .cmd_zlp_i (1'b0), .cmd_ready_o (),
     .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o

@@ -5,6 +5,7 @@ module ms_soc_vex_tb #(
   parameter string INIT_FILE = ""
 ) (
   input  logic        rst_i,
+  input  logic        wake_evt_i,
   input  logic        host_rd_i,
   output logic        host_rvalid_o,
   output logic [7:0]  host_rdata_o,
@@ -18,7 +19,7 @@ module ms_soc_vex_tb #(
   assign clk_i = u_tb.clk_i;
 
   ms_soc_tb #(.INIT_FILE(INIT_FILE), .CPU("vexriscv")) u_tb (
-    .rst_i, .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
+    .rst_i, .wake_evt_i, .host_rd_i, .host_rvalid_o, .host_rdata_o, .host_flush_o,
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o
   );
 endmodule

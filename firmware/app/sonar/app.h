@@ -132,6 +132,7 @@ void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_
 /* geo.c */
 void geo_enqueue(const group_t *g);       /* a complete pulse's fix, or its no-fix outcome */
 int geo_step(void);                       /* one job, if any; returns 1 when one ran */
+int geo_pending(void);                    /* jobs wait in the queue */
 void geo_clear(void);
 /* sensors.c */
 int load_sensors(void);
@@ -147,6 +148,7 @@ void sensor_outcome(int si, int init, int fixed); /* a pulse's verdict: may requ
 int reaim_step(int idle);               /* the pending re-aim's next slice; 1 when one ran */
 int reaim_restart_seen(uint32_t id, uint32_t init, uint32_t now);
 void reaim_cancel(void);
+int reaim_idle(void);                   /* no re-aim under way (nothing for reaim_step) */
 const sensor_t *placement_of(int si, int shift); /* the sensor's groups at shift, if known */
 /* table.c */
 uint32_t table_check(void);            /* 0 accepted, else CfgError | entry << 8 (and in STATUS) */

@@ -149,3 +149,5 @@ APP_HOT int geo_step(void)
 }
 
 void geo_clear(void) { geo_head = geo_tail; }
+
+int geo_pending(void) { return geo_head != geo_tail; }

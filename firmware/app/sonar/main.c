@@ -8,7 +8,8 @@
  * running: pop every waiting event word (pulses.c: the ToF path, frames at once); else, when
  * no command waits either and the busy budget allows, run one geometry job (geo.c) or, with
  * none, one slice of a re-aim (reaim.c); every pass: a re-aim's hold, load or restart; every
- * 1 ms: pulses past their time-out. Two paths leave the firmware (../shared/DESIGN.md section
+ * 1 ms: pulses past their time-out. A pass that found nothing to do waits (idle_wait) until
+ * an event word, a command or the next thing due in time. Two paths leave the firmware (../shared/DESIGN.md section
  * 6): the ToF path is exact and never waits; the geometry path (fixes, re-aiming) is best
  * effort and bounded, and skips (counted) rather than delay the ToF path.
  *
@@ -68,6 +69,24 @@ APP_HOT static void busy_account(uint32_t busy, uint32_t now)
     }
 }
 
+/* A pass found nothing: wait in WAIT (the CPU stalls; ms_soc.sv) until an event word or a
+ * command comes, or until what comes due in time without either: the next time-out scan, or
+ * the credit a queued geometry job needs. A re-aim under way polls its hold (no wait). */
+APP_HOT static void idle_wait(uint32_t next_scan)
+{
+    if (!reaim_idle())
+        return;
+    uint32_t now = now32(), until = next_scan;
+    if (geo_pending() && busy_credit < BUSY_RESERVE) {
+        /* busy_account adds (elapsed * 7) >> 4 */
+        uint32_t need = ((uint32_t)(BUSY_RESERVE - busy_credit) * 16u + 6u) / 7u;
+        if ((int32_t)(now + need - until) < 0)
+            until = now + need;
+    }
+    MS_SOC(WAKE_AT) = until;
+    (void)MS_SOC(WAIT);
+}
+
 static inline int command_waiting(void)
 {
     return (MS_SOC(CMD_STATUS) & SOC_REGS__CMD_STATUS__AVAIL_bm) != 0;
@@ -116,8 +135,11 @@ APP_HOT int main(void)
                 t = now32();
             }
         }
-        if (!running)
+        if (!running) { /* commands only: the watchdog is kicked every scan period */
+            MS_SOC(WAKE_AT) = now32() + SCAN_TICKS;
+            (void)MS_SOC(WAIT);
             continue;
+        }
         uint32_t t_job = now32();
         if (MS_SONAR(STATUS) & SONAR_REGS__STATUS__FIFO_LEVEL_bm) {
             poll_events(ALL_WORDS);
@@ -144,5 +166,7 @@ APP_HOT int main(void)
         if (work)
             busy_acc += now - t;
         busy_account(work ? now - t : 0u, now);
+        if (!work)
+            idle_wait(next_scan);
     }
 }

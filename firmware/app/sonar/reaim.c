@@ -193,3 +193,5 @@ APP_HOT int reaim_step(int idle)
 
 /* STOP or START: a move under way is dropped (the registers keep what was written last) */
 void reaim_cancel(void) { ra.state = RA_IDLE; }
+
+int reaim_idle(void) { return ra.state == RA_IDLE; }

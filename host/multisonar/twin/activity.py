@@ -10,9 +10,8 @@ cycle timer):
 * ``rx_settle``: a receive conditioner has not settled on its input (an echo edge passes the
   synchroniser and the glitch filter);
 * ``usb``: a USB packet is in flight on the transaction-level port;
-* ``cpu``: the CPU is outside the main loop's idle pass (by its program counter: code other
-  than ``main``, ``geo_step`` and ``reaim_step`` when they find nothing to do; the callees of
-  a busy pass count as busy).
+* ``cpu``: the CPU is not stalled in the firmware's idle wait (a read of the SoC's WAIT
+  register, which returns when an event word or a command comes or WAKE_AT is reached).
 
 A clock in none of them is *calm*: the device would leave it exactly as it found it, but for
 those counters. Skipping calm clocks (with the counters advanced as the RTL would) is the
@@ -31,8 +30,6 @@ from typing import Any
 
 #: the harness's counters, in its order (enum Act in ms_twin.cpp)
 COUNTERS = ("clocks", "engine", "tx_run", "rx_settle", "usb", "cpu", "sonar", "any")
-#: firmware functions whose code is the main loop's idle pass (their callees are work)
-IDLE_FUNCTIONS = ("main", "geo_step", "reaim_step")
 
 
 def poll_range() -> tuple[int, int]:
@@ -64,16 +61,6 @@ def firmware_symbols(elf: Path) -> list[Symbol]:
         if len(parts) == 4 and parts[2] in ("T", "t"):
             syms.append(Symbol(parts[3], int(parts[0], 16), int(parts[1], 16)))
     return sorted(syms, key=lambda s: s.start)
-
-
-def idle_map(symbols: list[Symbol], words: int, idle: tuple[str, ...] = IDLE_FUNCTIONS) -> bytes:
-    """One byte per firmware word: 1 where the code belongs to the idle pass's functions."""
-    m = bytearray(words)
-    for s in symbols:
-        if s.name in idle:
-            for w in range(s.start // 4, min((s.start + s.size + 3) // 4, words)):
-                m[w] = 1
-    return bytes(m)
 
 
 @dataclass

@@ -109,8 +109,7 @@ def _load(path: Path) -> ctypes.CDLL:
         "twin_add_echoes": (None, [vp, _I64P, ctypes.c_int]),
         "twin_bus_reset": (None, [vp, ctypes.c_int]),
         "twin_usb_packet": (ctypes.c_int, [vp, _U8P, ctypes.c_int, ctypes.c_int, _U8P, ctypes.c_int, _INTP]),
-        "twin_profile": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32, _U8P,
-                                ctypes.c_int]),
+        "twin_profile": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_int]),
         "twin_activity": (ctypes.c_int, [vp, ctypes.POINTER(ctypes.c_uint64), ctypes.c_int,
                                          ctypes.POINTER(ctypes.c_uint64)]),
     }
@@ -233,7 +232,7 @@ class TwinSim:
     def start_profile(self, elf: str | os.PathLike[str] | None = None) -> None:
         """Count from now where the clocks go (:mod:`multisonar.twin.activity`); ``elf``: the
         firmware the twin runs (default: the twin's build/twin/fw/sonar_app.elf)."""
-        from .activity import firmware_symbols, idle_map, poll_range
+        from .activity import firmware_symbols, poll_range
 
         root = repo_root()
         path = Path(elf) if elf is not None else (root / "build/twin/fw/sonar_app.elf" if root else None)
@@ -241,12 +240,10 @@ class TwinSim:
             raise TwinError(f"no firmware ELF for the profile ({path}): run `make twin`")
         self._symbols = firmware_symbols(path)
         words = max((s.start + s.size + 3) // 4 for s in self._symbols)
-        m = idle_map(self._symbols, words)
-        buf = (ctypes.c_uint8 * words).from_buffer_copy(m)
         lo, hi = poll_range()
-        found = self.lib.twin_profile(self._h, 1, lo, hi, 0, buf, words)
-        if found != 2 * NUM_CH + 2:
-            raise TwinError(f"the activity profile found {found} of its {2 * NUM_CH + 2} registers in the model "
+        found = self.lib.twin_profile(self._h, 1, lo, hi, words)
+        if found != 2 * NUM_CH + 3:
+            raise TwinError(f"the activity profile found {found} of its {2 * NUM_CH + 3} registers in the model "
                             "(sim/twin/ms_twin.vlt names them): rebuild the twin (make twin)")
         self._profile_words = words
 
