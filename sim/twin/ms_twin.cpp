@@ -16,6 +16,7 @@
 // is LEAD = 4096 ticks before t0, so Python adds the echoes before the first can start).
 #include <cstdint>
 #include <cstdlib>
+#include <algorithm>
 #include <cstring>
 #include <deque>
 #include <memory>
@@ -24,11 +25,15 @@
 #include <vector>
 
 #include "Vms_twin_top.h"
+#include "Vms_twin_top__Syms.h"
 #include "verilated.h"
 #include "verilated_syms.h"
 #if VM_TRACE_FST
 #include "verilated_fst_c.h"
 #endif
+
+// the model's settle pass (all combinational logic from the registers), run after a skip
+void Vms_twin_top___024root___eval_settle(Vms_twin_top___024root* vlSelf);
 
 namespace {
 
@@ -90,7 +95,63 @@ Probe probe(const VerilatedScope* sc, const char* var) {
 }
 
 struct RxProbe { Probe meta, sync, level, rise; };
-struct TxProbe { Probe trig, p_cyc, cyc; };
+struct TxProbe { Probe trig, p_cyc, cyc, pend, due, tgt; };
+
+// A variable the exact skip reads or writes in place (public_flat_rw in ms_twin.vlt): its data
+// (an array's elements follow each other) and its size in bytes.
+struct Ref {
+  void* p = nullptr;
+  size_t bytes = 0;
+  uint32_t* w() const { return static_cast<uint32_t*>(p); }
+  uint64_t get() const {
+    switch (bytes) {
+      case 1: return *static_cast<const uint8_t*>(p);
+      case 2: return *static_cast<const uint16_t*>(p);
+      case 4: return *static_cast<const uint32_t*>(p);
+      case 8: return *static_cast<const uint64_t*>(p);
+      default: return 0;
+    }
+  }
+  void set(uint64_t v) const {
+    switch (bytes) {
+      case 1: *static_cast<uint8_t*>(p) = static_cast<uint8_t>(v); break;
+      case 2: *static_cast<uint16_t*>(p) = static_cast<uint16_t>(v); break;
+      case 4: *static_cast<uint32_t*>(p) = static_cast<uint32_t>(v); break;
+      case 8: *static_cast<uint64_t*>(p) = v; break;
+      default: break;
+    }
+  }
+};
+
+Ref ref(const VerilatedScope* sc, const char* var, size_t bytes) {
+  Ref r;
+  const VerilatedVar* v = sc->varFind(var);
+  if (v && v->totalSize() == bytes) {
+    r.p = v->datap();
+    r.bytes = bytes;
+  }
+  return r;
+}
+
+// What the exact skip reads and advances (sim/twin/ms_twin.vlt; the inventory of the registers
+// that run with time is in docs/twin.md, "Exact skip of calm clocks").
+struct SkipRefs {
+  Ref tick, tick_prev, rf, blk_c, blk_n, cur, nxt, vld, lo, hi, eq, now, now_nx, phase, phase_nx,
+      hm1, cycles, wdt_cnt,
+      readback, beat, err_cnt, drive_cnt, mbox_cnt, usb_phase, xact_timer, xact_state, tl_stage,
+      wake_at, wdt_timeout, cpu_rst, q_empty;
+  int count() const {
+    int n = 0;
+    for (const Ref* r : {&tick, &tick_prev, &rf, &blk_c, &blk_n, &cur, &nxt, &vld, &lo, &hi, &eq,
+                         &now, &now_nx, &phase, &phase_nx, &hm1, &cycles, &wdt_cnt, &readback,
+                         &beat, &err_cnt, &drive_cnt,
+                         &mbox_cnt, &usb_phase, &xact_timer, &xact_state, &tl_stage, &wake_at,
+                         &wdt_timeout, &cpu_rst, &q_empty})
+      n += r->p != nullptr;
+    return n;
+  }
+  static constexpr int kAll = 31;
+};
 
 struct Twin {
   std::unique_ptr<VerilatedContext> ctx;
@@ -121,6 +182,15 @@ struct Twin {
   Probe eng_pc, cpu_pc, cpu_wait;
   uint64_t act[kActN] = {};
   bool usb_busy = false;
+  // exact skip of calm clocks (twin_skip)
+  bool skipping = false;
+  bool skip_stop = false;           // twin_run returns right after each skip (on = 2)
+  SkipRefs sk;
+  uint32_t anchor = 0;              // the engine's poll-loop address a skip starts and ends at
+  uint64_t eng_busy_at = 0;         // the last clock the engine was outside its poll loop
+  uint64_t cpu_busy_at = 0;         // the last clock the CPU was not stalled in WAIT
+  uint64_t anchor_at[3] = {};       // the last three clocks at the anchor (newest first)
+  uint64_t skips = 0, skipped = 0;
   uint32_t mailbox[4096];
   uint32_t mailbox_n = 0;
   uint64_t mailbox_total = 0;
@@ -173,8 +243,10 @@ struct Twin {
         found += rx_probe[i].meta.p && rx_probe[i].sync.p && rx_probe[i].level.p &&
                  rx_probe[i].rise.p;
       } else if (ends(".u_ch") && i >= 0 && i < kNumCh) {
-        tx_probe[i] = {probe(sc, "trig_q"), probe(sc, "p_cyc_q"), probe(sc, "cyc_q")};
-        found += tx_probe[i].trig.p && tx_probe[i].p_cyc.p && tx_probe[i].cyc.p;
+        tx_probe[i] = {probe(sc, "trig_q"), probe(sc, "p_cyc_q"), probe(sc, "cyc_q"),
+                       probe(sc, "pend_q"), probe(sc, "due_q"), probe(sc, "tgt_q")};
+        found += tx_probe[i].trig.p && tx_probe[i].p_cyc.p && tx_probe[i].cyc.p &&
+                 tx_probe[i].pend.p && tx_probe[i].due.p && tx_probe[i].tgt.p;
       } else if (ends(".u_sched.u_eng")) {
         eng_pc = probe(sc, "pc_q");
         found += eng_pc.p != nullptr;
@@ -187,6 +259,195 @@ struct Twin {
       }
     }
     return found;
+  }
+
+  // The skip's variables by scope name; the number found (SkipRefs::kAll when all are there).
+  int bind_skip() {
+    sk = SkipRefs();
+    for (const auto& kv : *ctx->scopeNameMap()) {
+      const std::string name = kv.first;
+      const VerilatedScope* sc = kv.second;
+      auto ends = [&](const char* tail) {
+        const size_t n = std::strlen(tail);
+        return name.size() >= n && name.compare(name.size() - n, n, tail) == 0;
+      };
+      if (ends(".u_sys.u_sonar")) {
+        sk.tick = ref(sc, "tick_q", 4);
+      } else if (ends(".u_sonar.u_sched")) {
+        sk.tick_prev = ref(sc, "tick_prev_q", 4);
+        sk.q_empty = ref(sc, "q_empty", 1);
+      } else if (ends(".u_sched.u_eng")) {
+        sk.rf = ref(sc, "rf_q", 32 * 4);
+      } else if (ends(".u_sched.u_closes")) {
+        sk.blk_c = ref(sc, "blk_c_q", 4);
+        sk.blk_n = ref(sc, "blk_n_q", 4);
+        sk.cur = ref(sc, "cur_q", 4);
+        sk.nxt = ref(sc, "nxt_q", 4);
+        sk.vld = ref(sc, "vld_q", 4);
+        sk.lo = ref(sc, "lo_q", 16);      // 24 x 5 bits, packed
+        sk.hi = ref(sc, "hi_m", 32 * 4);  // 32 x 21 bits
+        sk.eq = ref(sc, "eq_q", 4);
+      } else if (ends(".u_sonar.u_tx")) {
+        sk.now = ref(sc, "now_q", 4);
+        sk.now_nx = ref(sc, "now_nx_q", 4);
+        sk.phase = ref(sc, "phase_q", 2);
+        sk.phase_nx = ref(sc, "phase_nx_q", 2);
+        sk.hm1 = ref(sc, "hm1_q", 2);
+      } else if (ends(".u_sys.u_soc")) {
+        sk.cycles = ref(sc, "cycles_q", 8);
+        sk.wdt_cnt = ref(sc, "wdt_cnt_q", 4);
+        sk.cpu_rst = ref(sc, "cpu_rst_q", 1);
+      } else if (ends(".u_soc.u_regs")) {
+        sk.readback = ref(sc, "readback_data_rt", 8 * 4);
+      } else if (ends(".u_dev.u_sys")) {
+        sk.beat = ref(sc, "beat_q", 4);
+        sk.err_cnt = ref(sc, "bus_err_cnt_q", 2);
+        sk.drive_cnt = ref(sc, "drive_cnt_q", 2);
+        sk.mbox_cnt = ref(sc, "mbox_cnt_q", 2);
+      } else if (ends(".u_usb.u_rx")) {
+        sk.usb_phase = ref(sc, "phase_q", 1);
+      } else if (ends(".u_usb.u_xact")) {
+        sk.xact_timer = ref(sc, "timer_q", 1);
+        sk.xact_state = ref(sc, "state_q", 1);
+      } else if (ends(".u_usb.u_tx_tl")) {
+        sk.tl_stage = ref(sc, "stage_q", 1);
+      } else if (ends(".ms_twin_top")) {
+        sk.wake_at = ref(sc, "wake_at", 4);
+        sk.wdt_timeout = ref(sc, "wdt_timeout", 4);
+      }
+    }
+    return sk.count();
+  }
+
+  // Called after every clock while skipping is on: at the engine's anchor, when every unit is
+  // calm, jump over whole turns of the poll loop (at most `budget` clocks) and return how many.
+  uint64_t skip_check(uint64_t budget) {
+    const uint32_t pc = eng_pc.get();
+    if (pc < poll_lo || pc >= poll_hi) eng_busy_at = cycles;
+    if (cpu_wait.get() == 0) cpu_busy_at = cycles;
+    if (pc != anchor) return 0;
+    anchor_at[2] = anchor_at[1];
+    anchor_at[1] = anchor_at[0];
+    anchor_at[0] = cycles;
+    const uint64_t turn = anchor_at[0] - anchor_at[1];
+    if (turn != anchor_at[1] - anchor_at[2] || turn < 8 || turn > 20) return 0;
+    if (eng_busy_at >= anchor_at[2] || cpu_busy_at + 64 > cycles || usb_busy || !pending.empty())
+      return 0;
+    if (sk.cpu_rst.get() || sk.xact_state.get() || sk.tl_stage.get() || sk.eq.get() ||
+        !sk.q_empty.get())
+      return 0;
+    // the first clock something can happen in, less a margin: an echo edge, a window close, the
+    // engine's armed decision (td), a pending trigger, the CPU's wake-up, the watchdog; and the
+    // caller's budget
+    constexpr int64_t kMargin = 64;
+    const int64_t T = tick;
+    int64_t limit = T + static_cast<int64_t>(budget);
+    bool tx_busy = false;
+    for (int i = 0; i < kNumCh; ++i) {
+      const TxProbe& t = tx_probe[i];
+      if (t.due.get() || (t.trig.get() ? t.p_cyc.get() != 0 : t.cyc.get() != 0)) return 0;
+      if (t.pend.get()) {  // due in the clock after the one with T = tgt - 1 (mod 2^17)
+        tx_busy = true;
+        const uint32_t tgt = static_cast<uint32_t>(t.tgt.get());
+        const uint32_t ahead = (tgt - 1u - static_cast<uint32_t>(T)) & 0x1FFFFu;
+        limit = std::min(limit, T + static_cast<int64_t>(ahead) - kMargin);
+      }
+      const RxProbe& r = rx_probe[i];
+      const uint32_t meta = r.meta.get(), sync = r.sync.get();
+      if (meta != ((top->echo_i >> i) & 1u) || sync != meta || r.level.get() != sync ||
+          r.rise.get() != 0)
+        return 0;
+    }
+    // all idle: the phaser's count must have been reset already (it is, one idle clock after
+    // the last busy one)
+    if (!tx_busy && (sk.phase.get() != 0 || sk.phase_nx.get() != (sk.hm1.get() != 0 ? 1u : 0u)))
+      return 0;
+    if (!edges.empty()) limit = std::min(limit, edges.top().tick - kMargin);
+    const uint32_t cyc_lo = static_cast<uint32_t>(sk.cycles.get());
+    limit = std::min(limit, T + static_cast<int32_t>(sk.wake_at.get() - cyc_lo) - kMargin);
+    const uint32_t wdt_to = static_cast<uint32_t>(sk.wdt_timeout.get());
+    if (wdt_to)
+      limit = std::min(limit, T + static_cast<int64_t>(wdt_to) -
+                                  static_cast<int64_t>(sk.wdt_cnt.get()) - kMargin);
+    const uint32_t* rf = sk.rf.w();
+    const bool armed = rf[6] != 0;
+    if (armed)
+      limit = std::min(limit, T + static_cast<int32_t>(rf[5] - static_cast<uint32_t>(T)) - kMargin);
+    const uint32_t vld = static_cast<uint32_t>(sk.vld.get());
+    const uint32_t* lo = sk.lo.w();
+    const uint32_t* hi = sk.hi.w();
+    for (int e = 0; e < kNumCh; ++e) {
+      if (!((vld >> e) & 1u)) continue;
+      const int b = 5 * e;
+      uint32_t l = lo[b / 32] >> (b % 32);
+      if (b % 32 > 27) l |= lo[b / 32 + 1] << (32 - b % 32);
+      const uint32_t close = (hi[e] << 5 | (l & 31u)) & 0x3FFFFFFu;
+      const uint32_t ahead = (close - static_cast<uint32_t>(T)) & 0x3FFFFFFu;
+      if (ahead >= (1u << 25)) return 0;
+      limit = std::min(limit, T + static_cast<int64_t>(ahead) - kMargin);
+    }
+    const int64_t n = (limit - T) / static_cast<int64_t>(turn) * static_cast<int64_t>(turn);
+    if (n < 4 * kMargin) return 0;
+    advance(static_cast<uint32_t>(n), armed, cyc_lo, tx_busy);
+    anchor_at[0] += n;
+    anchor_at[1] += n;
+    anchor_at[2] += n;
+    eng_busy_at = std::min(eng_busy_at + n, anchor_at[2] - 1);
+    cpu_busy_at += n;
+    ++skips;
+    skipped += n;
+    return static_cast<uint64_t>(n);
+  }
+
+  // The state of N calm clocks later: the counters that run with time and what follows the
+  // tick (the close detector's block flags, the engine's loaded tick), then the combinational
+  // logic recomputed from it.
+  void advance(uint32_t N, bool armed, uint32_t cyc_lo, bool tx_busy) {
+    const uint32_t t1 = static_cast<uint32_t>(tick) + N;
+    sk.tick.set(sk.tick.get() + N);
+    sk.tick_prev.set(sk.tick_prev.get() + N);
+    sk.now.set((sk.now.get() + N) & 0x1FFFFu);
+    sk.now_nx.set((sk.now_nx.get() + N) & 0x1FFFFu);
+    if (tx_busy) {  // the half-period phase counts modulo H while a trigger is pending
+      const uint64_t h = sk.hm1.get() + 1;
+      const uint64_t nx = sk.phase_nx.get();
+      sk.phase_nx.set((nx + N) % h);
+      sk.phase.set((nx + N - 1) % h);
+    }
+    sk.cycles.set(sk.cycles.get() + N);
+    sk.wdt_cnt.set(sk.wdt_cnt.get() + N);
+    uint32_t* rb = sk.readback.w();
+    if (rb[0] == cyc_lo - 1u) rb[0] += N;  // the retimed read-back slot tracking TIMER_LO
+    sk.beat.set((sk.beat.get() + N) & 0x7FFFFu);
+    for (const Ref* c : {&sk.err_cnt, &sk.drive_cnt, &sk.mbox_cnt})
+      c->set(c->get() > N ? c->get() - N : 0);
+    sk.usb_phase.set((sk.usb_phase.get() + N) & 3u);
+    sk.xact_timer.set(std::min<uint64_t>(255, sk.xact_timer.get() + N));
+    uint32_t* rf = sk.rf.w();
+    rf[10] += N;
+    if (armed) rf[13] += N;
+    auto blk = [](uint32_t x) { return (x & 0x3FFFFFFu) >> 5; };
+    const uint32_t b1 = blk(t1);
+    sk.blk_c.set(blk(t1 + 1));
+    sk.blk_n.set((blk(t1 + 1) + 1) & 0x1FFFFFu);
+    const uint32_t* hi = sk.hi.w();
+    uint32_t cur = 0, nxt = 0;
+    for (int e = 0; e < kNumCh; ++e) {
+      cur |= static_cast<uint32_t>(hi[e] == b1) << e;
+      const uint32_t want = (b1 + (static_cast<uint32_t>(e) < (t1 & 31u) ? 1u : 0u)) & 0x1FFFFFu;
+      nxt |= static_cast<uint32_t>(hi[e] == want) << e;
+    }
+    sk.cur.set(cur);
+    sk.nxt.set(nxt);
+    if (profiling) {  // calm clocks; the CPU's PC stays at its WAIT read
+      act[kActClocks] += N;
+      const uint32_t w = cpu_pc.get() >> 2;
+      if (w < pc_clocks.size()) pc_clocks[w] += N;
+    }
+    Vms_twin_top___024root___eval_settle(&top->rootp->vlSymsp->TOP);
+    ctx->timeInc(static_cast<uint64_t>(N) * 20833);
+    cycles += N;
+    tick += N;
   }
 
   void profile() {
@@ -305,6 +566,10 @@ int twin_has_fst(void) {
 
 void twin_free(void* p) {
   auto* t = static_cast<Twin*>(p);
+  // final() goes through Verilator's per-thread current context, which is the context made
+  // last; with two twins alive, freeing the newer first left it dangling (the older one's
+  // free then hung on its freed mutex)
+  Verilated::threadContextp(t->ctx.get());
 #if VM_TRACE_FST
   if (t->tracing) t->fst->close();
 #endif
@@ -336,7 +601,7 @@ int twin_led(void* p) { return static_cast<Twin*>(p)->top->led_o; }
 
 // Counters: 0 echoes_late, 1 trig_orphans, 2 fires_incomplete, 3 mailbox words seen,
 // 4 the scheduler's last start tick (running_o rise - 1; -1: never), 5 running_o rises,
-// 6 its first start tick.
+// 6 its first start tick, 7 skips of calm clocks, 8 clocks skipped.
 uint64_t twin_counter(void* p, int which) {
   auto* t = static_cast<Twin*>(p);
   switch (which) {
@@ -347,6 +612,8 @@ uint64_t twin_counter(void* p, int which) {
     case 4: return static_cast<uint64_t>(t->run_start);
     case 5: return t->run_starts;
     case 6: return static_cast<uint64_t>(t->first_start);
+    case 7: return t->skips;
+    case 8: return t->skipped;
     default: return 0;
   }
 }
@@ -377,6 +644,17 @@ int twin_activity(void* p, uint64_t* out, int n, uint64_t* pc_clocks) {
   return k;
 }
 
+// The model's whole state, every module instance Verilator holds in its symbol table (signals,
+// memories, its scheduler's flags), copied out as bytes (up to cap) for comparing two runs
+// clock for clock; returns its size. Pointers to the model's own objects differ between two
+// twins: compare against a snapshot of both taken where they must agree (multisonar.twin.sim).
+int64_t twin_state(void* p, uint8_t* out, int64_t cap) {
+  auto* t = static_cast<Twin*>(p);
+  const int64_t n = static_cast<int64_t>(sizeof(Vms_twin_top__Syms));
+  if (out) std::memcpy(out, t->top->rootp->vlSymsp, static_cast<size_t>(std::min(n, cap)));
+  return n;
+}
+
 // Copy out (and clear) the firmware's mailbox words (sim_out_o strobes), up to cap.
 int twin_mailbox(void* p, uint32_t* out, int cap) {
   auto* t = static_cast<Twin*>(p);
@@ -393,8 +671,31 @@ uint64_t twin_run(void* p, uint64_t cycles) {
   while (n < cycles && t->ready.empty()) {
     t->step();
     ++n;
+    if (t->skipping && n < cycles) {
+      const uint64_t k = t->skip_check(cycles - n);
+      n += k;
+      if (k && t->skip_stop) break;  // (checking a skip: the caller compares the state now)
+    }
   }
   return n;
+}
+
+// The exact skip of calm clocks (docs/twin.md): on (the engine's poll loop is ROM [poll_lo,
+// poll_hi), a skip starts and ends with the engine at `anchor`; on = 2: twin_run also returns
+// after each skip, for checking it) or off. Returns the variables
+// found for it plus the profile's registers (SkipRefs::kAll + 51 when all are there); it stays
+// off unless all are.
+int twin_skip(void* p, int on, uint32_t poll_lo, uint32_t poll_hi, uint32_t anchor) {
+  auto* t = static_cast<Twin*>(p);
+  const int found = t->bind_skip() + t->bind_probes();
+  t->skipping = on != 0 && found == SkipRefs::kAll + 2 * kNumCh + 3;
+  t->skip_stop = on == 2;
+  t->poll_lo = poll_lo;
+  t->poll_hi = poll_hi;
+  t->anchor = anchor;
+  t->eng_busy_at = t->cpu_busy_at = t->cycles;
+  std::memset(t->anchor_at, 0, sizeof(t->anchor_at));
+  return found;
 }
 
 int twin_fires_ready(void* p) { return static_cast<int>(static_cast<Twin*>(p)->ready.size()); }

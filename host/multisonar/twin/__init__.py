@@ -65,10 +65,13 @@ class Twin:
 @contextmanager
 def open_twin(scene: Any = "corridor", *, usbip: bool = True, fst: str | os.PathLike[str] | None = None,
               build_first: bool = True, echo_source: Any = None, timeout_s: float = TWIN_TIMEOUT_S,
-              seed: int | None = None, library: str | os.PathLike[str] | None = None) -> Iterator[Twin]:
+              seed: int | None = None, library: str | os.PathLike[str] | None = None,
+              skip: bool | None = None) -> Iterator[Twin]:
     """Build (if needed) and boot the twin on a scene (name, path or Scene), enumerate it and
     open a Device on it: over our USB/IP server on 127.0.0.1 (default) or in-process.
-    ``library``: another build of the harness (a profiling build, say) instead of make's."""
+    ``library``: another build of the harness (a profiling build, say) instead of make's.
+    ``skip``: skip calm clocks exactly (TwinSim.set_skip; default on, off with ``fst``, whose
+    waveform shows every clock)."""
     from ..device import Device
     from ..fastfiring import SceneEchoSource
     from ..scene import load_scene
@@ -89,6 +92,7 @@ def open_twin(scene: Any = "corridor", *, usbip: bool = True, fst: str | os.Path
         if sim.trapped:
             raise TwinError("the firmware trapped while booting")
         fn = TwinUsbFunction(sim)
+        sim.set_skip(fst is None if skip is None else skip)
         if usbip:
             from ..usb.usbip_server import UsbipServer
 
@@ -120,6 +124,7 @@ def twin_model(url: DeviceUrl) -> Model:
         tsim.reset()
         tsim.run(BOOT_CLOCKS)
         fn = TwinUsbFunction(tsim)
+        tsim.set_skip(True)
     except (TwinError, KeyError, OSError) as e:
         if tsim is not None:
             tsim.close()

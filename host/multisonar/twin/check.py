@@ -59,6 +59,46 @@ def stream(tw: Any, sensors: Sequence[Any], seconds: float, *, temperature_c: fl
                      harness["schedule_starts"] - 1, dev.counters(), harness)
 
 
+@dataclass
+class FixedRun:
+    """What one single-threaded session gave (:func:`fixed_session`)."""
+
+    bulk_in: bytes                             #: every byte the device sent on bulk IN
+    mailbox: list[int]                         #: the firmware's mailbox words
+    fires: list[tuple[int, int, Any, Any]]     #: the pulses the device fired
+    tick: int                                  #: the tick at the end
+    state: bytes                               #: the model's whole state at the end (TwinSim.state)
+    boot_state: bytes                          #: ... right after boot (before START)
+    skip_stats: tuple[int, int]                #: (skips, clocks skipped)
+
+
+def fixed_session(sim: Any, seconds: float, *, skip: bool = False, poll_s: float = 0.5e-3) -> FixedRun:
+    """Run the booted twin ``sim`` deterministically in device time: enumerate, SET_CONFIGURATION,
+    START the compiled-in table, then every ``poll_s`` of device time read bulk IN until it
+    NAKs, for ``seconds``; one thread, no wall-clock timeouts (the driver's reader thread and its
+    wall-clock deadlines make :func:`stream`'s USB timing vary run to run). The same sim and echo
+    source give the same run, byte for byte, with or without ``skip`` (TwinSim.set_skip) if the
+    skip is exact (tests/test_twin_skip.py)."""
+    from .usbhost import ADDR, PID_DATA0, PID_DATA1, TwinUsbFunction
+
+    boot = sim.state()
+    fn = TwinUsbFunction(sim)
+    fn.host.control_nodata(ADDR, 0x00, 9, 1, 0)  # SET_CONFIGURATION 1
+    sim.set_skip(skip)
+    fn.bulk_out(0x01, P.encode_command(P.Opcode.START, seq=1))
+    end = sim.tick + int(seconds * TICK_HZ)
+    data = bytearray()
+    poll = int(poll_s * TICK_HZ)
+    while sim.tick < end:
+        sim.run(poll)
+        while True:
+            r = fn.host.in_token(ADDR, 1)
+            if r.pid not in (PID_DATA0, PID_DATA1):
+                break
+            data += r.payload
+    return FixedRun(bytes(data), sim.mailbox(), list(sim.fires), sim.tick, sim.state(), boot, sim.skip_stats)
+
+
 def compare_with_model(run: StreamRun, echo_source: Any, **model_kw: Any) -> dict[str, int]:
     """Raise TwinMismatch unless the first table's pulses and frames equal the model's; returns
     the counts compared. ``echo_source`` must give the echoes the twin's gave (a fresh copy)."""

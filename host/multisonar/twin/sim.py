@@ -44,6 +44,15 @@ class TwinError(RuntimeError):
     """The twin cannot be built, loaded or run (the message says what to do)."""
 
 
+def state_differences(a: bytes, b: bytes, a0: bytes, b0: bytes) -> list[int]:
+    """Byte offsets (of 8-byte words) where two twins' states ``a`` and ``b`` differ, leaving
+    out the words in which their snapshots ``a0`` and ``b0`` (taken where both held the same
+    design state, e.g. just booted) already differed: pointers to each model's own objects."""
+    wa, wb = (np.frombuffer(x[: len(x) // 8 * 8], np.uint64) for x in (a, b))
+    wa0, wb0 = (np.frombuffer(x[: len(x) // 8 * 8], np.uint64) for x in (a0, b0))
+    return [8 * int(i) for i in np.flatnonzero((wa != wb) & (wa0 == wb0))]
+
+
 def repo_root() -> Path | None:
     """The repository this package runs from (an editable install), or None."""
     p = Path(__file__).resolve()
@@ -110,6 +119,8 @@ def _load(path: Path) -> ctypes.CDLL:
         "twin_bus_reset": (None, [vp, ctypes.c_int]),
         "twin_usb_packet": (ctypes.c_int, [vp, _U8P, ctypes.c_int, ctypes.c_int, _U8P, ctypes.c_int, _INTP]),
         "twin_profile": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_int]),
+        "twin_skip": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
+        "twin_state": (ctypes.c_int64, [vp, _U8P, ctypes.c_int64]),
         "twin_activity": (ctypes.c_int, [vp, ctypes.POINTER(ctypes.c_uint64), ctypes.c_int,
                                          ctypes.POINTER(ctypes.c_uint64)]),
     }
@@ -258,6 +269,40 @@ class TwinSim:
         pcs = (ctypes.c_uint64 * words)()
         self.lib.twin_activity(self._h, counts, len(COUNTERS), pcs)
         return Activity(dict(zip(COUNTERS, (int(c) for c in counts))), by_function(self._symbols, list(pcs)))
+
+    # ------------------------------------------------------------------ exact skip
+    def set_skip(self, on: bool = True, *, stop_after: bool = False) -> None:
+        """Skip calm clocks exactly (docs/twin.md, "Exact skip of calm clocks"): while the CPU
+        waits in its idle wait, the scheduler's engine spins in its poll loop and no burst, echo
+        edge or USB packet is under way, the harness advances the clocks' counters to just
+        before the next thing due instead of simulating the clocks. ``stop_after``: twin_run
+        returns after each skip (run() then stops short), for comparing the state there."""
+        from ..tools.sched_program.mainloop import POLL, main_program
+        from ..tools.sched_program.system import UCODE_WORDS
+
+        labels = main_program().assemble(depth=UCODE_WORDS).labels
+        want = self._SKIP_REFS + 2 * NUM_CH + 3
+        mode = (2 if stop_after else 1) if on else 0
+        found = self.lib.twin_skip(self._h, mode, int(labels[POLL]), int(labels["poll_stop"]),
+                                   int(labels["poll_time"]))
+        if on and found != want:
+            raise TwinError(f"the exact skip found {found} of its {want} variables in the model "
+                            "(sim/twin/ms_twin.vlt names them): rebuild the twin (make twin)")
+
+    _SKIP_REFS = 31  # SkipRefs::kAll in ms_twin.cpp
+
+    @property
+    def skip_stats(self) -> tuple[int, int]:
+        """(skips, clocks skipped) since the twin was made."""
+        return int(self.lib.twin_counter(self._h, 7)), int(self.lib.twin_counter(self._h, 8))
+
+    def state(self) -> bytes:
+        """The model's whole state as bytes (every signal and memory; also pointers to the
+        model's own objects, which differ between twins: see :func:`state_differences`)."""
+        n = int(self.lib.twin_state(self._h, None, 0))
+        buf = (ctypes.c_uint8 * n)()
+        self.lib.twin_state(self._h, buf, n)
+        return bytes(buf)
 
     # ------------------------------------------------------------------ time
     def run(self, cycles: int) -> None:

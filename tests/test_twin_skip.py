@@ -1,0 +1,91 @@
+"""The twin's exact skip of calm clocks (TwinSim.set_skip; docs/twin.md, "Exact skip of calm
+clocks"): skipping must change nothing the device does.
+
+* A whole session, with and without the skip: the same single-threaded session
+  (multisonar.twin.check.fixed_session: START the compiled-in demo table, read bulk IN every
+  0.5 ms of device time) on the noisy corridor gives the same bytes on bulk IN, the same mailbox
+  words (they carry the firmware's cycle counts), the same pulses and, at the end, the same
+  whole model state (every signal and memory).
+* After every skip: two twins side by side, one skipping and stopping after each skip, the
+  other simulating the same clocks; their whole states are equal after each one.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from multisonar import protocol as P
+from multisonar.constants import TICK_HZ
+from multisonar.fastfiring import SceneEchoSource
+from multisonar.scene import load_scene
+from multisonar.twin import BOOT_CLOCKS, TwinSim
+from multisonar.twin.check import fixed_session
+from multisonar.twin.sim import state_differences
+from multisonar.twin.usbhost import ADDR, TwinUsbFunction
+
+pytestmark = pytest.mark.sim
+
+
+def _booted(seed: int) -> TwinSim:
+    sim = TwinSim(SceneEchoSource(load_scene("corridor"), rng=np.random.default_rng(seed)))
+    sim.reset()
+    sim.run(BOOT_CLOCKS)
+    return sim
+
+
+def test_a_session_is_the_same_with_and_without_the_skip():
+    runs = {}
+    for skip in (False, True):
+        sim = _booted(5)
+        try:
+            runs[skip] = fixed_session(sim, 0.1, skip=skip)
+        finally:
+            sim.close()
+    a, b = runs[False], runs[True]
+    assert a.skip_stats == (0, 0)
+    skips, skipped = b.skip_stats
+    assert skips > 100 and skipped > 0.3 * 0.1 * TICK_HZ, b.skip_stats  # it did skip
+    assert len(a.fires) > 20 and len(a.bulk_in) > 2000 and len(a.mailbox) > 50
+    assert a.tick == b.tick
+    assert a.bulk_in == b.bulk_in
+    assert a.mailbox == b.mailbox
+    assert [(t0, vs, el.tolist(), d.tolist()) for t0, vs, el, d in a.fires] == \
+           [(t0, vs, el.tolist(), d.tolist()) for t0, vs, el, d in b.fires]
+    assert state_differences(a.state, b.state, a.boot_state, b.boot_state) == []
+
+
+def _step(sim: TwinSim, clocks: int) -> int:
+    """run() one twin_run call at a time: returns the clocks it ran (a skipping twin that stops
+    after each skip returns early)."""
+    sim._noise_ahead()
+    n = int(sim.lib.twin_run(sim._h, clocks))
+    sim._serve_fires()
+    sim._drain_mailbox()
+    return n
+
+
+def test_the_state_after_every_skip_equals_the_simulated_clocks():
+    plain, skipping = _booted(7), _booted(7)
+    try:
+        boot = (plain.state(), skipping.state())
+        for sim in (plain, skipping):
+            fn = TwinUsbFunction(sim)
+            fn.host.control_nodata(ADDR, 0x00, 9, 1, 0)
+            if sim is skipping:
+                sim.set_skip(True, stop_after=True)
+            fn.bulk_out(0x01, P.encode_command(P.Opcode.START, seq=1))
+        end = plain.tick + int(0.04 * TICK_HZ)
+        while plain.tick < end:
+            n = _step(skipping, 4000)
+            left = n
+            while left > 0:
+                left -= _step(plain, left)
+            assert plain.tick == skipping.tick
+            diff = state_differences(plain.state(), skipping.state(), *boot)
+            assert diff == [], f"after {skipping.skip_stats[0]} skips, at tick {plain.tick}: bytes {diff[:8]}"
+        assert skipping.skip_stats[0] > 100, skipping.skip_stats
+        assert plain.mailbox() == skipping.mailbox()
+    finally:
+        plain.close()
+        skipping.close()
