@@ -95,7 +95,7 @@ Probe probe(const VerilatedScope* sc, const char* var) {
 }
 
 struct RxProbe { Probe meta, sync, level, rise; };
-struct TxProbe { Probe trig, p_cyc, cyc, pend, due, tgt; };
+struct TxProbe { Probe trig, p_cyc, cyc, pend, due, tgt, phi; };
 
 // A variable the exact skip reads or writes in place (public_flat_rw in ms_twin.vlt): its data
 // (an array's elements follow each other) and its size in bytes.
@@ -244,9 +244,11 @@ struct Twin {
                  rx_probe[i].rise.p;
       } else if (ends(".u_ch") && i >= 0 && i < kNumCh) {
         tx_probe[i] = {probe(sc, "trig_q"), probe(sc, "p_cyc_q"), probe(sc, "cyc_q"),
-                       probe(sc, "pend_q"), probe(sc, "due_q"), probe(sc, "tgt_q")};
+                       probe(sc, "pend_q"), probe(sc, "due_q"), probe(sc, "tgt_q"),
+                       probe(sc, "phi_q")};
         found += tx_probe[i].trig.p && tx_probe[i].p_cyc.p && tx_probe[i].cyc.p &&
-                 tx_probe[i].pend.p && tx_probe[i].due.p && tx_probe[i].tgt.p;
+                 tx_probe[i].pend.p && tx_probe[i].due.p && tx_probe[i].tgt.p &&
+                 tx_probe[i].phi.p;
       } else if (ends(".u_sched.u_eng")) {
         eng_pc = probe(sc, "pc_q");
         found += eng_pc.p != nullptr;
@@ -321,6 +323,13 @@ struct Twin {
 
   // Called after every clock while skipping is on: at the engine's anchor, when every unit is
   // calm, jump over whole turns of the poll loop (at most `budget` clocks) and return how many.
+  // clocks kept before the first thing that can happen (more than a poll-loop turn plus the
+  // engine's 3-tick decision test; before a window close two blocks of the close detector, whose
+  // scan then sees the head in the next block); clocks the CPU must have waited (its pipeline
+  // drained); the shortest skip (the detector's block flags are set from the tick after 64)
+  static constexpr int64_t kMargin = 24, kCloseMargin = 64, kMinSkip = 96;
+  static constexpr uint64_t kCpuQuiet = 16;
+
   uint64_t skip_check(uint64_t budget) {
     const uint32_t pc = eng_pc.get();
     if (pc < poll_lo || pc >= poll_hi) eng_busy_at = cycles;
@@ -331,7 +340,8 @@ struct Twin {
     anchor_at[0] = cycles;
     const uint64_t turn = anchor_at[0] - anchor_at[1];
     if (turn != anchor_at[1] - anchor_at[2] || turn < 8 || turn > 20) return 0;
-    if (eng_busy_at >= anchor_at[2] || cpu_busy_at + 64 > cycles || usb_busy || !pending.empty())
+    if (eng_busy_at >= anchor_at[2] || cpu_busy_at + kCpuQuiet > cycles || usb_busy ||
+        !pending.empty())
       return 0;
     if (sk.cpu_rst.get() || sk.xact_state.get() || sk.tl_stage.get() || sk.eq.get() ||
         !sk.q_empty.get())
@@ -339,13 +349,22 @@ struct Twin {
     // the first clock something can happen in, less a margin: an echo edge, a window close, the
     // engine's armed decision (td), a pending trigger, the CPU's wake-up, the watchdog; and the
     // caller's budget
-    constexpr int64_t kMargin = 64;
+
     const int64_t T = tick;
     int64_t limit = T + static_cast<int64_t>(budget);
-    bool tx_busy = false;
+    bool tx_busy = false, tx_run = false;
+    const uint32_t h = static_cast<uint32_t>(sk.hm1.get()) + 1;
+    const uint32_t phase_nx = static_cast<uint32_t>(sk.phase_nx.get());
     for (int i = 0; i < kNumCh; ++i) {
       const TxProbe& t = tx_probe[i];
-      if (t.due.get() || (t.trig.get() ? t.p_cyc.get() != 0 : t.cyc.get() != 0)) return 0;
+      if (t.due.get() || t.trig.get()) return 0;
+      if (t.cyc.get() != 0) {  // a burst runs: its drive toggles when the phase comes round to phi
+        const uint32_t phi = static_cast<uint32_t>(t.phi.get());
+        const uint32_t since = (phase_nx + h - phi) % h, ahead = (phi + h - phase_nx) % h;
+        if (since < 4 || phi >= h) return 0;  // (and the drive's registered copies settled)
+        tx_busy = tx_run = true;
+        limit = std::min(limit, T + static_cast<int64_t>(ahead) - kMargin);
+      }
       if (t.pend.get()) {  // due in the clock after the one with T = tgt - 1 (mod 2^17)
         tx_busy = true;
         const uint32_t tgt = static_cast<uint32_t>(t.tgt.get());
@@ -384,11 +403,11 @@ struct Twin {
       const uint32_t close = (hi[e] << 5 | (l & 31u)) & 0x3FFFFFFu;
       const uint32_t ahead = (close - static_cast<uint32_t>(T)) & 0x3FFFFFFu;
       if (ahead >= (1u << 25)) return 0;
-      limit = std::min(limit, T + static_cast<int64_t>(ahead) - kMargin);
+      limit = std::min(limit, T + static_cast<int64_t>(ahead) - kCloseMargin);
     }
     const int64_t n = (limit - T) / static_cast<int64_t>(turn) * static_cast<int64_t>(turn);
-    if (n < 4 * kMargin) return 0;
-    advance(static_cast<uint32_t>(n), armed, cyc_lo, tx_busy);
+    if (n < kMinSkip) return 0;
+    advance(static_cast<uint32_t>(n), armed, cyc_lo, tx_busy, tx_run);
     anchor_at[0] += n;
     anchor_at[1] += n;
     anchor_at[2] += n;
@@ -402,7 +421,7 @@ struct Twin {
   // The state of N calm clocks later: the counters that run with time and what follows the
   // tick (the close detector's block flags, the engine's loaded tick), then the combinational
   // logic recomputed from it.
-  void advance(uint32_t N, bool armed, uint32_t cyc_lo, bool tx_busy) {
+  void advance(uint32_t N, bool armed, uint32_t cyc_lo, bool tx_busy, bool tx_run) {
     const uint32_t t1 = static_cast<uint32_t>(tick) + N;
     sk.tick.set(sk.tick.get() + N);
     sk.tick_prev.set(sk.tick_prev.get() + N);
@@ -419,8 +438,10 @@ struct Twin {
     uint32_t* rb = sk.readback.w();
     if (rb[0] == cyc_lo - 1u) rb[0] += N;  // the retimed read-back slot tracking TIMER_LO
     sk.beat.set((sk.beat.get() + N) & 0x7FFFFu);
-    for (const Ref* c : {&sk.err_cnt, &sk.drive_cnt, &sk.mbox_cnt})
+    for (const Ref* c : {&sk.err_cnt, &sk.drive_cnt, &sk.mbox_cnt}) {
+      if (c == &sk.drive_cnt && top->drive_o != 0) continue;  // reloaded while a drive is high
       c->set(c->get() > N ? c->get() - N : 0);
+    }
     sk.usb_phase.set((sk.usb_phase.get() + N) & 3u);
     sk.xact_timer.set(std::min<uint64_t>(255, sk.xact_timer.get() + N));
     uint32_t* rf = sk.rf.w();
@@ -439,8 +460,13 @@ struct Twin {
     }
     sk.cur.set(cur);
     sk.nxt.set(nxt);
-    if (profiling) {  // calm clocks; the CPU's PC stays at its WAIT read
+    if (profiling) {  // calm clocks but for a running burst; the CPU's PC stays at its WAIT read
       act[kActClocks] += N;
+      if (tx_run) {
+        act[kActTxRun] += N;
+        act[kActSonar] += N;
+        act[kActAny] += N;
+      }
       const uint32_t w = cpu_pc.get() >> 2;
       if (w < pc_clocks.size()) pc_clocks[w] += N;
     }
