@@ -47,7 +47,7 @@
 #define WDT_CYCLES 48000000u /* 1 s: far above any bounded slice */
 #define APPLY_WAIT 2000000u  /* cycles for a re-aim's hold, or its restart to be seen */
 #define ID_WRAP_MARGIN 256u  /* no re-aim while a pulse id is this close to its 16-bit wrap */
-#define SCAN_TICKS 48000u    /* timeout scan period, 1 ms (time-outs are a backstop) */
+#define IDLE_TICKS 48000u    /* the longest idle wait, 1 ms: watchdog kicks, the busy window */
 #define GEO_JOBS 8           /* closed pulses waiting for their fix */
 
 #define SONAR_BASE (MS_IO_UNCACHED | (uintptr_t)offsetof(ms_soc_map_t, sonar))
@@ -126,6 +126,8 @@ void poll_events(uint32_t max_words);     /* pops up to max_words words (ALL_WOR
 #define ALL_WORDS 0xFFFFFFFFu
 void cut_open(int vs, uint32_t tick);     /* open pulses of vs (< 0: all) go out, cut */
 void scan_timeouts(uint32_t now);
+int timeout_due(uint32_t now);            /* an open group's time-out has passed (maybe) */
+int timeout_next(uint32_t *at);           /* the earliest time-out of the open groups, if any */
 void groups_clear(void);
 void send_packet(uint32_t flags, uint32_t t0, uint32_t vs, uint32_t seq, uint32_t n_tof,
                  const uint32_t *tof, uint32_t gated, uint32_t n_geo, const uint32_t *geo);

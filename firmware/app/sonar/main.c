@@ -7,9 +7,9 @@
  * Main loop, one bounded slice at a time: kick the watchdog; serve a waiting command; while
  * running: pop every waiting event word (pulses.c: the ToF path, frames at once); else, when
  * no command waits either and the busy budget allows, run one geometry job (geo.c) or, with
- * none, one slice of a re-aim (reaim.c); every pass: a re-aim's hold, load or restart; every
- * 1 ms: pulses past their time-out. A pass that found nothing to do waits (idle_wait) until
- * an event word, a command or the next thing due in time. Two paths leave the firmware (../shared/DESIGN.md section
+ * none, one slice of a re-aim (reaim.c); every pass: a re-aim's hold, load or restart; once the
+ * earliest time-out of the open pulses has passed: the pulses past theirs. A pass that found
+ * nothing to do waits (idle_wait) until an event word, a command or the next thing due in time. Two paths leave the firmware (../shared/DESIGN.md section
  * 6): the ToF path is exact and never waits; the geometry path (fixes, re-aiming) is best
  * effort and bounded, and skips (counted) rather than delay the ToF path.
  *
@@ -70,13 +70,16 @@ APP_HOT static void busy_account(uint32_t busy, uint32_t now)
 }
 
 /* A pass found nothing: wait in WAIT (the CPU stalls; ms_soc.sv) until an event word or a
- * command comes, or until what comes due in time without either: the next time-out scan, or
- * the credit a queued geometry job needs. A re-aim under way polls its hold (no wait). */
-APP_HOT static void idle_wait(uint32_t next_scan)
+ * command comes, or until what comes due in time without either: the earliest time-out of the
+ * open pulses, the credit a queued geometry job needs, or IDLE_TICKS at most. A re-aim under
+ * way polls its hold (no wait). */
+APP_HOT static void idle_wait(uint32_t now)
 {
     if (!reaim_idle())
         return;
-    uint32_t now = now32(), until = next_scan;
+    uint32_t until = now + IDLE_TICKS, at;
+    if (timeout_next(&at) && (int32_t)(at + 1u - until) < 0)
+        until = at + 1u; /* the first tick past it */
     if (geo_pending() && busy_credit < BUSY_RESERVE) {
         /* busy_account adds (elapsed * 7) >> 4 */
         uint32_t need = ((uint32_t)(BUSY_RESERVE - busy_credit) * 16u + 6u) / 7u;
@@ -119,8 +122,7 @@ APP_HOT int main(void)
             SONAR_AT(app_writes[i][0]) = app_writes[i][1];
     }
 
-    uint32_t next_scan = now32();
-    credit_t = window_t = next_scan;
+    credit_t = window_t = now32();
     for (;;) {
         uint32_t t = now32();
         int work = 0;
@@ -135,8 +137,8 @@ APP_HOT int main(void)
                 t = now32();
             }
         }
-        if (!running) { /* commands only: the watchdog is kicked every scan period */
-            MS_SOC(WAKE_AT) = now32() + SCAN_TICKS;
+        if (!running) { /* commands only: the watchdog is kicked every IDLE_TICKS */
+            MS_SOC(WAKE_AT) = now32() + IDLE_TICKS;
             (void)MS_SOC(WAIT);
             continue;
         }
@@ -153,11 +155,10 @@ APP_HOT int main(void)
         t_job = now32();
         if (reaim_step(0)) /* a re-aim's hold over (load, start), or no restart in time */
             slice_done(t_job);
-        /* timeouts (every window of a pulse has closed max_tof after its t0), checked every
-         * 1 ms: the scan of the groups stays out of the per-event path */
+        /* time-outs (every window of a pulse has closed max_tof after its t0), a backstop:
+         * the groups are scanned once the earliest has passed, out of the per-event path */
         uint32_t now = now32();
-        if ((int32_t)(now - next_scan) >= 0) {
-            next_scan = now + SCAN_TICKS;
+        if (timeout_due(now)) {
             scan_timeouts(now);
             slice_done(now);
             work = 1;
@@ -167,6 +168,6 @@ APP_HOT int main(void)
             busy_acc += now - t;
         busy_account(work ? now - t : 0u, now);
         if (!work)
-            idle_wait(next_scan);
+            idle_wait(now);
     }
 }

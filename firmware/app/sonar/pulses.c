@@ -73,6 +73,29 @@ APP_HOT static void close_group(group_t *g)
     busy_acc = 0;
 }
 
+/* The earliest time-out of the open groups (at most: a group's t0 set later, or a group closed
+ * since, leaves it early, and the scan it brings about recomputes it). */
+static uint32_t tmo_at;
+static int tmo_armed;
+
+/* a group's t0 was set or lowered: its time-out may be the earliest */
+APP_HOT static void timeout_note(const group_t *g)
+{
+    uint32_t at = g->t0 + cfgs[vs_index[g->vs]].max_tof + CLOSE_MARGIN;
+    if (!tmo_armed || (int32_t)(at - tmo_at) < 0) {
+        tmo_at = at;
+        tmo_armed = 1;
+    }
+}
+
+APP_HOT int timeout_due(uint32_t now) { return tmo_armed && (int32_t)(now - tmo_at) > 0; }
+
+int timeout_next(uint32_t *at)
+{
+    *at = tmo_at;
+    return tmo_armed;
+}
+
 APP_HOT static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int init)
 {
     group_t *free_g = 0, *oldest = 0;
@@ -100,6 +123,7 @@ APP_HOT static group_t *group_for(uint32_t vs, uint32_t seq, uint32_t t0, int in
     free_g->seq = (uint8_t)seq;
     free_g->t0 = t0;
     free_g->flags = init ? MS_FRAME_INIT_PING : 0u;
+    timeout_note(free_g);
     return free_g;
 }
 
@@ -147,6 +171,7 @@ APP_HOT static group_t *take_record(uint32_t lo, uint32_t hi, uint32_t now)
     group_t *g = group_for(vs, id & 0xFFu, lo, (int)init);
     g->has_rec = 1;
     g->t0 = MS_PULSE_T0(lo, hi);
+    timeout_note(g);
     g->t_done = g->t_pop = now;
     g->n_win = (uint8_t)MS_PULSE_N_WIN(lo, hi);
     return group_complete(g) ? g : 0;
@@ -172,8 +197,10 @@ APP_HOT static group_t *take_event(uint32_t lo, uint32_t hi, uint32_t now)
     group_t *g = group_for(vs, seq, t0c, (fl & MS_TOF_INIT_PING) != 0);
     if (!g->has_rec) {
         g->flags |= MS_FRAME_LOST;
-        if ((int32_t)(t0c - g->t0) < 0)
+        if ((int32_t)(t0c - g->t0) < 0) {
             g->t0 = t0c;
+            timeout_note(g);
+        }
     }
     g->t_pop = now;
     if (g->n_ev < MAX_EV) {
@@ -239,14 +266,20 @@ APP_HOT void poll_events(uint32_t max_words)
     }
 }
 
-/* every window of a pulse has closed max_tof after its t0: a group still open then is cut */
+/* every window of a pulse has closed max_tof after its t0: a group still open then is cut;
+ * the earliest time-out of those left is the next */
 APP_HOT void scan_timeouts(uint32_t now)
 {
+    tmo_armed = 0;
     for (int i = 0; i < MAX_GROUPS; i++) {
         group_t *g = &groups[i];
-        if (g->used && (int32_t)(now - g->t0) > (int32_t)(cfgs[vs_index[g->vs]].max_tof + CLOSE_MARGIN)) {
+        if (!g->used)
+            continue;
+        if ((int32_t)(now - g->t0) > (int32_t)(cfgs[vs_index[g->vs]].max_tof + CLOSE_MARGIN)) {
             g->flags |= MS_FRAME_CUT;
             close_group(g);
+        } else {
+            timeout_note(g);
         }
     }
 }

@@ -145,7 +145,9 @@ def twin_rows(seconds: float = 0.1) -> list[dict[str, Any]]:
             r = profile_demo(seconds, usbip=usbip, activity=False, warmup_s=0.0)
             how = "USB/IP on 127.0.0.1" if usbip else "in-process pyusb backend"
             rows.append(_row(f"twin: corridor, driver {how}", "RTL twin: acoustics + device RTL + USB + driver",
-                             r["sonar_s"], r["wall_s"], r["frames"], 0, "5 demo sensors, frames to numpy (make demo)"))
+                             r["sonar_s"], r["wall_s"], r["frames"], 0,
+                             f"5 demo sensors, frames to numpy (make demo); {r['skipped_share']:.0%} of the clocks "
+                             "skipped exactly (calm)"))
     except TwinError as e:
         raise ExperimentError(f"twin rows: {e}") from None
     return rows
@@ -171,20 +173,21 @@ def profile_demo(seconds: float = 0.2, *, scene: str = "corridor", library: str 
         on = warmup_s <= 0  # no warm-up: profile and time from START
         if on and activity:
             tw.sim.start_profile()
-        c0, t, frames = tw.sim.cycles, time.perf_counter(), 0
+        c0, t, frames, sk0 = tw.sim.cycles, time.perf_counter(), 0, tw.sim.skip_stats[1]
         for _ in tw.device.stream(idle_timeout_s=300):
             if not on and tw.sim.cycles - c0 >= warmup_s * TICK_HZ:
                 if activity:
                     tw.sim.start_profile()
-                c0, t, frames, on = tw.sim.cycles, time.perf_counter(), 0, True
+                c0, t, frames, on, sk0 = tw.sim.cycles, time.perf_counter(), 0, True, tw.sim.skip_stats[1]
             frames += on
             if on and tw.sim.cycles - c0 >= seconds * TICK_HZ:
                 break
         wall = time.perf_counter() - t
         act = tw.sim.activity() if activity else None
-        cycles = tw.sim.cycles
+        cycles, skipped = tw.sim.cycles, tw.sim.skip_stats[1] - sk0
     return {"scene": scene, "sensors": len(demo_sensors()), "sonar_s": (cycles - c0) / TICK_HZ, "wall_s": wall,
-            "frames": frames, "activity": act, "clocks_from_reset": cycles}
+            "frames": frames, "activity": act, "clocks_from_reset": cycles,
+            "skipped_share": skipped / max(cycles - c0, 1)}
 
 
 def twin_activity(seconds: float = 0.1) -> dict[str, Any]:
@@ -226,10 +229,11 @@ def run(executor: Executor | None = None, *, quick: bool = False, seconds: float
         activity_md = (f"Twin activity ({activity['scene']}, the demo's {activity['sensors']} sensors, "
                        f"{activity['sonar_s']:g} sonar-s after 0.05 s from START, multisonar.twin.activity): "
                        f"the scheduler engine works in {f['engine']:.1%} of the clocks, a transmit burst runs in {f['tx_run']:.1%}, a receive "
-                       f"conditioner settles in {f['rx_settle']:.1%}, USB in {f['usb']:.1%}, the CPU is out of its "
-                       f"idle pass in {f['cpu']:.1%}; some unit works in {f['any']:.1%}, so an exact skip of the "
-                       f"calm clocks would speed the twin up {activity['skip_speedup_bound']:.3g}x at most on this "
-                       f"workload ({activity['sonar_only_skip_speedup_bound']:.3g}x counting the sonar side alone). "
+                       f"conditioner settles in {f['rx_settle']:.1%}, USB in {f['usb']:.1%}, the CPU is awake (not in "
+                       f"its idle wait) in {f['cpu']:.1%}; some unit works in {f['any']:.1%}, so an exact skip of the "
+                       f"calm clocks speeds the twin up {activity['skip_speedup_bound']:.3g}x at most on this "
+                       f"workload ({activity['sonar_only_skip_speedup_bound']:.3g}x counting the sonar side alone); "
+                       f"the twin skips them (docs/twin.md, scripts/bench_twin_skip.py). "
                        f"scripts/bench_twin_profile.py --callgrind adds the cost per clock by RTL block.")
     cols = [("case", "case"), ("fidelity", "fidelity"), ("sonar_s", "sonar time (s)"), ("wall_s", "wall time (s)"),
             ("speed", "sonar-s per wall-s"), ("pulses_per_wall_s", "pulses (frames) per wall-s"), ("note", "note")]
