@@ -30,7 +30,7 @@ from .usbhost import TwinUsbFunction
 #: clocks the firmware needs from reset to serving USB (it boots in ~3.5 ms)
 BOOT_CLOCKS = 5 * TICK_HZ // 1000
 #: the driver's command / read timeout for a twin, wall-clock seconds (the simulation runs
-#: ~100x slower than the device)
+#: 20-100x slower than the device, by how calm it is)
 TWIN_TIMEOUT_S = 120.0
 
 
@@ -115,7 +115,7 @@ def open_twin(scene: Any = "corridor", *, usbip: bool = True, fst: str | os.Path
 
 # -- the twin:// device URL scheme (multisonar.urls; found through the multisonar.schemes entry point)
 def twin_model(url: DeviceUrl) -> Model:
-    """twin://SCENE: the full-system twin in this process (the device's RTL in Verilator; ~100x slower than real time)"""
+    """twin://SCENE: the full-system twin in this process (the device's RTL in Verilator; 20-100x slower than real time)"""
     from ..fastfiring import SceneEchoSource
 
     tsim = None
