@@ -321,15 +321,15 @@ struct Twin {
     return sk.count();
   }
 
-  // Called after every clock while skipping is on: at the engine's anchor, when every unit is
-  // calm, jump over whole turns of the poll loop (at most `budget` clocks) and return how many.
-  // clocks kept before the first thing that can happen (more than a poll-loop turn plus the
+  // Clocks kept before the first thing that can happen (more than a poll-loop turn plus the
   // engine's 3-tick decision test; before a window close two blocks of the close detector, whose
   // scan then sees the head in the next block); clocks the CPU must have waited (its pipeline
-  // drained); the shortest skip (the detector's block flags are set from the tick after 64)
+  // drained); the shortest skip (the detector's block flags are set from the tick after 64).
   static constexpr int64_t kMargin = 24, kCloseMargin = 64, kMinSkip = 96;
   static constexpr uint64_t kCpuQuiet = 16;
 
+  // Called after every clock while skipping is on: at the engine's anchor, when every unit is
+  // calm, jump over whole turns of the poll loop (at most `budget` clocks) and return how many.
   uint64_t skip_check(uint64_t budget) {
     const uint32_t pc = eng_pc.get();
     if (pc < poll_lo || pc >= poll_hi) eng_busy_at = cycles;
@@ -346,10 +346,9 @@ struct Twin {
     if (sk.cpu_rst.get() || sk.xact_state.get() || sk.tl_stage.get() || sk.eq.get() ||
         !sk.q_empty.get())
       return 0;
-    // the first clock something can happen in, less a margin: an echo edge, a window close, the
-    // engine's armed decision (td), a pending trigger, the CPU's wake-up, the watchdog; and the
-    // caller's budget
-
+    // the first clock something can happen in, less a margin: a pending trigger, a burst's next
+    // half period, an echo edge, the CPU's wake-up, the watchdog, the engine's armed decision
+    // (td), a window close; and the caller's budget
     const int64_t T = tick;
     int64_t limit = T + static_cast<int64_t>(budget);
     bool tx_busy = false, tx_run = false;
@@ -427,7 +426,7 @@ struct Twin {
     sk.tick_prev.set(sk.tick_prev.get() + N);
     sk.now.set((sk.now.get() + N) & 0x1FFFFu);
     sk.now_nx.set((sk.now_nx.get() + N) & 0x1FFFFu);
-    if (tx_busy) {  // the half-period phase counts modulo H while a trigger is pending
+    if (tx_busy) {  // the half-period phase counts modulo H while a trigger waits or a burst runs
       const uint64_t h = sk.hm1.get() + 1;
       const uint64_t nx = sk.phase_nx.get();
       sk.phase_nx.set((nx + N) % h);
