@@ -80,6 +80,11 @@ struct Probe {
   }
 };
 
+bool ends_with(const std::string& s, const char* tail) {
+  const size_t n = std::strlen(tail);
+  return s.size() >= n && s.compare(s.size() - n, n, tail) == 0;
+}
+
 Probe probe(const VerilatedScope* sc, const char* var) {
   Probe pr;
   const VerilatedVar* v = sc->varFind(var);
@@ -233,10 +238,7 @@ struct Twin {
       const VerilatedScope* sc = kv.second;
       const size_t br = name.rfind('[');
       const int i = br == std::string::npos ? -1 : std::atoi(name.c_str() + br + 1);
-      auto ends = [&](const char* tail) {
-        const size_t n = std::strlen(tail);
-        return name.size() >= n && name.compare(name.size() - n, n, tail) == 0;
-      };
+      auto ends = [&](const char* tail) { return ends_with(name, tail); };
       if (ends(".u_rx") && i >= 0 && i < kNumCh) {
         rx_probe[i] = {probe(sc, "meta_q"), probe(sc, "sync_q"), probe(sc, "level_q"),
                        probe(sc, "rise_q")};
@@ -269,10 +271,7 @@ struct Twin {
     for (const auto& kv : *ctx->scopeNameMap()) {
       const std::string name = kv.first;
       const VerilatedScope* sc = kv.second;
-      auto ends = [&](const char* tail) {
-        const size_t n = std::strlen(tail);
-        return name.size() >= n && name.compare(name.size() - n, n, tail) == 0;
-      };
+      auto ends = [&](const char* tail) { return ends_with(name, tail); };
       if (ends(".u_sys.u_sonar")) {
         sk.tick = ref(sc, "tick_q", 4);
       } else if (ends(".u_sonar.u_sched")) {
