@@ -6,9 +6,10 @@ in-process driver):
 
 1. Activity (always; multisonar.twin.activity): per clock, which units can change state beyond
    the counters that advance with time: the scheduler engine outside its poll loop, a transmit
-   burst, a receive conditioner settling, a USB packet, the CPU outside the main loop's idle
-   pass. A clock in none of them is calm; skipping calm clocks exactly (issue #30's first lever)
-   gains at most 1 / (fraction of clocks with activity). With the firmware's clocks per function.
+   burst, a receive conditioner settling, a USB packet, the CPU awake (not stalled in its idle
+   wait). A clock in none of them is calm; skipping calm clocks exactly (issue #30's first lever,
+   which the twin does: scripts/bench_twin_skip.py) gains at most 1 / (fraction of clocks with
+   activity). With the firmware's clocks per function.
 2. Cost per clock by RTL block (--callgrind; needs valgrind): the twin built with line tables
    (make twin-prof) runs the workload under callgrind; the instructions of the generated C++
    are summed per RTL instance (the names Verilator gives the variables of each line), per
@@ -112,7 +113,7 @@ def callgrind_blocks(seconds: float) -> dict:
         out, side = Path(tmp) / "cg.out", Path(tmp) / "run.json"
         child = ("import json, sys; sys.path.insert(0, %r); "
                  "from multisonar.experiments.simspeed import profile_demo; "
-                 "r = profile_demo(%r, library=%r, activity=False, warmup_s=0.0); "
+                 "r = profile_demo(%r, library=%r, activity=False, warmup_s=0.0, skip=False); "
                  "json.dump({'clocks': r['clocks_from_reset']}, open(%r, 'w'))") % (
                      str(ROOT / "host"), seconds, str(lib), str(side))
         subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", sys.executable, "-c", child],

@@ -154,12 +154,15 @@ def twin_rows(seconds: float = 0.1) -> list[dict[str, Any]]:
 
 
 def profile_demo(seconds: float = 0.2, *, scene: str = "corridor", library: str | os.PathLike[str] | None = None,
-                 activity: bool = True, warmup_s: float = 0.05, usbip: bool = False) -> dict[str, Any]:
+                 activity: bool = True, warmup_s: float = 0.05, usbip: bool = False,
+                 skip: bool = True) -> dict[str, Any]:
     """The demo's workload on the twin (the scene, the demo's five sensors, frames streamed to the
     driver, in-process or over USB/IP with ``usbip``): ``warmup_s`` of sonar time from START (the
     init pings, sensors locking on), then ``seconds`` with the activity profile on (``activity``;
     its bookkeeping costs ~15 % of a clock): the profile (or None), the clocks run and the wall
-    time of the profiled part. twin_rows times the twin with it, bench_twin_profile.py profiles."""
+    time of the profiled part. ``skip``: the twin's exact skip of calm clocks (off: every clock
+    simulated, as the cost-per-clock profile needs). twin_rows times the twin with it,
+    bench_twin_profile.py profiles."""
     import time
 
     from ..demo import demo_sensors
@@ -167,7 +170,7 @@ def profile_demo(seconds: float = 0.2, *, scene: str = "corridor", library: str 
     from ..twin import open_twin
 
     sc = load_scene(scene)
-    with open_twin(sc, usbip=usbip, library=library) as tw:
+    with open_twin(sc, usbip=usbip, library=library, skip=skip) as tw:
         tw.device.configure(demo_sensors(), temperature_c=sc.temperature_c)
         tw.start()
         on = warmup_s <= 0  # no warm-up: profile and time from START
