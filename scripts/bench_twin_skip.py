@@ -24,21 +24,14 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "host"))
 
-import numpy as np  # noqa: E402
-
 from multisonar.constants import TICK_HZ  # noqa: E402
-from multisonar.fastfiring import SceneEchoSource  # noqa: E402
-from multisonar.scene import load_scene  # noqa: E402
-from multisonar.twin import BOOT_CLOCKS, TwinSim  # noqa: E402
-from multisonar.twin.check import fixed_session  # noqa: E402
+from multisonar.twin.check import booted_corridor, fixed_session  # noqa: E402
 from multisonar.twin.sim import state_differences  # noqa: E402
 
 
 def session(seconds: float, seed: int, skip: bool) -> tuple[dict, object]:
-    sim = TwinSim(SceneEchoSource(load_scene("corridor"), rng=np.random.default_rng(seed)))
+    sim = booted_corridor(seed)
     try:
-        sim.reset()
-        sim.run(BOOT_CLOCKS)
         t0_tick = sim.tick
         t = time.perf_counter()
         r = fixed_session(sim, seconds, skip=skip)

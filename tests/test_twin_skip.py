@@ -12,32 +12,21 @@ clocks"): skipping must change nothing the device does.
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from multisonar import protocol as P
 from multisonar.constants import TICK_HZ
-from multisonar.fastfiring import SceneEchoSource
-from multisonar.scene import load_scene
-from multisonar.twin import BOOT_CLOCKS, TwinSim
-from multisonar.twin.check import fixed_session
+from multisonar.twin.check import booted_corridor, fixed_session
 from multisonar.twin.sim import state_differences
 from multisonar.twin.usbhost import ADDR, TwinUsbFunction
 
 pytestmark = pytest.mark.sim
 
 
-def _booted(seed: int) -> TwinSim:
-    sim = TwinSim(SceneEchoSource(load_scene("corridor"), rng=np.random.default_rng(seed)))
-    sim.reset()
-    sim.run(BOOT_CLOCKS)
-    return sim
-
-
 def test_a_session_is_the_same_with_and_without_the_skip():
     runs = {}
     for skip in (False, True):
-        sim = _booted(5)
+        sim = booted_corridor(5)
         try:
             runs[skip] = fixed_session(sim, 0.1, skip=skip)
         finally:
@@ -55,18 +44,8 @@ def test_a_session_is_the_same_with_and_without_the_skip():
     assert state_differences(a.state, b.state, a.boot_state, b.boot_state) == []
 
 
-def _step(sim: TwinSim, clocks: int) -> int:
-    """run() one twin_run call at a time: returns the clocks it ran (a skipping twin that stops
-    after each skip returns early)."""
-    sim._noise_ahead()
-    n = int(sim.lib.twin_run(sim._h, clocks))
-    sim._serve_fires()
-    sim._drain_mailbox()
-    return n
-
-
 def test_the_state_after_every_skip_equals_the_simulated_clocks():
-    plain, skipping = _booted(7), _booted(7)
+    plain, skipping = booted_corridor(7), booted_corridor(7)
     try:
         boot = (plain.state(), skipping.state())
         for sim in (plain, skipping):
@@ -77,10 +56,10 @@ def test_the_state_after_every_skip_equals_the_simulated_clocks():
             fn.bulk_out(0x01, P.encode_command(P.Opcode.START, seq=1))
         end = plain.tick + int(0.04 * TICK_HZ)
         while plain.tick < end:
-            n = _step(skipping, 4000)
+            n = skipping.run_chunk(4000)  # returns right after a skip
             left = n
             while left > 0:
-                left -= _step(plain, left)
+                left -= plain.run_chunk(left)
             assert plain.tick == skipping.tick
             diff = state_differences(plain.state(), skipping.state(), *boot)
             assert diff == [], f"after {skipping.skip_stats[0]} skips, at tick {plain.tick}: bytes {diff[:8]}"

@@ -265,6 +265,14 @@ struct Twin {
     return found;
   }
 
+  // Receive conditioner i has settled on its input: synchroniser and level equal to it, no rise.
+  bool rx_settled(int i) const {
+    const RxProbe& r = rx_probe[i];
+    const uint32_t meta = r.meta.get(), sync = r.sync.get();
+    return meta == ((top->echo_i >> i) & 1u) && sync == meta && r.level.get() == sync &&
+           r.rise.get() == 0;
+  }
+
   // The skip's variables by scope name; the number found (SkipRefs::kAll when all are there).
   int bind_skip() {
     sk = SkipRefs();
@@ -369,11 +377,7 @@ struct Twin {
         const uint32_t ahead = (tgt - 1u - static_cast<uint32_t>(T)) & 0x1FFFFu;
         limit = std::min(limit, T + static_cast<int64_t>(ahead) - kMargin);
       }
-      const RxProbe& r = rx_probe[i];
-      const uint32_t meta = r.meta.get(), sync = r.sync.get();
-      if (meta != ((top->echo_i >> i) & 1u) || sync != meta || r.level.get() != sync ||
-          r.rise.get() != 0)
-        return 0;
+      if (!rx_settled(i)) return 0;
     }
     // all idle: the phaser's count must have been reset already (it is, one idle clock after
     // the last busy one)
@@ -409,7 +413,7 @@ struct Twin {
     anchor_at[0] += n;
     anchor_at[1] += n;
     anchor_at[2] += n;
-    eng_busy_at = std::min(eng_busy_at + n, anchor_at[2] - 1);
+    eng_busy_at += n;  // still before the oldest anchor, as checked above
     cpu_busy_at += n;
     ++skips;
     skipped += n;
@@ -481,10 +485,7 @@ struct Twin {
     for (int i = 0; i < kNumCh; ++i) {
       const TxProbe& t = tx_probe[i];
       tx |= t.trig.get() ? t.p_cyc.get() != 0 : t.cyc.get() != 0;  // ms_tx_channel's run
-      const RxProbe& r = rx_probe[i];
-      const uint32_t meta = r.meta.get(), sync = r.sync.get();
-      rx |= meta != ((top->echo_i >> i) & 1u) || sync != meta || r.level.get() != sync ||
-            r.rise.get() != 0;
+      rx |= !rx_settled(i);
     }
     const uint32_t w = cpu_pc.get() >> 2;
     const bool cpu = cpu_wait.get() == 0;

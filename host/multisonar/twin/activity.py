@@ -22,6 +22,7 @@ function, by the CPU's last-stage PC) comes with it.
 
 from __future__ import annotations
 
+import functools
 import shutil
 import subprocess
 from dataclasses import dataclass, field
@@ -32,14 +33,22 @@ from typing import Any
 COUNTERS = ("clocks", "engine", "tx_run", "rx_settle", "usb", "cpu", "sonar", "any")
 
 
-def poll_range() -> tuple[int, int]:
-    """ROM addresses [lo, hi) of the engine's idle poll loop (the microcode's ``poll`` label up
-    to ``poll_stop``, the stop path)."""
+@functools.lru_cache(maxsize=1)
+def poll_labels() -> tuple[int, int, int]:
+    """ROM addresses of the engine's idle poll loop: its start (the microcode's ``poll``), the
+    stop path after it (``poll_stop``) and ``poll_time``, where the exact skip starts and ends
+    (TwinSim.set_skip). Assembled once per process."""
     from ..tools.sched_program.mainloop import POLL, main_program
     from ..tools.sched_program.system import UCODE_WORDS
 
     labels = main_program().assemble(depth=UCODE_WORDS).labels
-    return int(labels[POLL]), int(labels["poll_stop"])
+    return int(labels[POLL]), int(labels["poll_stop"]), int(labels["poll_time"])
+
+
+def poll_range() -> tuple[int, int]:
+    """ROM addresses [lo, hi) of the engine's idle poll loop (``poll`` up to ``poll_stop``)."""
+    lo, hi, _ = poll_labels()
+    return lo, hi
 
 
 @dataclass

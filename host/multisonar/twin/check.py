@@ -72,6 +72,22 @@ class FixedRun:
     skip_stats: tuple[int, int]                #: (skips, clocks skipped)
 
 
+def booted_corridor(seed: int, *, library: Any = None) -> Any:
+    """A TwinSim on the noisy corridor (the scene's noise drawn from ``seed``), reset and booted:
+    what :func:`fixed_session` starts from. ``library``: another build of the harness."""
+    import numpy as np
+
+    from ..fastfiring import SceneEchoSource
+    from ..scene import load_scene
+    from . import BOOT_CLOCKS
+    from .sim import TwinSim
+
+    sim = TwinSim(SceneEchoSource(load_scene("corridor"), rng=np.random.default_rng(seed)), library=library)
+    sim.reset()
+    sim.run(BOOT_CLOCKS)
+    return sim
+
+
 def fixed_session(sim: Any, seconds: float, *, skip: bool = False, poll_s: float = 0.5e-3) -> FixedRun:
     """Run the booted twin ``sim`` deterministically in device time: enumerate, SET_CONFIGURATION,
     START the compiled-in table, then every ``poll_s`` of device time read bulk IN until it

@@ -11,13 +11,7 @@ from __future__ import annotations
 
 import sys
 
-import numpy as np
-
-from ..fastfiring import SceneEchoSource
-from ..scene import load_scene
-from . import BOOT_CLOCKS
-from .check import fixed_session
-from .sim import TwinSim
+from .check import booted_corridor, fixed_session
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -25,10 +19,8 @@ def main(argv: list[str] | None = None) -> int:
     if len(args) != 1:
         print("usage: python -m multisonar.twin.pgo LIBRARY", file=sys.stderr)
         return 2
-    sim = TwinSim(SceneEchoSource(load_scene("corridor"), rng=np.random.default_rng(5)), library=args[0])
+    sim = booted_corridor(5, library=args[0])
     try:
-        sim.reset()
-        sim.run(BOOT_CLOCKS)
         r = fixed_session(sim, 0.05, skip=True)
     finally:
         sim.close()

@@ -277,14 +277,12 @@ class TwinSim:
         edge or USB packet is under way, the harness advances the clocks' counters to just
         before the next thing due instead of simulating the clocks. ``stop_after``: twin_run
         returns after each skip (run() then stops short), for comparing the state there."""
-        from ..tools.sched_program.mainloop import POLL, main_program
-        from ..tools.sched_program.system import UCODE_WORDS
+        from .activity import poll_labels
 
-        labels = main_program().assemble(depth=UCODE_WORDS).labels
+        lo, hi, anchor = poll_labels()
         want = self._SKIP_REFS + 2 * NUM_CH + 3
         mode = (2 if stop_after else 1) if on else 0
-        found = self.lib.twin_skip(self._h, mode, int(labels[POLL]), int(labels["poll_stop"]),
-                                   int(labels["poll_time"]))
+        found = self.lib.twin_skip(self._h, mode, lo, hi, anchor)
         if on and found != want:
             raise TwinError(f"the exact skip found {found} of its {want} variables in the model "
                             "(sim/twin/ms_twin.vlt names them): rebuild the twin (make twin)")
@@ -309,11 +307,17 @@ class TwinSim:
         """Let the device run `cycles` clocks, serving every pulse it fires meanwhile."""
         left = int(cycles)
         while left > 0:
-            self._noise_ahead()
-            step = min(left, self.NOISE_CHUNK)
-            left -= int(self.lib.twin_run(self._h, step))
-            self._serve_fires()
-            self._drain_mailbox()
+            left -= self.run_chunk(min(left, self.NOISE_CHUNK))
+
+    def run_chunk(self, cycles: int) -> int:
+        """One call of the harness: up to ``cycles`` clocks, fewer when a pulse is ready to fire
+        (or, with ``set_skip(stop_after=True)``, after a skip), serving what it fired; returns
+        the clocks run."""
+        self._noise_ahead()
+        n = int(self.lib.twin_run(self._h, cycles))
+        self._serve_fires()
+        self._drain_mailbox()
+        return n
 
     def run_seconds(self, seconds: float) -> None:
         self.run(int(round(seconds * TICK_HZ)))
