@@ -68,3 +68,31 @@ def test_the_state_after_every_skip_equals_the_simulated_clocks():
     finally:
         plain.close()
         skipping.close()
+
+
+def test_the_harness_nak_loop_runs_what_the_python_loop_runs():
+    """TwinUsbFunction.bulk_in retries a NAKed IN inside the harness (twin_usb_in_poll) instead of
+    one Python round per NAK: the same packets at the same clocks, so the same device run."""
+    runs = {}
+    for harness in (False, True):
+        sim = booted_corridor(11)
+        try:
+            boot = sim.state()
+            sim.set_skip(True)
+            fn = TwinUsbFunction(sim, harness_poll=harness)
+            fn.host.control_nodata(ADDR, 0x00, 9, 1, 0)  # SET_CONFIGURATION 1
+            fn.bulk_out(0x01, P.encode_command(P.Opcode.START, seq=1))
+            end = sim.tick + int(0.06 * TICK_HZ)
+            reads = []
+            while sim.tick < end:
+                reads.append(fn.bulk_in(0x81, 4096, timeout_s=600.0))
+            runs[harness] = (reads, sim.tick, sim.mailbox(), fn.stats, fn.host.packets, fn.host.bus_clocks,
+                             [(t0, vs, el.tolist(), d.tolist()) for t0, vs, el, d in sim.fires],
+                             sim.state(), boot)
+        finally:
+            sim.close()
+    a, b = runs[False], runs[True]
+    assert sum(len(r) for r in a[0]) > 2000 and a[3]["in_naks"] > 100, a[3]
+    assert a[0] == b[0]  # every read's bytes
+    assert a[1:7] == b[1:7]  # end tick, mailbox, USB counts, bus time, pulses
+    assert state_differences(a[7], b[7], a[8], b[8]) == []

@@ -37,7 +37,31 @@ void Vms_twin_top___024root___eval_settle(Vms_twin_top___024root* vlSelf);
 
 namespace {
 
+// Verilator's shadow of a register for its nonblocking assignment (`__Vdly__<name>`) is a member
+// of the model where the rising edge's evaluation is split over functions. It is reloaded from
+// the register at every rising edge, so a stale one changes nothing, but the skip sets it too:
+// the twin's whole state after a skip then equals that of a run that simulated the clocks
+// (tests/test_twin_skip.py). Each shadow is set only if this build of the model has it.
+#define MS_TWIN_VDLY_SYNC(reg)                                                                    \
+  template <class R>                                                                              \
+  auto vdly_sync_##reg(R* r, int) -> decltype(r->__Vdly__##reg = r->reg, void()) {               \
+    r->__Vdly__##reg = r->reg;                                                                    \
+  }                                                                                               \
+  template <class R>                                                                              \
+  void vdly_sync_##reg(R*, long) {}
+MS_TWIN_VDLY_SYNC(ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__tick_q)
+MS_TWIN_VDLY_SYNC(ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__u_tx__DOT__now_nx_q)
+MS_TWIN_VDLY_SYNC(ms_twin_top__DOT__u_dev__DOT__u_usb__DOT__u_xact__DOT__timer_q)
+#undef MS_TWIN_VDLY_SYNC
+
+void vdly_sync(Vms_twin_top___024root* r) {
+  vdly_sync_ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__tick_q(r, 0);
+  vdly_sync_ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__u_tx__DOT__now_nx_q(r, 0);
+  vdly_sync_ms_twin_top__DOT__u_dev__DOT__u_usb__DOT__u_xact__DOT__timer_q(r, 0);
+}
+
 constexpr int kNumCh = 24;
+constexpr uint8_t kPidNak = 0x5A;  // the NAK handshake: PID 1010b and its complement
 
 struct Fire {
   int64_t t0 = 0;
@@ -206,6 +230,56 @@ struct Twin {
 #endif
   }
 
+  // Up to `cycles` clocks; stops early when a fire is ready. Returns the clocks run.
+  uint64_t run(uint64_t cycles) {
+    uint64_t n = 0;
+    while (n < cycles && ready.empty()) {
+      step();
+      ++n;
+      if (skipping && n < cycles) {
+        const uint64_t k = skip_check(cycles - n);
+        n += k;
+        if (k && skip_stop) break;  // (checking a skip: the caller compares the state now)
+      }
+    }
+    return n;
+  }
+
+  // One USB packet from the host into the packet layer (twin_usb_packet).
+  int usb_packet(const uint8_t* tx, int len, int listen, uint8_t* rx, int cap, int* delay) {
+    Vms_twin_top* const dut = top.get();
+    usb_busy = true;
+    dut->tl_rx_start_i = 1;
+    step();
+    dut->tl_rx_start_i = 0;
+    for (int i = 0; i < len; ++i) {
+      dut->tl_rx_valid_i = 1;
+      dut->tl_rx_byte_i = tx[i];
+      step();
+    }
+    dut->tl_rx_valid_i = 0;
+    dut->tl_rx_end_i = 1;
+    step();
+    dut->tl_rx_end_i = 0;
+    int n = 0;
+    *delay = -1;
+    bool receiving = false;
+    for (int waited = 0; waited <= listen || receiving; ++waited) {
+      if (listen <= 0) break;
+      step();
+      if (dut->tl_tx_valid_o) {
+        if (!receiving) *delay = waited;
+        receiving = true;
+        if (n < cap) rx[n] = dut->tl_tx_byte_o;
+        ++n;
+      }
+      if (receiving && dut->tl_tx_end_o) break;
+      if (waited > listen + 4096) break;  // a device that never ends its packet
+    }
+    usb_busy = false;
+    return n;
+  }
+
   // One clock: inputs for cycle `tick` are already set; falling edge, rising edge, observe.
   void step() {
     while (!edges.empty() && edges.top().tick <= tick) {
@@ -216,14 +290,25 @@ struct Twin {
       else echo_level &= ~(1u << e.rx);
     }
     top->echo_i = echo_level;
-    top->clk_i = 0;
-    top->eval();
-    ctx->timeInc(10417);
-    dump();
-    top->clk_i = 1;
-    top->eval();
-    ctx->timeInc(10416);
-    dump();
+    if (tracing) {  // both edges in the waveform
+      top->clk_i = 0;
+      top->eval();
+      ctx->timeInc(10417);
+      dump();
+      top->clk_i = 1;
+      top->eval();
+      ctx->timeInc(10416);
+      dump();
+    } else {
+      // One evaluation per clock: the design has no logic on the falling edge or the clock's
+      // level, so the falling edge's evaluation computes nothing the rising edge's does not
+      // (the input logic runs again at the rising edge). Verilator finds a rising edge by the
+      // clock's value at its last evaluation: that is set low instead.
+      top->rootp->__Vtrigprevexpr___TOP__clk_i__0 = 0;
+      top->clk_i = 1;
+      top->eval();
+      ctx->timeInc(20833);
+    }
     ++cycles;
     tick = static_cast<int64_t>(top->tick_o);
     observe();
@@ -472,6 +557,7 @@ struct Twin {
       const uint32_t w = cpu_pc.get() >> 2;
       if (w < pc_clocks.size()) pc_clocks[w] += N;
     }
+    vdly_sync(top->rootp);
     Vms_twin_top___024root___eval_settle(&top->rootp->vlSymsp->TOP);
     ctx->timeInc(static_cast<uint64_t>(N) * 20833);
     cycles += N;
@@ -690,20 +776,7 @@ int twin_mailbox(void* p, uint32_t* out, int cap) {
 }
 
 // Run up to `cycles` clocks; stop early when a fire is ready. Returns the clocks run.
-uint64_t twin_run(void* p, uint64_t cycles) {
-  auto* t = static_cast<Twin*>(p);
-  uint64_t n = 0;
-  while (n < cycles && t->ready.empty()) {
-    t->step();
-    ++n;
-    if (t->skipping && n < cycles) {
-      const uint64_t k = t->skip_check(cycles - n);
-      n += k;
-      if (k && t->skip_stop) break;  // (checking a skip: the caller compares the state now)
-    }
-  }
-  return n;
-}
+uint64_t twin_run(void* p, uint64_t cycles) { return static_cast<Twin*>(p)->run(cycles); }
 
 // The exact skip of calm clocks (docs/twin.md): on (the engine's poll loop is ROM [poll_lo,
 // poll_hi), a skip starts and ends with the engine at `anchor`; on = 2: twin_run also returns
@@ -774,38 +847,54 @@ void twin_bus_reset(void* p, int cycles) {
 // Returns the answer's length (0: no answer), its bytes in rx (up to cap) and the clocks from
 // the end of the host packet to the answer's first byte in *delay.
 int twin_usb_packet(void* p, const uint8_t* tx, int len, int listen, uint8_t* rx, int cap, int* delay) {
+  return static_cast<Twin*>(p)->usb_packet(tx, len, listen, rx, cap, delay);
+}
+
+// The host's bulk-IN polling while the endpoint NAKs, as multisonar.twin.usbhost's
+// TwinUsbFunction.bulk_in does it, without a return to Python per NAK: the IN token (`token`,
+// `len` bytes) and `listen` clocks for the answer; a NAK's transaction lasts its bus time from
+// the token on (`nak_bus` clocks plus the answer's delay in whole bits), then the bus idles
+// `poll` clocks before the next token. Ends at the first answer that is not a NAK (returns its
+// length, bytes in rx, delay in *delay, out[0] = the clock count before its token: the caller
+// finishes that transaction), or returns -1 where Python takes over, exactly where its own loop
+// would have run Python code: a fire is ready (after a packet or within a wait: serve it), a wait
+// starts where Python adds noise (the tick passed `noise_at`), or `max_clocks` have passed
+// since the call (at a token). out[1], out[2]: the settle and poll clocks left to run, in that
+// order; out[3]: NAKs; out[4]: their bus clocks.
+int twin_usb_in_poll(void* p, const uint8_t* token, int len, int listen, uint8_t* rx, int cap,
+                     int* delay, uint64_t nak_bus, uint64_t poll, uint64_t noise_at,
+                     uint64_t max_clocks, uint64_t* out) {
   auto* t = static_cast<Twin*>(p);
-  Vms_twin_top* top = t->top.get();
-  t->usb_busy = true;
-  top->tl_rx_start_i = 1;
-  t->step();
-  top->tl_rx_start_i = 0;
-  for (int i = 0; i < len; ++i) {
-    top->tl_rx_valid_i = 1;
-    top->tl_rx_byte_i = tx[i];
-    t->step();
+  const uint64_t start = t->cycles;
+  out[3] = out[4] = 0;
+  auto hand_over = [&](uint64_t settle, uint64_t idle) {
+    out[1] = settle;
+    out[2] = idle;
+    return -1;
+  };
+  // one wait of `clocks`; false: Python takes over with `left` clocks of it still to run
+  auto wait = [&](uint64_t clocks, uint64_t& left) {
+    left = clocks;
+    if (clocks == 0) return true;
+    if (static_cast<uint64_t>(t->tick) >= noise_at) return false;
+    left -= t->run(clocks);
+    return left == 0;
+  };
+  for (;;) {
+    if (t->cycles - start >= max_clocks) return hand_over(0, 0);
+    out[0] = t->cycles;
+    const int n = t->usb_packet(token, len, listen, rx, cap, delay);
+    if (n != 1 || rx[0] != kPidNak) return n;
+    const uint64_t owed = nak_bus + 4u * static_cast<uint64_t>(std::max(*delay, 0) / 4);
+    const uint64_t spent = t->cycles - out[0];
+    const uint64_t settle = owed > spent ? owed - spent : 0;
+    ++out[3];
+    out[4] += owed;
+    if (!t->ready.empty()) return hand_over(settle, poll);
+    uint64_t left;
+    if (!wait(settle, left)) return hand_over(left, poll);
+    if (!wait(poll, left)) return hand_over(0, left);
   }
-  top->tl_rx_valid_i = 0;
-  top->tl_rx_end_i = 1;
-  t->step();
-  top->tl_rx_end_i = 0;
-  int n = 0;
-  *delay = -1;
-  bool receiving = false;
-  for (int waited = 0; waited <= listen || receiving; ++waited) {
-    if (listen <= 0) break;
-    t->step();
-    if (top->tl_tx_valid_o) {
-      if (!receiving) *delay = waited;
-      receiving = true;
-      if (n < cap) rx[n] = top->tl_tx_byte_o;
-      ++n;
-    }
-    if (receiving && top->tl_tx_end_o) break;
-    if (waited > listen + 4096) break;  // a device that never ends its packet
-  }
-  t->usb_busy = false;
-  return n;
 }
 
 }  // extern "C"

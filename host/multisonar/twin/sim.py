@@ -30,6 +30,7 @@ from ..constants import TICK_HZ
 _I64P = ctypes.POINTER(ctypes.c_int64)
 _INTP = ctypes.POINTER(ctypes.c_int)
 _U8P = ctypes.POINTER(ctypes.c_uint8)
+_U64P = ctypes.POINTER(ctypes.c_uint64)
 
 NUM_CH = 24
 #: counters of the harness (twin_counter): pulses added after their start (clipped), triggers
@@ -118,6 +119,9 @@ def _load(path: Path) -> ctypes.CDLL:
         "twin_add_echoes": (None, [vp, _I64P, ctypes.c_int]),
         "twin_bus_reset": (None, [vp, ctypes.c_int]),
         "twin_usb_packet": (ctypes.c_int, [vp, _U8P, ctypes.c_int, ctypes.c_int, _U8P, ctypes.c_int, _INTP]),
+        "twin_usb_in_poll": (ctypes.c_int, [vp, _U8P, ctypes.c_int, ctypes.c_int, _U8P, ctypes.c_int, _INTP,
+                                            ctypes.c_uint64, ctypes.c_uint64, ctypes.c_uint64, ctypes.c_uint64,
+                                            _U64P]),
         "twin_profile": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_int]),
         "twin_skip": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
         "twin_state": (ctypes.c_int64, [vp, _U8P, ctypes.c_int64]),
@@ -167,6 +171,7 @@ class TwinSim:
         self._trig = (ctypes.c_int64 * NUM_CH)()
         self._rx = (ctypes.c_uint8 * 1100)()
         self._delay = ctypes.c_int()
+        self._poll_out = (ctypes.c_uint64 * 5)()
         self.usb_packets = 0
         self._mail: list[int] = []
         self._mailbuf = (ctypes.c_uint32 * 4096)()
@@ -366,6 +371,32 @@ class TwinSim:
         self.usb_packets += 1
         self._serve_fires()
         return bytes(self._rx[:min(n, len(self._rx))]), int(self._delay.value)
+
+    def usb_in_poll(self, token: bytes, listen_clocks: int, nak_bus: int, poll_clocks: int,
+                    max_clocks: int) -> tuple[bytes | None, int, int, int, int, int, int]:
+        """Bulk-IN polling inside the harness (``twin_usb_in_poll``): the IN ``token`` while the
+        device NAKs, each NAK's transaction lasting ``nak_bus`` clocks plus the answer's delay, then
+        ``poll_clocks`` of idle bus, as :meth:`usb_packet` and :meth:`run` called from Python would
+        run them, but without a return to Python per NAK. Returns (answer, its delay, the clock
+        count before its token, settle clocks left, poll clocks left, NAKs, their bus clocks);
+        answer None: handed back where Python has work (a fire to serve, noise to add, or
+        ``max_clocks`` passed) with the settle and poll clocks still to :meth:`run`, in order."""
+        if poll_clocks > self.NOISE_CHUNK:  # run() would split the wait where noise may be added
+            raise ValueError(f"usb_in_poll: poll_clocks {poll_clocks} > NOISE_CHUNK {self.NOISE_CHUNK}")
+        src = self.echo_source
+        noise_at = (max(self._noise_until - self.NOISE_CHUNK + 1, 0)
+                    if src is not None and hasattr(src, "noise") else 2**64 - 1)  # as _noise_ahead
+        buf = (ctypes.c_uint8 * len(token)).from_buffer_copy(token)
+        out = self._poll_out
+        n = self.lib.twin_usb_in_poll(self._h, buf, len(token), listen_clocks, self._rx, len(self._rx),
+                                      ctypes.byref(self._delay), nak_bus, poll_clocks, noise_at, max_clocks, out)
+        self.usb_packets += int(out[3]) + (n >= 0)
+        self._serve_fires()
+        self._drain_mailbox()
+        if n < 0:
+            return None, 0, 0, int(out[1]), int(out[2]), int(out[3]), int(out[4])
+        return (bytes(self._rx[:min(n, len(self._rx))]), int(self._delay.value), int(out[0]), 0, 0,
+                int(out[3]), int(out[4]))
 
     def bus_reset(self, cycles: int = 256) -> None:
         self.lib.twin_bus_reset(self._h, cycles)

@@ -88,6 +88,36 @@ class TwinUsbHost:
         self.settle()
         return r
 
+    def in_poll(self, addr: int, ep: int, poll_clocks: int, max_clocks: int) -> tuple[Reply | None, int]:
+        """IN tokens every ``poll_clocks`` of idle bus while the device NAKs, the loop run inside
+        the harness (:meth:`TwinSim.usb_in_poll`): the same packets at the same clocks as
+        :meth:`in_token` then ``sim.run(poll_clocks)`` per NAK. Returns (the first answer other
+        than a NAK, its transaction completed as :meth:`in_token` completes it, or None after
+        ``max_clocks`` or so of NAKs; the NAKs)."""
+        token = token_bytes(PID_IN, addr, ep)
+        listen = CLOCKS_PER_BIT * HOST_TIMEOUT_BITS
+        nak_bus = CLOCKS_PER_BIT * (bus_bits(len(token)) + bus_bits(1) + 2 * INTER_PACKET_BITS)
+        raw, delay, t0, settle, idle, naks, nak_clocks = self.sim.usb_in_poll(token, listen, nak_bus,
+                                                                              poll_clocks, max_clocks)
+        self.packets += naks
+        self.bus_clocks += nak_clocks
+        if raw is None:
+            for clocks in (settle, idle):
+                if clocks:
+                    self.sim.run(clocks)
+            return None, naks
+        # the answer's transaction from its token on, as send() and in_token() account it
+        self._t0 = t0
+        self.packets += 1
+        bus = bus_bits(len(token)) + INTER_PACKET_BITS
+        bus += (max(delay, 0) // CLOCKS_PER_BIT + bus_bits(len(raw)) + INTER_PACKET_BITS) if raw else HOST_TIMEOUT_BITS
+        self._owed = bus * CLOCKS_PER_BIT
+        r = Reply(*parse_reply(raw)) if raw else Reply(None)
+        if r.pid in (PID_DATA0, PID_DATA1):
+            self.send(bytes([pid_byte(PID_ACK)]))
+        self.settle()
+        return r, naks
+
     def out(self, addr: int, ep: int, data1: bool, payload: bytes, *, pid: int = PID_OUT) -> Reply:
         self.send(token_bytes(pid, addr, ep))
         r = self.send(data_bytes(PID_DATA1 if data1 else PID_DATA0, payload), listen=True)
@@ -141,12 +171,18 @@ class TwinUsbFunction(UsbFunction):
 
     A NAKed bulk IN is retried every ``poll_s`` of device time (the device runs meanwhile) until
     data arrive or the call's ``timeout_s`` passes in wall-clock time, as libusb counts it (a
-    USB/IP client unlinks the transfer then: answering later would lose the data)."""
+    USB/IP client unlinks the transfer then: answering later would lose the data). The retries
+    run inside the harness (:meth:`TwinUsbHost.in_poll`, back in Python every ~1 ms of device
+    time at least); ``harness_poll=False``: one Python round per NAK, the same packets at the same
+    clocks (tests/test_twin_skip.py compares the two)."""
 
-    def __init__(self, sim: TwinSim, *, poll_s: float = 50e-6) -> None:
+    POLL_HANDBACK_CLOCKS = 48_000  # the harness's NAK loop returns after ~1 ms of device time
+
+    def __init__(self, sim: TwinSim, *, poll_s: float = 50e-6, harness_poll: bool = True) -> None:
         super().__init__(DescriptorSet(b"", b"", (), b"", b""))  # read from the ROM below
         self.sim, self.host = sim, TwinUsbHost(sim)
         self.poll_clocks = int(poll_s * 48e6)
+        self.harness_poll = harness_poll
         self.lock = threading.RLock()
         self.out_toggle = False
         self.in_toggle: bool | None = None
@@ -213,7 +249,16 @@ class TwinUsbFunction(UsbFunction):
         data = b""
         with self.lock:
             while True:
-                r = self.host.in_token(ADDR, ep & 0x7F)
+                if self.harness_poll:
+                    polled, naks = self.host.in_poll(ADDR, ep & 0x7F, self.poll_clocks, self.POLL_HANDBACK_CLOCKS)
+                    self.stats["in_naks"] += naks
+                    if polled is None:  # NAKs for a while
+                        if not data and time.monotonic() >= deadline:
+                            raise UsbTimeout("bulk IN: no data (NAK) within the timeout")
+                        continue
+                    r = polled
+                else:
+                    r = self.host.in_token(ADDR, ep & 0x7F)
                 if r.pid in (PID_DATA0, PID_DATA1):
                     toggle = r.pid == PID_DATA1
                     if self.in_toggle is not None and toggle == self.in_toggle:
