@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "host"))
 
 from multisonar.experiments.simspeed import profile_demo  # noqa: E402
-from multisonar.twin.activity import COUNTERS  # noqa: E402
+from multisonar.twin.activity import CLASSES, SIMULATED  # noqa: E402
 
 #: RTL blocks by the instance path of a generated line (first match wins)
 BLOCKS = (
@@ -153,10 +153,16 @@ def main() -> int:
           f"{args.warmup:g} s from START "
           f"({act.clocks:,} clocks; {r['sonar_s'] / r['wall_s']:.4f} sonar-s per wall-s with the profile on)\n")
     print("| class | clocks | fraction |\n|---|---:|---:|")
-    for k in COUNTERS[1:]:
+    for k in CLASSES:
         print(f"| {k} | {act.counts[k]:,} | {act.fraction(k):.1%} |")
     print(f"\nExact skip of the calm clocks: at most {act.skip_bound:.2f}x on this workload "
           f"({d['sonar_only_skip_speedup_bound']:.2f}x if the CPU's busy clocks were calm too).\n")
+    print(f"The clocks the twin simulated ({act.simulated:,}, {act.simulated / act.clocks:.1%}; the rest it skipped), "
+          "by who works in them:\n")
+    print("| simulated | clocks | of the simulated |\n|---|---:|---:|")
+    for k in SIMULATED:
+        print(f"| {k[4:]} | {act.counts[k]:,} | {d['simulated'][k]:.1%} |")
+    print()
     print("| firmware function | clocks | of the CPU's |\n|---|---:|---:|")
     for f in d["firmware_functions"]:
         print(f"| {f['function']} | {f['clocks']:,} | {f['fraction']:.1%} |")
@@ -182,7 +188,7 @@ def main() -> int:
 
         n = 2 if args.callgrind else 1
         fig, axes = plt.subplots(1, n, figsize=(6 * n, 4), squeeze=False)
-        ks = list(COUNTERS[1:])
+        ks = list(CLASSES)
         axes[0][0].barh(ks[::-1], [act.fraction(k) for k in ks][::-1])
         axes[0][0].set_xlabel("fraction of clocks")
         axes[0][0].set_title(f"activity (skip bound {act.skip_bound:.2f}x)")

@@ -104,6 +104,10 @@ def _check_activity(act, fires, t_from: int, t_to: int) -> None:
         assert 0 < n[k] <= n["sonar"], (k, n)
     assert max(n["sonar"], n["cpu"]) <= n["any"] <= n["clocks"], n
     assert 0 < n["cpu"] < n["clocks"] / 2, n                   # the firmware idles most of the time
+    # the simulated clocks by who works: the CPU's are never skipped, a burst's may be
+    assert n["sim_cpu_only"] + n["sim_both"] == n["cpu"], n
+    assert 0 < n["sim_sonar_only"] + n["sim_both"] <= n["sonar"], n
+    assert act.simulated <= n["clocks"], n
     assert sum(act.functions.values()) == n["clocks"], "a clock whose PC is outside the firmware's code"
     assert {"main", "poll_events", "handle_command"} <= set(act.functions), act.functions
 

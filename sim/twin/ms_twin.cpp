@@ -88,7 +88,7 @@ struct EchoEdge {
 // flight, the CPU is stalled in a read of WAIT (the firmware's idle wait, ms_soc). Those are
 // the clocks an exact skip could leave out (issue #30); the rest bound its gain.
 enum Act { kActClocks, kActEngine, kActTxRun, kActRxSettle, kActUsb, kActCpu, kActSonar, kActAny,
-           kActN };
+           kActSimCpuOnly, kActSimSonarOnly, kActSimBoth, kActSimCalm, kActN };
 
 // A register the profile reads in place (public_flat_rd in sim/twin/ms_twin.vlt).
 struct Probe {
@@ -585,6 +585,11 @@ struct Twin {
     act[kActCpu] += cpu;
     act[kActSonar] += sonar;
     act[kActAny] += sonar || cpu;
+    // the clocks simulated (not skipped) by who works in them
+    act[kActSimCpuOnly] += cpu && !sonar;
+    act[kActSimSonarOnly] += sonar && !cpu;
+    act[kActSimBoth] += cpu && sonar;
+    act[kActSimCalm] += !cpu && !sonar;
   }
 
   void observe() {

@@ -29,8 +29,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-#: the harness's counters, in its order (enum Act in ms_twin.cpp)
-COUNTERS = ("clocks", "engine", "tx_run", "rx_settle", "usb", "cpu", "sonar", "any")
+#: the harness's counters, in its order (enum Act in ms_twin.cpp). ``sim_*``: the clocks the twin
+#: simulated (did not skip) by who works in them: only the CPU, only the sonar side (engine,
+#: bursts, receivers, USB), both, or neither (calm, but not skipped: the skip's margins)
+COUNTERS = ("clocks", "engine", "tx_run", "rx_settle", "usb", "cpu", "sonar", "any",
+            "sim_cpu_only", "sim_sonar_only", "sim_both", "sim_calm")
+CLASSES = COUNTERS[1:8]
+SIMULATED = COUNTERS[8:]
 
 
 @functools.lru_cache(maxsize=1)
@@ -93,6 +98,11 @@ class Activity:
         return 1.0 / f if f > 0 else float("inf")
 
     @property
+    def simulated(self) -> int:
+        """Clocks the twin simulated (the rest it skipped)."""
+        return sum(self.counts[k] for k in SIMULATED)
+
+    @property
     def skip_bound(self) -> float:
         """The most an exact skip of the calm clocks could speed this workload up."""
         return self.bound("any")
@@ -101,7 +111,8 @@ class Activity:
         fw = sorted(self.functions.items(), key=lambda kv: -kv[1])
         total = sum(self.functions.values()) or 1
         return {"clocks": self.clocks,
-                "fractions": {k: round(self.fraction(k), 4) for k in COUNTERS[1:]},
+                "fractions": {k: round(self.fraction(k), 4) for k in CLASSES},
+                "simulated": {k: round(self.counts[k] / max(self.simulated, 1), 4) for k in SIMULATED},
                 "skip_speedup_bound": round(self.skip_bound, 3),
                 "sonar_only_skip_speedup_bound": round(self.bound("sonar"), 3),
                 "firmware_functions": [{"function": k, "clocks": v, "fraction": round(v / total, 4)}
