@@ -96,3 +96,24 @@ def test_the_harness_nak_loop_runs_what_the_python_loop_runs():
     assert a[0] == b[0]  # every read's bytes
     assert a[1:7] == b[1:7]  # end tick, mailbox, USB counts, bus time, pulses
     assert state_differences(a[7], b[7], a[8], b[8]) == []
+
+
+def test_holding_the_cpus_clock_changes_nothing():
+    """The CPU's clock gate (rtl/soc/ms_soc.sv, MS_TWIN_CPU_GATE; TwinSim.set_cpu_gate): held in
+    the clocks where the CPU waits in WAIT with its inputs as at its last edge, it gives the same
+    session, byte for byte and state for state, as a CPU clocked in every clock."""
+    runs = {}
+    for gate in (False, True):
+        sim = booted_corridor(13)
+        try:
+            assert sim.set_cpu_gate(gate), "the twin was built without the CPU's clock gate"
+            held = sim.cpu_held
+            runs[gate] = fixed_session(sim, 0.08, skip=True), sim.cpu_held - held
+        finally:
+            sim.close()
+    (a, a_held), (b, b_held) = runs[False], runs[True]
+    assert a_held == 0 and b_held > 0.05 * 0.08 * TICK_HZ, (a_held, b_held)  # it held the clock
+    assert a.tick == b.tick and a.bulk_in == b.bulk_in and a.mailbox == b.mailbox
+    assert [(t0, vs, el.tolist(), d.tolist()) for t0, vs, el, d in a.fires] == \
+           [(t0, vs, el.tolist(), d.tolist()) for t0, vs, el, d in b.fires]
+    assert state_differences(a.state, b.state, a.boot_state, b.boot_state) == []

@@ -175,6 +175,18 @@ module ms_soc #(
     logic [3:0]  ram_we;
     logic [31:0] ram_wdata, ram_rdata;
     logic        ifetch_err, trap_q;
+    logic        cpu_clk;
+
+`ifdef MS_TWIN_CPU_GATE
+    // Simulation only (the full-system twin, sim/twin): the harness drives the CPU's clock with
+    // the device's, and holds it in clocks where the CPU is stalled in the WAIT read and none of
+    // its inputs changes, so its state would not change either (docs/twin.md). Never defined for
+    // synthesis or the RTL tests.
+    logic twin_cpu_clk;
+    assign cpu_clk = twin_cpu_clk;
+`else
+    assign cpu_clk = clk_i;
+`endif
 
     VexRiscv u_cpu (
       .externalResetVector    (32'h0000_0000),
@@ -203,7 +215,7 @@ module ms_soc #(
       .dBusWishbone_ERR       (dbus_err),
       .dBusWishbone_CTI       (dbus_cti),
       .dBusWishbone_BTE       (dbus_bte),
-      .clk                    (clk_i),
+      .clk                    (cpu_clk),
       .reset                  (cpu_rst)
     );
     assign dbus_err   = 1'b0;  // a bad data address answers 0 and raises bus_err_o, as on PicoRV32

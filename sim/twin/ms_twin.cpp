@@ -22,6 +22,7 @@
 #include <memory>
 #include <queue>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "Vms_twin_top.h"
@@ -59,6 +60,62 @@ void vdly_sync(Vms_twin_top___024root* r) {
   vdly_sync_ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__u_tx__DOT__now_nx_q(r, 0);
   vdly_sync_ms_twin_top__DOT__u_dev__DOT__u_usb__DOT__u_xact__DOT__timer_q(r, 0);
 }
+
+// The CPU's clock gate (rtl/soc/ms_soc.sv, MS_TWIN_CPU_GATE; mk/twin.mk defines it): the
+// harness drives the CPU's clock, one rising edge per device clock, and holds it while the CPU
+// is stalled in its WAIT read (kCpuQuiet clocks at least) and its inputs are those of its last
+// edge: its state would not change (tests/test_twin_skip.py compares a run with the gate
+// against one without). A model built without the gate compiles to nothing here.
+#define MS_CPU(x) ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_soc__DOT__g_vex__DOT__##x
+template <class R, class = void>
+struct CpuGate {
+  static constexpr bool kPresent = false;
+  static void edge(R*, bool) {}
+  static void after(R*) {}
+  struct Inputs {
+    bool operator==(const Inputs&) const { return true; }
+  };
+  static Inputs inputs(const R*) { return {}; }
+};
+template <class R>
+struct CpuGate<R, std::void_t<decltype(R::MS_CPU(twin_cpu_clk))>> {
+  static constexpr bool kPresent = true;
+  // before the evaluation of a device clock: a rising edge of the CPU's clock, or none
+  static void edge(R* r, bool clocked) {
+    r->MS_CPU(twin_cpu_clk) = clocked;
+    r->__Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_soc__DOT__g_vex__DOT__twin_cpu_clk__0 =
+        0;
+  }
+  // after it: the clock and its record as a clocked evaluation leaves them (the state is then
+  // the same as without the gate, byte for byte)
+  static void after(R* r) {
+    r->MS_CPU(twin_cpu_clk) = 1;
+    r->__Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_soc__DOT__g_vex__DOT__twin_cpu_clk__0 =
+        1;
+  }
+  // what the CPU samples at its next edge
+  struct Inputs {
+    uint32_t imiso = 0, dmiso = 0;
+    uint8_t iack = 0, ierr = 0, dack = 0, derr = 0, reset = 0;
+    bool operator==(const Inputs& o) const {
+      return imiso == o.imiso && dmiso == o.dmiso && iack == o.iack && ierr == o.ierr &&
+             dack == o.dack && derr == o.derr && reset == o.reset;
+    }
+  };
+  static Inputs inputs(const R* r) {
+    Inputs in;
+    in.imiso = r->MS_CPU(u_cpu__DOT__iBusWishbone_DAT_MISO);
+    in.dmiso = r->MS_CPU(u_cpu__DOT__dBusWishbone_DAT_MISO);
+    in.iack = r->MS_CPU(u_cpu__DOT__iBusWishbone_ACK);
+    in.ierr = r->MS_CPU(u_cpu__DOT__iBusWishbone_ERR);
+    in.dack = r->MS_CPU(u_cpu__DOT__dBusWishbone_ACK);
+    in.derr = r->MS_CPU(u_cpu__DOT__dBusWishbone_ERR);
+    in.reset = r->MS_CPU(u_cpu__DOT__reset);
+    return in;
+  }
+};
+#undef MS_CPU
+using TwinCpuGate = CpuGate<Vms_twin_top___024root>;
 
 constexpr int kNumCh = 24;
 constexpr uint8_t kPidNak = 0x5A;  // the NAK handshake: PID 1010b and its complement
@@ -218,6 +275,10 @@ struct Twin {
   uint32_t anchor = 0;              // the engine's poll-loop address a skip starts and ends at
   uint64_t eng_busy_at = 0;         // the last clock the engine was outside its poll loop
   uint64_t cpu_busy_at = 0;         // the last clock the CPU was not stalled in WAIT
+  bool cpu_gate = true;              // hold the CPU's clock where its state cannot change
+  uint64_t cpu_awake_at = 0;         // (the same, kept by step() for the gate)
+  uint64_t cpu_held = 0;             // clocks the CPU's clock was held
+  TwinCpuGate::Inputs cpu_in;        // the CPU's inputs at its last edge
   uint64_t anchor_at[3] = {};       // the last three clocks at the anchor (newest first)
   uint64_t skips = 0, skipped = 0;
   uint32_t mailbox[4096];
@@ -290,23 +351,35 @@ struct Twin {
       else echo_level &= ~(1u << e.rx);
     }
     top->echo_i = echo_level;
-    if (tracing) {  // both edges in the waveform
+    Vms_twin_top___024root* const root = top->rootp;
+    if (tracing) {  // both edges in the waveform (and the CPU's clock never held)
       top->clk_i = 0;
+      TwinCpuGate::edge(root, false);
       top->eval();
       ctx->timeInc(10417);
       dump();
       top->clk_i = 1;
+      TwinCpuGate::edge(root, true);
       top->eval();
       ctx->timeInc(10416);
       dump();
     } else {
+      // the CPU's clock: held while it waits with its inputs as at its last edge
+      if (cpu_wait.p && cpu_wait.get() == 0) cpu_awake_at = cycles;
+      const TwinCpuGate::Inputs in = TwinCpuGate::inputs(root);
+      const bool hold = TwinCpuGate::kPresent && cpu_gate && cpu_wait.p && cpu_wait.get() != 0 &&
+                        cpu_awake_at + kCpuQuiet <= cycles && in == cpu_in;
+      if (!hold) cpu_in = in;
+      cpu_held += hold;
+      TwinCpuGate::edge(root, !hold);
       // One evaluation per clock: the design has no logic on the falling edge or the clock's
       // level, so the falling edge's evaluation computes nothing the rising edge's does not
       // (the input logic runs again at the rising edge). Verilator finds a rising edge by the
       // clock's value at its last evaluation: that is set low instead.
-      top->rootp->__Vtrigprevexpr___TOP__clk_i__0 = 0;
+      root->__Vtrigprevexpr___TOP__clk_i__0 = 0;
       top->clk_i = 1;
       top->eval();
+      if (hold) TwinCpuGate::after(root);
       ctx->timeInc(20833);
     }
     ++cycles;
@@ -730,8 +803,17 @@ uint64_t twin_counter(void* p, int which) {
     case 6: return static_cast<uint64_t>(t->first_start);
     case 7: return t->skips;
     case 8: return t->skipped;
+    case 9: return t->cpu_held;
     default: return 0;
   }
+}
+
+// The CPU's clock gate on or off (on by default); returns whether the model has it.
+int twin_cpu_gate(void* p, int on) {
+  auto* t = static_cast<Twin*>(p);
+  t->cpu_gate = on != 0;
+  if (!t->cpu_wait.p) t->bind_probes();
+  return TwinCpuGate::kPresent ? 1 : 0;
 }
 
 // The activity profile: on (the engine's poll loop is ROM [poll_lo, poll_hi); the PC histogram

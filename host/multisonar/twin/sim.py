@@ -124,6 +124,7 @@ def _load(path: Path) -> ctypes.CDLL:
                                             _U64P]),
         "twin_profile": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_int]),
         "twin_skip": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
+        "twin_cpu_gate": (ctypes.c_int, [vp, ctypes.c_int]),
         "twin_state": (ctypes.c_int64, [vp, _U8P, ctypes.c_int64]),
         "twin_activity": (ctypes.c_int, [vp, ctypes.POINTER(ctypes.c_uint64), ctypes.c_int,
                                          ctypes.POINTER(ctypes.c_uint64)]),
@@ -159,6 +160,7 @@ class TwinSim:
         if want_fst:
             Path(fst).parent.mkdir(parents=True, exist_ok=True)  # type: ignore[arg-type]
         self._h = self.lib.twin_new(str(fst).encode() if want_fst else None)
+        self.set_cpu_gate(True)
         self.echo_source = echo_source
         self.fires: list[tuple[int, int, np.ndarray, np.ndarray]] = []  #: (t0, vs, elements, delays)
         self.keep_fires = True
@@ -298,6 +300,17 @@ class TwinSim:
     def skip_stats(self) -> tuple[int, int]:
         """(skips, clocks skipped) since the twin was made."""
         return int(self.lib.twin_counter(self._h, 7)), int(self.lib.twin_counter(self._h, 8))
+
+    def set_cpu_gate(self, on: bool = True) -> bool:
+        """Hold the CPU's clock in the clocks where it waits in WAIT and its inputs are those of
+        its last edge (its state cannot change then; on by default, docs/twin.md). Returns
+        whether this build of the model has the gate."""
+        return bool(self.lib.twin_cpu_gate(self._h, int(on)))
+
+    @property
+    def cpu_held(self) -> int:
+        """Clocks in which the CPU's clock was held."""
+        return int(self.lib.twin_counter(self._h, 9))
 
     def state(self) -> bytes:
         """The model's whole state as bytes (every signal and memory; also pointers to the
