@@ -67,6 +67,8 @@ void vdly_sync(Vms_twin_top___024root* r) {
 // edge: its state would not change (tests/test_twin_skip.py compares a run with the gate
 // against one without). A model built without the gate compiles to nothing here.
 #define MS_CPU(x) ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_soc__DOT__g_vex__DOT__##x
+#define MS_CPU_CLK_SEEN \
+  __Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_soc__DOT__g_vex__DOT__twin_cpu_clk__0
 template <class R, class = void>
 struct CpuGate {
   static constexpr bool kPresent = false;
@@ -83,15 +85,13 @@ struct CpuGate<R, std::void_t<decltype(R::MS_CPU(twin_cpu_clk))>> {
   // before the evaluation of a device clock: a rising edge of the CPU's clock, or none
   static void edge(R* r, bool clocked) {
     r->MS_CPU(twin_cpu_clk) = clocked;
-    r->__Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_soc__DOT__g_vex__DOT__twin_cpu_clk__0 =
-        0;
+    r->MS_CPU_CLK_SEEN = 0;  // Verilator's record of the clock at the last evaluation
   }
   // after it: the clock and its record as a clocked evaluation leaves them (the state is then
   // the same as without the gate, byte for byte)
   static void after(R* r) {
     r->MS_CPU(twin_cpu_clk) = 1;
-    r->__Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_soc__DOT__g_vex__DOT__twin_cpu_clk__0 =
-        1;
+    r->MS_CPU_CLK_SEEN = 1;
   }
   // what the CPU samples at its next edge
   struct Inputs {
@@ -115,6 +115,7 @@ struct CpuGate<R, std::void_t<decltype(R::MS_CPU(twin_cpu_clk))>> {
   }
 };
 #undef MS_CPU
+#undef MS_CPU_CLK_SEEN
 using TwinCpuGate = CpuGate<Vms_twin_top___024root>;
 
 constexpr int kNumCh = 24;
@@ -275,10 +276,10 @@ struct Twin {
   uint32_t anchor = 0;              // the engine's poll-loop address a skip starts and ends at
   uint64_t eng_busy_at = 0;         // the last clock the engine was outside its poll loop
   uint64_t cpu_busy_at = 0;         // the last clock the CPU was not stalled in WAIT
-  bool cpu_gate = true;              // hold the CPU's clock where its state cannot change
-  uint64_t cpu_awake_at = 0;         // (the same, kept by step() for the gate)
-  uint64_t cpu_held = 0;             // clocks the CPU's clock was held
-  TwinCpuGate::Inputs cpu_in;        // the CPU's inputs at its last edge
+  bool cpu_gate = true;             // hold the CPU's clock where its state cannot change
+  uint64_t cpu_awake_at = 0;        // the last clock before which the CPU was not in WAIT (gate)
+  uint64_t cpu_held = 0;            // clocks the CPU's clock was held
+  TwinCpuGate::Inputs cpu_in;       // the CPU's inputs at its last edge
   uint64_t anchor_at[3] = {};       // the last three clocks at the anchor (newest first)
   uint64_t skips = 0, skipped = 0;
   uint32_t mailbox[4096];
@@ -982,7 +983,8 @@ int twin_usb_in_poll(void* p, const uint8_t* token, int len, int listen, uint8_t
     if (static_cast<uint64_t>(t->tick) + settle < noise_at) {
       // no noise due at either wait's start: one call, so the skip runs through the boundary
       const uint64_t both = settle + poll, done = t->run(both);
-      if (done < both) return done < settle ? hand_over(settle - done, poll) : hand_over(0, both - done);
+      if (done < both)
+        return done < settle ? hand_over(settle - done, poll) : hand_over(0, both - done);
       continue;
     }
     if (!wait(settle, left)) return hand_over(left, poll);
