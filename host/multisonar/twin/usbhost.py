@@ -172,8 +172,8 @@ class TwinUsbFunction(UsbFunction):
     A NAKed bulk IN is retried every ``poll_s`` of device time (the device runs meanwhile) until
     data arrive or the call's ``timeout_s`` passes in wall-clock time, as libusb counts it (a
     USB/IP client unlinks the transfer then: answering later would lose the data). The retries
-    run inside the harness (:meth:`TwinUsbHost.in_poll`, back in Python every ~1 ms of device
-    time at least); ``harness_poll=False``: one Python round per NAK, the same packets at the same
+    run inside the harness (:meth:`TwinUsbHost.in_poll`, back in Python at least every ~1 ms of
+    device time); ``harness_poll=False``: one Python round per NAK, the same packets at the same
     clocks (tests/test_twin_skip.py compares the two)."""
 
     POLL_HANDBACK_CLOCKS = 48_000  # the harness's NAK loop returns after ~1 ms of device time
