@@ -275,9 +275,8 @@ struct Twin {
   SkipRefs sk;
   uint32_t anchor = 0;              // the engine's poll-loop address a skip starts and ends at
   uint64_t eng_busy_at = 0;         // the last clock the engine was outside its poll loop
-  uint64_t cpu_busy_at = 0;         // the last clock the CPU was not stalled in WAIT
+  uint64_t cpu_busy_at = 0;         // the last clock the CPU was not stalled in WAIT (skip, gate)
   bool cpu_gate = true;             // hold the CPU's clock where its state cannot change
-  uint64_t cpu_awake_at = 0;        // the last clock before which the CPU was not in WAIT (gate)
   uint64_t cpu_held = 0;            // clocks the CPU's clock was held
   TwinCpuGate::Inputs cpu_in;       // the CPU's inputs at its last edge
   uint64_t anchor_at[3] = {};       // the last three clocks at the anchor (newest first)
@@ -366,10 +365,10 @@ struct Twin {
       dump();
     } else {
       // the CPU's clock: held while it waits with its inputs as at its last edge
-      if (cpu_wait.p && cpu_wait.get() == 0) cpu_awake_at = cycles;
+      if (cpu_wait.p && cpu_wait.get() == 0) cpu_busy_at = cycles;  // (as skip_check records it)
       const TwinCpuGate::Inputs in = TwinCpuGate::inputs(root);
       const bool hold = TwinCpuGate::kPresent && cpu_gate && cpu_wait.p && cpu_wait.get() != 0 &&
-                        cpu_awake_at + kCpuQuiet <= cycles && in == cpu_in;
+                        cpu_busy_at + kCpuQuiet <= cycles && in == cpu_in;
       if (!hold) cpu_in = in;
       cpu_held += hold;
       TwinCpuGate::edge(root, !hold);
