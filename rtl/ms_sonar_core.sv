@@ -78,9 +78,23 @@ module ms_sonar_core #(
   // ---- receive channels
   logic [NUM_CH-1:0] rise;
   logic [NUM_CH-1:0] unused_level;
+`ifdef MS_TWIN_RX_GATE
+  // Simulation only (the full-system twin, sim/twin; mk/twin.mk defines it): the conditioners are
+  // clocked by a variable the harness drives, held while every one has settled on its input and
+  // neither an input nor twin_rx_key changes, so their state would not change (docs/twin.md).
+  // Never defined for synthesis, lint or the RTL tests.
+  logic       twin_rx_clk;
+  logic [8:0] twin_rx_key;
+  assign twin_rx_key = {rst_i, glitch_min};
+`endif
   for (genvar c = 0; c < NUM_CH; c++) begin : g_rx
     ms_rx_conditioner u_rx (
-      .clk_i, .rst_i, .echo_i (echo_i[c]), .glitch_min_i (glitch_min),
+`ifdef MS_TWIN_RX_GATE
+      .clk_i (twin_rx_clk),
+`else
+      .clk_i,
+`endif
+      .rst_i, .echo_i (echo_i[c]), .glitch_min_i (glitch_min),
       .level_o (unused_level[c]), .rise_o (rise[c])
     );
   end

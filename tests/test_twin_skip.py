@@ -12,12 +12,15 @@ clocks"): skipping must change nothing the device does.
 
 from __future__ import annotations
 
+from typing import Any, Callable
+
+import numpy as np
 import pytest
 
 from multisonar import protocol as P
 from multisonar.constants import TICK_HZ
 from multisonar.twin.check import booted_corridor, fixed_session
-from multisonar.twin.sim import state_differences
+from multisonar.twin.sim import NUM_CH, TwinSim, state_differences
 from multisonar.twin.usbhost import ADDR, TwinUsbFunction
 
 pytestmark = pytest.mark.sim
@@ -98,22 +101,50 @@ def test_the_harness_nak_loop_runs_what_the_python_loop_runs():
     assert state_differences(a[7], b[7], a[8], b[8]) == []
 
 
-def test_holding_the_cpus_clock_changes_nothing():
-    """The CPU's clock gate (rtl/soc/ms_soc.sv, MS_TWIN_CPU_GATE; TwinSim.set_cpu_gate): held in
-    the clocks where the CPU waits in WAIT with its inputs as at its last edge, it gives the same
-    session, byte for byte and state for state, as a CPU clocked in every clock."""
+def _gated_and_clocked(seed: int, gate: Callable[[TwinSim, bool], bool],
+                       held: Callable[[TwinSim], Any]) -> tuple:
+    """The same session without and with a clock gate of the twin: each run's result and the
+    clocks the gate held."""
     runs = {}
-    for gate in (False, True):
-        sim = booted_corridor(13)
+    for on in (False, True):
+        sim = booted_corridor(seed)
         try:
-            assert sim.set_cpu_gate(gate), "the twin was built without the CPU's clock gate"
-            held = sim.cpu_held
-            runs[gate] = fixed_session(sim, 0.08, skip=True), sim.cpu_held - held
+            assert gate(sim, on), "the twin was built without this clock gate (make twin)"
+            before = held(sim)
+            runs[on] = fixed_session(sim, 0.08, skip=True), held(sim) - before
         finally:
             sim.close()
-    (a, a_held), (b, b_held) = runs[False], runs[True]
-    assert a_held == 0 and b_held > 0.05 * 0.08 * TICK_HZ, (a_held, b_held)  # it held the clock
+    return runs[False], runs[True]
+
+
+def _same_session(a, b) -> None:
     assert a.tick == b.tick and a.bulk_in == b.bulk_in and a.mailbox == b.mailbox
     assert [(t0, vs, el.tolist(), d.tolist()) for t0, vs, el, d in a.fires] == \
            [(t0, vs, el.tolist(), d.tolist()) for t0, vs, el, d in b.fires]
     assert state_differences(a.state, b.state, a.boot_state, b.boot_state) == []
+
+
+def test_holding_the_cpus_clock_changes_nothing():
+    """The CPU's clock gate (rtl/soc/ms_soc.sv, MS_TWIN_CPU_GATE; TwinSim.set_cpu_gate): held in
+    the clocks where the CPU waits in WAIT with its inputs as at its last edge, it gives the same
+    session, byte for byte and state for state, as a CPU clocked in every clock."""
+    (a, a_held), (b, b_held) = _gated_and_clocked(
+        13, lambda sim, on: sim.set_cpu_gate(on), lambda sim: sim.cpu_held)
+    assert a_held == 0 and b_held > 0.05 * 0.08 * TICK_HZ, (a_held, b_held)  # it held the clock
+    _same_session(a, b)
+
+
+def test_holding_the_sonar_clocks_changes_nothing():
+    """The receiver's and the transmitter's clock gates (MS_TWIN_RX_GATE in ms_sonar_core,
+    MS_TWIN_TX_GATE in ms_tx_phaser; TwinSim.set_sonar_gates): the conditioners held while all
+    have settled on unchanged inputs, each transmit element while idle and not fired. The same
+    session, byte for byte and state for state, as with every channel clocked in every clock;
+    the echoes of a corridor and the bursts of its pulses wake them many times."""
+    (a, a_held), (b, b_held) = _gated_and_clocked(
+        17, lambda sim, on: sim.set_sonar_gates(on, on),
+        lambda sim: np.array(sim.sonar_clocks_held))
+    clocks = 0.08 * TICK_HZ
+    assert a_held.tolist() == [0, 0], a_held
+    assert b_held[0] > 0.1 * clocks and b_held[1] > 0.1 * NUM_CH * clocks, b_held
+    assert b.skip_stats[0] > 0 and len(b.fires) > 10  # the skip ran and the sonar fired
+    _same_session(a, b)

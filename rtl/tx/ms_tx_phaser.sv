@@ -88,13 +88,29 @@ module ms_tx_phaser #(
     end
   end
 
+`ifdef MS_TWIN_TX_GATE
+  // Simulation only (the full-system twin, sim/twin; mk/twin.mk defines it): each element is
+  // clocked by a variable the harness drives, held while the element is idle and no fire or
+  // reset reaches it (twin_wake), so its state would not change (docs/twin.md). Never defined
+  // for synthesis, lint or the RTL tests.
+  logic [NUM_CH-1:0] twin_wake;
+  assign twin_wake = {NUM_CH{rst_i}} | (fire_i ? mask_i : '0);
+`endif
+
   for (genvar i = 0; i < NUM_CH; i++) begin : g_ch
+`ifdef MS_TWIN_TX_GATE
+    logic twin_ch_clk;
+`endif
     ms_tx_channel #(
       .DELAY_W(DELAY_W),
       .HALF_W (HALF_W),
       .CYC_W  (CYC_W)
     ) u_ch (
+`ifdef MS_TWIN_TX_GATE
+      .clk_i         (twin_ch_clk),
+`else
       .clk_i         (clk_i),
+`endif
       .rst_i         (rst_i),
       .now_i         (now_q),
       .now_nx_i      (now_nx_q),

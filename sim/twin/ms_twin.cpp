@@ -53,12 +53,16 @@ namespace {
 MS_TWIN_VDLY_SYNC(ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__tick_q)
 MS_TWIN_VDLY_SYNC(ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__u_tx__DOT__now_nx_q)
 MS_TWIN_VDLY_SYNC(ms_twin_top__DOT__u_dev__DOT__u_usb__DOT__u_xact__DOT__timer_q)
+MS_TWIN_VDLY_SYNC(ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__u_tx__DOT__phase_q)
+MS_TWIN_VDLY_SYNC(ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__u_tx__DOT__phase_nx_q)
 #undef MS_TWIN_VDLY_SYNC
 
 void vdly_sync(Vms_twin_top___024root* r) {
   vdly_sync_ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__tick_q(r, 0);
   vdly_sync_ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__u_tx__DOT__now_nx_q(r, 0);
   vdly_sync_ms_twin_top__DOT__u_dev__DOT__u_usb__DOT__u_xact__DOT__timer_q(r, 0);
+  vdly_sync_ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__u_tx__DOT__phase_q(r, 0);
+  vdly_sync_ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__u_tx__DOT__phase_nx_q(r, 0);
 }
 
 // The CPU's clock gate (rtl/soc/ms_soc.sv, MS_TWIN_CPU_GATE; mk/twin.mk defines it): the
@@ -118,7 +122,82 @@ struct CpuGate<R, std::void_t<decltype(R::MS_CPU(twin_cpu_clk))>> {
 #undef MS_CPU_CLK_SEEN
 using TwinCpuGate = CpuGate<Vms_twin_top___024root>;
 
+// The receiver's and the transmitter's clock gates (mk/twin.mk defines both): the receive
+// conditioners' one clock (rtl/ms_sonar_core.sv, MS_TWIN_RX_GATE), held while every conditioner has
+// settled on its input (synchroniser, level, no rise, no run, its glitch length loaded) and
+// neither an input nor twin_rx_key (the reset, the glitch length) changes; a clock per transmit
+// element (rtl/tx/ms_tx_phaser.sv, MS_TWIN_TX_GATE), held while the element is idle (no pending
+// trigger, no burst, its drive low) and no fire or reset reaches it (twin_wake). Their state
+// would not change in those clocks (tests/test_twin_skip.py). The clocks stay high; the harness
+// gives a rising edge by clearing Verilator's record of the clock at the last evaluation. A
+// model built without the gates compiles to nothing here.
+#define MS_SONAR(x) ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__##x
+#define MS_SONAR_SEEN(x) __Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__##x##__0
+#define MS_TX_BIND(i)                                                              \
+  clk[i] = &r->MS_SONAR(u_tx__DOT__g_ch__BRA__##i##__KET____DOT__twin_ch_clk); \
+  seen[i] = &r->MS_SONAR_SEEN(u_tx__DOT__g_ch__BRA__##i##__KET____DOT__twin_ch_clk);
+// Gate<R>::bind: the clocks and Verilator's records of them; returns what wakes them
+template <class R, class = void>
+struct RxGate {
+  static const void* bind(R*, uint8_t**, uint8_t**) { return nullptr; }
+};
+template <class R>
+struct RxGate<R, std::void_t<decltype(R::MS_SONAR(twin_rx_clk))>> {
+  static const void* bind(R* r, uint8_t** clk, uint8_t** seen) {
+    clk[0] = &r->MS_SONAR(twin_rx_clk);
+    seen[0] = &r->MS_SONAR_SEEN(twin_rx_clk);
+    return &r->MS_SONAR(twin_rx_key);  // {reset, glitch length} (16 bits)
+  }
+};
+template <class R, class = void>
+struct TxGate {
+  static const void* bind(R*, uint8_t**, uint8_t**) { return nullptr; }
+};
+template <class R>
+struct TxGate<R, std::void_t<decltype(R::MS_SONAR(u_tx__DOT__g_ch__BRA__0__KET____DOT__twin_ch_clk))>> {
+  static const void* bind(R* r, uint8_t** clk, uint8_t** seen) {
+    MS_TX_BIND(0) MS_TX_BIND(1) MS_TX_BIND(2) MS_TX_BIND(3) MS_TX_BIND(4) MS_TX_BIND(5)
+    MS_TX_BIND(6) MS_TX_BIND(7) MS_TX_BIND(8) MS_TX_BIND(9) MS_TX_BIND(10) MS_TX_BIND(11)
+    MS_TX_BIND(12) MS_TX_BIND(13) MS_TX_BIND(14) MS_TX_BIND(15) MS_TX_BIND(16) MS_TX_BIND(17)
+    MS_TX_BIND(18) MS_TX_BIND(19) MS_TX_BIND(20) MS_TX_BIND(21) MS_TX_BIND(22) MS_TX_BIND(23)
+    return &r->MS_SONAR(u_tx__DOT__twin_wake);  // elements a fire or the reset reaches (32 bits)
+  }
+};
+#undef MS_SONAR
+#undef MS_SONAR_SEEN
+#undef MS_TX_BIND
+using TwinRxGate = RxGate<Vms_twin_top___024root>;
+using TwinTxGate = TxGate<Vms_twin_top___024root>;
+
 constexpr int kNumCh = 24;
+constexpr uint32_t kAllCh = (1u << kNumCh) - 1;
+
+// A bank of gated clocks (up to 24): which are held, and the rising edges of the others.
+struct GatedClocks {
+  int n = 0;           // the model has them (they must then be driven)
+  bool on = true;      // hold clocks (off: every one has its edge in every clock)
+  uint8_t* clk[kNumCh] = {};
+  uint8_t* seen[kNumCh] = {};
+  uint32_t held = 0;   // clocks held now
+  uint64_t held_clocks = 0;  // clocks held (one per gated clock and device clock)
+  // before a device clock's evaluation: wake the clocks in `wake`, a rising edge for the others;
+  // returns those given it
+  uint32_t edges(uint32_t wake) {
+    held = on ? held & ~wake : 0;
+    held_clocks += static_cast<uint32_t>(__builtin_popcount(held));
+    const uint32_t clocked = ~held & ((1u << n) - 1);
+    for (uint32_t m = clocked; m; m &= m - 1) {
+      const int i = __builtin_ctz(m);
+      *clk[i] = 1;
+      *seen[i] = 0;
+    }
+    return clocked;
+  }
+  void level(uint8_t v) {  // (tracing: both edges evaluated, nothing held)
+    for (int i = 0; i < n; ++i) *clk[i] = v;
+  }
+};
+
 constexpr uint8_t kPidNak = 0x5A;  // the NAK handshake: PID 1010b and its complement
 
 struct Fire {
@@ -160,6 +239,7 @@ struct Probe {
       default: return 0;
     }
   }
+  uint8_t u8() const { return *static_cast<const uint8_t*>(p); }  // (a register of 8 bits or fewer)
 };
 
 bool ends_with(const std::string& s, const char* tail) {
@@ -181,8 +261,8 @@ Probe probe(const VerilatedScope* sc, const char* var) {
   return pr;
 }
 
-struct RxProbe { Probe meta, sync, level, rise; };
-struct TxProbe { Probe trig, p_cyc, cyc, pend, due, tgt, phi; };
+struct RxProbe { Probe meta, sync, level, rise, run, gm1; };
+struct TxProbe { Probe trig, p_cyc, cyc, pend, due, tgt, phi, drive; };
 
 // A variable the exact skip reads or writes in place (public_flat_rw in ms_twin.vlt): its data
 // (an array's elements follow each other) and its size in bytes.
@@ -279,6 +359,12 @@ struct Twin {
   bool cpu_gate = true;             // hold the CPU's clock where its state cannot change
   uint64_t cpu_held = 0;            // clocks the CPU's clock was held
   TwinCpuGate::Inputs cpu_in;       // the CPU's inputs at its last edge
+  // the receiver's and the transmitter's clock gates, when the model has them
+  GatedClocks rx_gate, tx_gate;
+  const uint32_t* tx_wake = nullptr;  // elements a fire or the reset reaches in this cycle
+  const uint16_t* rx_key = nullptr;   // {reset, glitch length}: a change wakes the conditioners
+  uint16_t rx_key_last = 0xFFFF;      // its value in the last clock
+  uint32_t rx_level = 0;              // the inputs the held conditioners have settled on
   uint64_t anchor_at[3] = {};       // the last three clocks at the anchor (newest first)
   uint64_t skips = 0, skipped = 0;
   uint32_t mailbox[4096];
@@ -355,11 +441,15 @@ struct Twin {
     if (tracing) {  // both edges in the waveform (and the CPU's clock never held)
       top->clk_i = 0;
       TwinCpuGate::edge(root, false);
+      tx_gate.level(0);
+      rx_gate.level(0);
       top->eval();
       ctx->timeInc(10417);
       dump();
       top->clk_i = 1;
       TwinCpuGate::edge(root, true);
+      tx_gate.level(1);
+      rx_gate.level(1);
       top->eval();
       ctx->timeInc(10416);
       dump();
@@ -377,9 +467,40 @@ struct Twin {
       // (the input logic runs again at the rising edge). Verilator finds a rising edge by the
       // clock's value at its last evaluation: that is set low instead.
       root->__Vtrigprevexpr___TOP__clk_i__0 = 0;
+      // the receiver's clock stays held until an input or the key changes, a transmit element's
+      // until a fire or the reset reaches it
+      bool rx_clocked = false;
+      if (rx_gate.n) {
+        const uint16_t key = *rx_key;
+        rx_clocked = rx_gate.edges(key != rx_key_last || echo_level != rx_level) != 0;
+        rx_key_last = key;
+      }
+      const uint32_t tx_clocked = tx_gate.n ? tx_gate.edges(*tx_wake) : 0;
       top->clk_i = 1;
       top->eval();
       if (hold) TwinCpuGate::after(root);
+      if (tx_gate.on)
+        for (uint32_t m = tx_clocked; m; m &= m - 1) {
+          const int i = __builtin_ctz(m);
+          const TxProbe& t = tx_probe[i];
+          if (!(t.pend.u8() | t.trig.u8() | t.cyc.u8() | t.drive.u8())) tx_gate.held |= 1u << i;
+        }
+      if (rx_gate.on && rx_clocked) {
+        const uint8_t gm = static_cast<uint8_t>(rx_key_last), gm1 = gm - (gm != 0);
+        uint32_t level = 0;
+        bool settled = true;
+        for (int i = 0; i < kNumCh && settled; ++i) {
+          const RxProbe& r = rx_probe[i];
+          const uint8_t meta = r.meta.u8();
+          settled = meta == r.sync.u8() && meta == r.level.u8() && !r.rise.u8() && !r.run.u8() &&
+                    r.gm1.u8() == gm1;
+          level |= static_cast<uint32_t>(meta) << i;
+        }
+        if (settled) {
+          rx_gate.held = 1;
+          rx_level = level;
+        }
+      }
       ctx->timeInc(20833);
     }
     ++cycles;
@@ -399,16 +520,16 @@ struct Twin {
       auto ends = [&](const char* tail) { return ends_with(name, tail); };
       if (ends(".u_rx") && i >= 0 && i < kNumCh) {
         rx_probe[i] = {probe(sc, "meta_q"), probe(sc, "sync_q"), probe(sc, "level_q"),
-                       probe(sc, "rise_q")};
+                       probe(sc, "rise_q"), probe(sc, "run_q"), probe(sc, "gm1_q")};
         found += rx_probe[i].meta.p && rx_probe[i].sync.p && rx_probe[i].level.p &&
                  rx_probe[i].rise.p;
       } else if (ends(".u_ch") && i >= 0 && i < kNumCh) {
         tx_probe[i] = {probe(sc, "trig_q"), probe(sc, "p_cyc_q"), probe(sc, "cyc_q"),
                        probe(sc, "pend_q"), probe(sc, "due_q"), probe(sc, "tgt_q"),
-                       probe(sc, "phi_q")};
+                       probe(sc, "phi_q"), probe(sc, "drive_q")};
         found += tx_probe[i].trig.p && tx_probe[i].p_cyc.p && tx_probe[i].cyc.p &&
                  tx_probe[i].pend.p && tx_probe[i].due.p && tx_probe[i].tgt.p &&
-                 tx_probe[i].phi.p;
+                 tx_probe[i].phi.p && tx_probe[i].drive.p;
       } else if (ends(".u_sched.u_eng")) {
         eng_pc = probe(sc, "pc_q");
         found += eng_pc.p != nullptr;
@@ -421,6 +542,34 @@ struct Twin {
       }
     }
     return found;
+  }
+
+  // The receiver's and the transmitter's clock gates, when the model has them (their clocks must
+  // then be driven); a gate never holds its clock unless the registers its test reads are 8-bit.
+  void bind_gates() {
+    bind_probes();
+    Vms_twin_top___024root* const root = top->rootp;
+    rx_key = static_cast<const uint16_t*>(TwinRxGate::bind(root, rx_gate.clk, rx_gate.seen));
+    tx_wake = static_cast<const uint32_t*>(TwinTxGate::bind(root, tx_gate.clk, tx_gate.seen));
+    rx_gate.n = rx_key ? 1 : 0;
+    tx_gate.n = tx_wake ? kNumCh : 0;
+    gate(rx_gate, true);
+    gate(tx_gate, true);
+  }
+  // on or off; returns whether the model has the gate
+  bool gate(GatedClocks& g, bool on) {
+    bool ok = g.n != 0;
+    for (int i = 0; i < kNumCh; ++i) {
+      const RxProbe& r = rx_probe[i];
+      const TxProbe& t = tx_probe[i];
+      if (&g == &rx_gate)
+        for (const Probe* x : {&r.meta, &r.sync, &r.level, &r.rise, &r.run, &r.gm1})
+          ok &= x->bytes == 1;
+      else
+        for (const Probe* x : {&t.pend, &t.trig, &t.cyc, &t.drive}) ok &= x->bytes == 1;
+    }
+    g.on = on && ok;
+    return g.n != 0;
   }
 
   // Receive conditioner i has settled on its input: synchroniser and level equal to it, no rise.
@@ -734,6 +883,7 @@ void* twin_new(const char* fst_path) {
 #endif
   }
   t->top = std::make_unique<Vms_twin_top>(t->ctx.get(), "TOP");
+  t->bind_gates();
 #if VM_TRACE_FST
   if (fst_path && fst_path[0]) {
     t->fst = std::make_unique<VerilatedFstC>();
@@ -790,7 +940,9 @@ int twin_led(void* p) { return static_cast<Twin*>(p)->top->led_o; }
 
 // Counters: 0 echoes_late, 1 trig_orphans, 2 fires_incomplete, 3 mailbox words seen,
 // 4 the scheduler's last start tick (running_o rise - 1; -1: never), 5 running_o rises,
-// 6 its first start tick, 7 skips of calm clocks, 8 clocks skipped.
+// 6 its first start tick, 7 skips of calm clocks, 8 clocks skipped, 9 clocks the CPU's clock was
+// held, 10 clocks the receive conditioners' clock was held, 11 transmit element clocks held (one
+// per element and clock).
 uint64_t twin_counter(void* p, int which) {
   auto* t = static_cast<Twin*>(p);
   switch (which) {
@@ -804,6 +956,8 @@ uint64_t twin_counter(void* p, int which) {
     case 7: return t->skips;
     case 8: return t->skipped;
     case 9: return t->cpu_held;
+    case 10: return t->rx_gate.held_clocks;
+    case 11: return t->tx_gate.held_clocks;
     default: return 0;
   }
 }
@@ -814,6 +968,13 @@ int twin_cpu_gate(void* p, int on) {
   t->cpu_gate = on != 0;
   if (!t->cpu_wait.p) t->bind_probes();
   return TwinCpuGate::kPresent ? 1 : 0;
+}
+
+// The receiver's (bank 0) or the transmitter's (bank 1) clock gates on or off (on by default; off:
+// clocked in every clock). Returns whether the model has them.
+int twin_clock_gate(void* p, int bank, int on) {
+  auto* t = static_cast<Twin*>(p);
+  return t->gate(bank == 0 ? t->rx_gate : t->tx_gate, on != 0) ? 1 : 0;
 }
 
 // The activity profile: on (the engine's poll loop is ROM [poll_lo, poll_hi); the PC histogram

@@ -125,6 +125,7 @@ def _load(path: Path) -> ctypes.CDLL:
         "twin_profile": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_int]),
         "twin_skip": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
         "twin_cpu_gate": (ctypes.c_int, [vp, ctypes.c_int]),
+        "twin_clock_gate": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_int]),
         "twin_state": (ctypes.c_int64, [vp, _U8P, ctypes.c_int64]),
         "twin_activity": (ctypes.c_int, [vp, ctypes.POINTER(ctypes.c_uint64), ctypes.c_int,
                                          ctypes.POINTER(ctypes.c_uint64)]),
@@ -311,6 +312,22 @@ class TwinSim:
     def cpu_held(self) -> int:
         """Clocks in which the CPU's clock was held."""
         return int(self.lib.twin_counter(self._h, 9))
+
+    def set_sonar_gates(self, rx: bool = True, tx: bool = True) -> bool:
+        """Hold the receiver's and the transmitter's clocks in the clocks where their state
+        cannot change (on by default, docs/twin.md): the receive conditioners' (`rx`) while all
+        have settled on their inputs and neither an input nor the glitch length changes, each
+        transmit element's (`tx`) while it is idle and no fire or reset reaches it. Returns
+        whether this build of the model has them."""
+        has_rx = self.lib.twin_clock_gate(self._h, 0, int(rx))
+        has_tx = self.lib.twin_clock_gate(self._h, 1, int(tx))
+        return bool(has_rx and has_tx)
+
+    @property
+    def sonar_clocks_held(self) -> tuple[int, int]:
+        """Clocks held: the receive conditioners' clock, the transmit elements' (one per element
+        and clock)."""
+        return int(self.lib.twin_counter(self._h, 10)), int(self.lib.twin_counter(self._h, 11))
 
     def state(self) -> bytes:
         """The model's whole state as bytes (every signal and memory; also pointers to the
