@@ -134,6 +134,18 @@ def test_holding_the_cpus_clock_changes_nothing():
     _same_session(a, b)
 
 
+def test_holding_the_usb_devices_clock_changes_nothing():
+    """The USB device's clock gate (rtl/link/ms_system_usb.sv, MS_TWIN_USB_GATE;
+    TwinSim.set_usb_gate): held between the host's packets while no byte moves to or from the
+    host link, its receive phase and transaction timer brought up to date when it is clocked
+    again. The same session as with the device clocked in every clock, through enumeration-free
+    bulk traffic (commands, frames, NAKed polls)."""
+    (a, a_held), (b, b_held) = _gated_and_clocked(
+        19, lambda sim, on: sim.set_usb_gate(on), lambda sim: sim.clocks_held["usb"])
+    assert a_held == 0 and b_held > 0.1 * 0.08 * TICK_HZ, (a_held, b_held)
+    _same_session(a, b)
+
+
 def test_holding_the_sonar_clocks_changes_nothing():
     """The receiver's and the transmitter's clock gates (MS_TWIN_RX_GATE in ms_sonar_core,
     MS_TWIN_TX_GATE in ms_tx_phaser; TwinSim.set_sonar_gates): the conditioners held while all
@@ -142,7 +154,7 @@ def test_holding_the_sonar_clocks_changes_nothing():
     the echoes of a corridor and the bursts of its pulses wake them many times."""
     (a, a_held), (b, b_held) = _gated_and_clocked(
         17, lambda sim, on: sim.set_sonar_gates(on, on),
-        lambda sim: np.array(sim.sonar_clocks_held))
+        lambda sim: np.array([sim.clocks_held["rx"], sim.clocks_held["tx"]]))
     clocks = 0.08 * TICK_HZ
     assert a_held.tolist() == [0, 0], a_held
     assert b_held[0] > 0.1 * clocks and b_held[1] > 0.1 * NUM_CH * clocks, b_held

@@ -66,8 +66,25 @@ module ms_system_usb #(
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o, .evt_available_o, .led_o
   );
 
+`ifdef MS_TWIN_USB_GATE
+  // Simulation only (the full-system twin, sim/twin; mk/twin.mk defines it): the device is clocked
+  // by a variable the harness drives, held while no packet is in flight, no byte moves between it
+  // and the host link and its inputs from the system (twin_usb_in) do not change: its state then
+  // changes only in two counters the harness advances (docs/twin.md). Never defined for
+  // synthesis, lint or the RTL tests.
+  logic        twin_usb_clk;
+  logic [11:0] twin_usb_in;
+  logic        twin_usb_moves;
+  assign twin_usb_in    = {rst_usb, out_ready, in_valid, in_flush, in_data};
+  assign twin_usb_moves = (out_valid & out_ready) | (in_valid & in_ready) | in_flush;
+`endif
   ms_usb_device #(.SERIAL(SERIAL)) u_usb (
-    .clk_i, .rst_i (rst_usb),
+`ifdef MS_TWIN_USB_GATE
+    .clk_i (twin_usb_clk),
+`else
+    .clk_i,
+`endif
+    .rst_i (rst_usb),
     .usb_dp_i, .usb_dn_i, .usb_dp_o, .usb_dn_o, .usb_oe_o, .usb_pullup_o,
     .configured_o (usb_configured_o), .bus_reset_o (unused_bus_reset),
     .out_data_o (out_data), .out_valid_o (out_valid), .out_last_o (unused_last), .out_end_o (out_end),

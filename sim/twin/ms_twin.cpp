@@ -166,7 +166,23 @@ struct TxGate<R, std::void_t<decltype(R::MS_SONAR(u_tx__DOT__g_ch__BRA__0__KET__
 #undef MS_SONAR
 #undef MS_SONAR_SEEN
 #undef MS_TX_BIND
+template <class R, class = void>
+struct UsbGate {
+  static const void* bind(R*, uint8_t**, uint8_t**, const uint8_t**) { return nullptr; }
+};
+template <class R>
+struct UsbGate<R, std::void_t<decltype(R::ms_twin_top__DOT__u_dev__DOT__twin_usb_clk)>> {
+  // returns the device's inputs from the system (16 bits); *moves: a byte moves between the
+  // device and the host link
+  static const void* bind(R* r, uint8_t** clk, uint8_t** seen, const uint8_t** moves) {
+    clk[0] = &r->ms_twin_top__DOT__u_dev__DOT__twin_usb_clk;
+    seen[0] = &r->__Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__twin_usb_clk__0;
+    *moves = &r->ms_twin_top__DOT__u_dev__DOT__twin_usb_moves;
+    return &r->ms_twin_top__DOT__u_dev__DOT__twin_usb_in;
+  }
+};
 using TwinRxGate = RxGate<Vms_twin_top___024root>;
+using TwinUsbGate = UsbGate<Vms_twin_top___024root>;
 using TwinTxGate = TxGate<Vms_twin_top___024root>;
 
 constexpr int kNumCh = 24;
@@ -365,6 +381,14 @@ struct Twin {
   const uint16_t* rx_key = nullptr;   // {reset, glitch length}: a change wakes the conditioners
   uint16_t rx_key_last = 0xFFFF;      // its value in the last clock
   uint32_t rx_level = 0;              // the inputs the held conditioners have settled on
+  // the USB device's clock gate: held while it is idle with unchanged inputs; its two counters
+  // that run with time are brought up to date when it is clocked again (usb_catch_up)
+  GatedClocks usb_gate;
+  const uint16_t* usb_in = nullptr;   // its inputs from the system
+  const uint8_t* usb_moves = nullptr; // a byte moves between it and the host link
+  uint16_t usb_in_last = 0;           // the inputs at its last edge
+  uint64_t usb_busy_at = 0;           // the last clock with a packet or a byte moving
+  uint64_t usb_run = 0;               // clocks held since its last edge, not yet caught up
   uint64_t anchor_at[3] = {};       // the last three clocks at the anchor (newest first)
   uint64_t skips = 0, skipped = 0;
   uint32_t mailbox[4096];
@@ -443,6 +467,7 @@ struct Twin {
       TwinCpuGate::edge(root, false);
       tx_gate.level(0);
       rx_gate.level(0);
+      usb_gate.level(0);
       top->eval();
       ctx->timeInc(10417);
       dump();
@@ -450,6 +475,7 @@ struct Twin {
       TwinCpuGate::edge(root, true);
       tx_gate.level(1);
       rx_gate.level(1);
+      usb_gate.level(1);
       top->eval();
       ctx->timeInc(10416);
       dump();
@@ -476,6 +502,23 @@ struct Twin {
         rx_key_last = key;
       }
       const uint32_t tx_clocked = tx_gate.n ? tx_gate.edges(*tx_wake) : 0;
+      // the USB device's clock: held while no packet is in flight, no byte moves and its inputs
+      // are those of its last edge (kUsbQuiet clocks after the last activity)
+      if (usb_gate.n) {
+        const uint16_t in = *usb_in;
+        const bool active = usb_busy || top->tl_bus_reset_i || *usb_moves || sk.xact_state.get() ||
+                            sk.tl_stage.get();
+        if (active) usb_busy_at = cycles;
+        const bool hold = usb_gate.on && !active && usb_busy_at + kUsbQuiet <= cycles &&
+                          in == usb_in_last;
+        if (!hold) {
+          usb_catch_up();
+          usb_in_last = in;
+        }
+        usb_gate.held = hold;
+        usb_gate.edges(0);
+        usb_run += hold;
+      }
       top->clk_i = 1;
       top->eval();
       if (hold) TwinCpuGate::after(root);
@@ -555,6 +598,12 @@ struct Twin {
     tx_gate.n = tx_wake ? kNumCh : 0;
     gate(rx_gate, true);
     gate(tx_gate, true);
+    // the USB device's: its catch-up writes two of the skip's variables
+    usb_in = static_cast<const uint16_t*>(
+        TwinUsbGate::bind(root, usb_gate.clk, usb_gate.seen, &usb_moves));
+    usb_gate.n = usb_in ? 1 : 0;
+    bind_skip();
+    gate(usb_gate, true);
   }
   // on or off; returns whether the model has the gate
   bool gate(GatedClocks& g, bool on) {
@@ -565,9 +614,12 @@ struct Twin {
       if (&g == &rx_gate)
         for (const Probe* x : {&r.meta, &r.sync, &r.level, &r.rise, &r.run, &r.gm1})
           ok &= x->bytes == 1;
-      else
+      else if (&g == &tx_gate)
         for (const Probe* x : {&t.pend, &t.trig, &t.cyc, &t.drive}) ok &= x->bytes == 1;
     }
+    if (&g == &usb_gate)
+      for (const Ref* x : {&sk.usb_phase, &sk.xact_timer, &sk.xact_state, &sk.tl_stage})
+        ok &= x->p != nullptr;
     g.on = on && ok;
     return g.n != 0;
   }
@@ -640,7 +692,19 @@ struct Twin {
   // scan then sees the head in the next block); clocks the CPU must have waited (its pipeline
   // drained); the shortest skip (the detector's block flags are set from the tick after 64).
   static constexpr int64_t kMargin = 24, kCloseMargin = 64, kMinSkip = 96;
-  static constexpr uint64_t kCpuQuiet = 16;
+  static constexpr uint64_t kCpuQuiet = 16, kUsbQuiet = 16;
+
+  // The USB device's state after the clocks its clock was held: they change only its receive
+  // bit phase and its transaction timer (as in the skip's advance)
+  void usb_catch_up() {
+    if (!usb_run) return;
+    const uint64_t h = usb_run;
+    usb_run = 0;
+    sk.usb_phase.set((sk.usb_phase.get() + h) & 3u);
+    sk.xact_timer.set(std::min<uint64_t>(255, sk.xact_timer.get() + h));
+    vdly_sync(top->rootp);
+    Vms_twin_top___024root___eval_settle(&top->rootp->vlSymsp->TOP);
+  }
 
   // Called after every clock while skipping is on: at the engine's anchor, when every unit is
   // calm, jump over whole turns of the poll loop (at most `budget` clocks) and return how many.
@@ -942,7 +1006,7 @@ int twin_led(void* p) { return static_cast<Twin*>(p)->top->led_o; }
 // 4 the scheduler's last start tick (running_o rise - 1; -1: never), 5 running_o rises,
 // 6 its first start tick, 7 skips of calm clocks, 8 clocks skipped, 9 clocks the CPU's clock was
 // held, 10 clocks the receive conditioners' clock was held, 11 transmit element clocks held (one
-// per element and clock).
+// per element and clock), 12 clocks the USB device's clock was held.
 uint64_t twin_counter(void* p, int which) {
   auto* t = static_cast<Twin*>(p);
   switch (which) {
@@ -958,6 +1022,7 @@ uint64_t twin_counter(void* p, int which) {
     case 9: return t->cpu_held;
     case 10: return t->rx_gate.held_clocks;
     case 11: return t->tx_gate.held_clocks;
+    case 12: return t->usb_gate.held_clocks;
     default: return 0;
   }
 }
@@ -970,11 +1035,11 @@ int twin_cpu_gate(void* p, int on) {
   return TwinCpuGate::kPresent ? 1 : 0;
 }
 
-// The receiver's (bank 0) or the transmitter's (bank 1) clock gates on or off (on by default; off:
-// clocked in every clock). Returns whether the model has them.
+// The receiver's (bank 0), the transmitter's (1) or the USB device's (2) clock gates on or off (on
+// by default; off: clocked in every clock). Returns whether the model has them.
 int twin_clock_gate(void* p, int bank, int on) {
   auto* t = static_cast<Twin*>(p);
-  return t->gate(bank == 0 ? t->rx_gate : t->tx_gate, on != 0) ? 1 : 0;
+  return t->gate(bank == 0 ? t->rx_gate : bank == 1 ? t->tx_gate : t->usb_gate, on != 0) ? 1 : 0;
 }
 
 // The activity profile: on (the engine's poll loop is ROM [poll_lo, poll_hi); the PC histogram
@@ -1009,6 +1074,7 @@ int twin_activity(void* p, uint64_t* out, int n, uint64_t* pc_clocks) {
 // twins: compare against a snapshot of both taken where they must agree (multisonar.twin.sim).
 int64_t twin_state(void* p, uint8_t* out, int64_t cap) {
   auto* t = static_cast<Twin*>(p);
+  t->usb_catch_up();  // (its clock stays held)
   const int64_t n = static_cast<int64_t>(sizeof(Vms_twin_top__Syms));
   if (out) std::memcpy(out, t->top->rootp->vlSymsp, static_cast<size_t>(std::min(n, cap)));
   return n;

@@ -323,11 +323,19 @@ class TwinSim:
         has_tx = self.lib.twin_clock_gate(self._h, 1, int(tx))
         return bool(has_rx and has_tx)
 
+    def set_usb_gate(self, on: bool = True) -> bool:
+        """Hold the USB device's clock while no packet is in flight, no byte moves between it
+        and the host link and its inputs do not change (its two counters that run with time are
+        brought up to date when it is clocked again; on by default, docs/twin.md). Returns
+        whether this build of the model has the gate."""
+        return bool(self.lib.twin_clock_gate(self._h, 2, int(on)))
+
     @property
-    def sonar_clocks_held(self) -> tuple[int, int]:
-        """Clocks held: the receive conditioners' clock, the transmit elements' (one per element
-        and clock)."""
-        return int(self.lib.twin_counter(self._h, 10)), int(self.lib.twin_counter(self._h, 11))
+    def clocks_held(self) -> dict[str, int]:
+        """Clocks held by each clock gate: the CPU's, the receive conditioners', the transmit
+        elements' (one per element and clock), the USB device's."""
+        return {name: int(self.lib.twin_counter(self._h, i))
+                for name, i in (("cpu", 9), ("rx", 10), ("tx", 11), ("usb", 12))}
 
     def state(self) -> bytes:
         """The model's whole state as bytes (every signal and memory; also pointers to the
