@@ -80,10 +80,37 @@ module ms_system #(
     .sim_out_strobe_o, .sim_out_o, .trap_o, .bus_err_o
   );
 
+`ifdef MS_TWIN_SONAR_GATE
+  // Simulation only (the full-system twin, sim/twin; mk/twin.mk defines it): the sonar core is
+  // clocked by a variable the harness drives, held while the core is calm (its state then
+  // changes only in counters that run with time) and the SoC does not address it; to bring it
+  // up to date the harness advances those counters and clocks it alone for the last few held
+  // clocks with the SoC's outputs of those clocks (twin_replay, twin_r_*: its register block
+  // latches the bus lines in every clock; docs/twin.md). Never defined for synthesis, lint or
+  // the RTL tests.
+  logic                twin_sonar_clk, twin_replay;
+  logic                twin_r_rst, twin_r_req, twin_r_is_wr;
+  logic [SONAR_AW-1:0] twin_r_addr;
+  logic [31:0]         twin_r_wdata, twin_r_biten;
+  logic                s_rst, s_req, s_is_wr;
+  logic [SONAR_AW-1:0] s_addr;
+  logic [31:0]         s_wdata, s_biten;
+  assign s_rst   = twin_replay ? twin_r_rst : rst_sonar;
+  assign s_req   = twin_replay ? twin_r_req : req;
+  assign s_is_wr = twin_replay ? twin_r_is_wr : req_is_wr;
+  assign s_addr  = twin_replay ? twin_r_addr : addr;
+  assign s_wdata = twin_replay ? twin_r_wdata : wr_data;
+  assign s_biten = twin_replay ? twin_r_biten : wr_biten;
+  ms_sonar_core #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .WSLOTS(WSLOTS)) u_sonar (
+    .clk_i (twin_sonar_clk), .rst_i (s_rst),
+    .bus_req_i (s_req), .bus_req_is_wr_i (s_is_wr), .bus_addr_i (s_addr),
+    .bus_wr_data_i (s_wdata), .bus_wr_biten_i (s_biten),
+`else
   ms_sonar_core #(.NUM_CH(NUM_CH), .NUM_VS(NUM_VS), .WSLOTS(WSLOTS)) u_sonar (
     .clk_i, .rst_i (rst_sonar),
     .bus_req_i (req), .bus_req_is_wr_i (req_is_wr), .bus_addr_i (addr),
     .bus_wr_data_i (wr_data), .bus_wr_biten_i (wr_biten),
+`endif
     .bus_req_stall_wr_o (stall_wr), .bus_req_stall_rd_o (stall_rd),
     .bus_rd_ack_o (rd_ack), .bus_rd_err_o (rd_err), .bus_rd_data_o (rd_data),
     .bus_wr_ack_o (wr_ack), .bus_wr_err_o (wr_err),

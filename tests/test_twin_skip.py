@@ -146,6 +146,46 @@ def test_holding_the_usb_devices_clock_changes_nothing():
     _same_session(a, b)
 
 
+def test_holding_the_sonar_cores_clock_changes_nothing():
+    """The sonar core's clock gate (rtl/ms_system.sv, MS_TWIN_SONAR_GATE;
+    TwinSim.set_sonar_core_gate): held from the engine's anchor while the core is calm and the
+    CPU runs, brought up to date (whole turns advanced, the last clocks replayed with the SoC's
+    outputs of those clocks) when the SoC addresses it, an echo comes near or the CPU waits. The
+    same session, byte for byte and state for state, as with the core clocked in every clock."""
+    (a, a_held), (b, b_held) = _gated_and_clocked(
+        23, lambda sim, on: sim.set_sonar_core_gate(on), lambda sim: sim.clocks_held["sonar"])
+    assert a_held == 0 and b_held > 0.02 * 0.08 * TICK_HZ, (a_held, b_held)
+    _same_session(a, b)
+
+
+def test_the_sonar_core_caught_up_at_any_clock_equals_the_clocked_one():
+    """Lockstep: two twins, the sonar core's gate off in one; after every few hundred clocks
+    both states are compared (a snapshot brings the held core up to date: after any number of
+    held clocks, whole turns or not)."""
+    plain, gated = booted_corridor(29), booted_corridor(29)
+    try:
+        plain.set_sonar_core_gate(False)
+        boot = (plain.state(), gated.state())
+        for sim in (plain, gated):
+            fn = TwinUsbFunction(sim)
+            fn.host.control_nodata(ADDR, 0x00, 9, 1, 0)
+            sim.set_skip(True)
+            fn.bulk_out(0x01, P.encode_command(P.Opcode.START, seq=1))
+        end, k = plain.tick + int(0.02 * TICK_HZ), 0
+        while plain.tick < end:
+            k += 1
+            for sim in (plain, gated):
+                sim.run(173 + 37 * (k % 11))  # catch-ups at every phase of the engine's turn
+            assert plain.tick == gated.tick
+            diff = state_differences(plain.state(), gated.state(), *boot)
+            assert diff == [], f"at tick {plain.tick}: bytes {diff[:8]}"
+        assert gated.clocks_held["sonar"] > 0.02 * 0.02 * TICK_HZ, gated.clocks_held
+        assert plain.mailbox() == gated.mailbox()
+    finally:
+        plain.close()
+        gated.close()
+
+
 def test_holding_the_sonar_clocks_changes_nothing():
     """The receiver's and the transmitter's clock gates (MS_TWIN_RX_GATE in ms_sonar_core,
     MS_TWIN_TX_GATE in ms_tx_phaser; TwinSim.set_sonar_gates): the conditioners held while all

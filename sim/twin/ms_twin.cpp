@@ -181,6 +181,49 @@ struct UsbGate<R, std::void_t<decltype(R::ms_twin_top__DOT__u_dev__DOT__twin_usb
     return &r->ms_twin_top__DOT__u_dev__DOT__twin_usb_in;
   }
 };
+// The sonar core's clock gate (rtl/ms_system.sv, MS_TWIN_SONAR_GATE): its clock, the replay of
+// the SoC's outputs into it, and those outputs.
+struct SonarRefs {
+  uint8_t *clk = nullptr, *seen = nullptr, *replay = nullptr;
+  uint8_t *r_rst = nullptr, *r_req = nullptr, *r_is_wr = nullptr;
+  uint16_t* r_addr = nullptr;
+  uint32_t *r_wdata = nullptr, *r_biten = nullptr;
+  const uint8_t *rst = nullptr, *req = nullptr, *is_wr = nullptr;
+  const uint16_t* addr = nullptr;
+  const uint32_t *wdata = nullptr, *biten = nullptr;
+};
+struct SonarIn {
+  uint8_t rst = 0, req = 0, is_wr = 0;
+  uint16_t addr = 0;
+  uint32_t wdata = 0, biten = 0;
+};
+#define MS_SYS(x) ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__##x
+template <class R, class = void>
+struct SonarGate {
+  static void bind(R*, SonarRefs*) {}
+};
+template <class R>
+struct SonarGate<R, std::void_t<decltype(R::MS_SYS(twin_sonar_clk))>> {
+  static void bind(R* r, SonarRefs* g) {
+    g->clk = &r->MS_SYS(twin_sonar_clk);
+    g->seen = &r->__Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__twin_sonar_clk__0;
+    g->replay = &r->MS_SYS(twin_replay);
+    g->r_rst = &r->MS_SYS(twin_r_rst);
+    g->r_req = &r->MS_SYS(twin_r_req);
+    g->r_is_wr = &r->MS_SYS(twin_r_is_wr);
+    g->r_addr = &r->MS_SYS(twin_r_addr);
+    g->r_wdata = &r->MS_SYS(twin_r_wdata);
+    g->r_biten = &r->MS_SYS(twin_r_biten);
+    g->rst = &r->MS_SYS(rst_sonar);
+    g->req = &r->MS_SYS(req);
+    g->is_wr = &r->MS_SYS(req_is_wr);
+    g->addr = &r->MS_SYS(addr);
+    g->wdata = &r->MS_SYS(wr_data);
+    g->biten = &r->MS_SYS(wr_biten);
+  }
+};
+#undef MS_SYS
+using TwinSonarGate = SonarGate<Vms_twin_top___024root>;
 using TwinRxGate = RxGate<Vms_twin_top___024root>;
 using TwinUsbGate = UsbGate<Vms_twin_top___024root>;
 using TwinTxGate = TxGate<Vms_twin_top___024root>;
@@ -363,6 +406,7 @@ struct Twin {
   RxProbe rx_probe[kNumCh];
   TxProbe tx_probe[kNumCh];
   Probe eng_pc, cpu_pc, cpu_wait;
+  Probe sonar_bridge;  // the SoC's bridge to the sonar core: 0 idle, else a request in progress
   uint64_t act[kActN] = {};
   bool usb_busy = false;
   // exact skip of calm clocks (twin_skip)
@@ -389,6 +433,20 @@ struct Twin {
   uint16_t usb_in_last = 0;           // the inputs at its last edge
   uint64_t usb_busy_at = 0;           // the last clock with a packet or a byte moving
   uint64_t usb_run = 0;               // clocks held since its last edge, not yet caught up
+  // the sonar core's clock gate: held from the engine's anchor while the core is calm and the
+  // CPU works (where the whole device is calm the skip leaves the clocks out instead)
+  SonarRefs sg;
+  bool sonar_gate = true;             // hold it where it can
+  bool sonar_held = false;
+  uint64_t sonar_from = 0;            // the clock count when it was held (its state is of then)
+  uint64_t sonar_until = 0;           // clocked again from this clock count at the latest
+  uint64_t sonar_turn = 0;            // the engine's poll-loop turn
+  uint32_t sonar_tick0 = 0;           // its tick when held
+  static constexpr uint64_t kReplay = 6;
+  static constexpr int kSonarInputs = 128;  // (more than kMinSkip + a turn + kReplay)
+  SonarIn sonar_in[kSonarInputs];     // the SoC's outputs to it in the held clocks
+  uint64_t sonar_held_clocks = 0, sonar_holds = 0;
+  uint64_t sonar_bus_at = 0;          // the last clock the SoC's bridge to it was not idle
   uint64_t anchor_at[3] = {};       // the last three clocks at the anchor (newest first)
   uint64_t skips = 0, skipped = 0;
   uint32_t mailbox[4096];
@@ -468,6 +526,7 @@ struct Twin {
       tx_gate.level(0);
       rx_gate.level(0);
       usb_gate.level(0);
+      if (sg.clk) *sg.clk = 0;
       top->eval();
       ctx->timeInc(10417);
       dump();
@@ -476,12 +535,27 @@ struct Twin {
       tx_gate.level(1);
       rx_gate.level(1);
       usb_gate.level(1);
+      if (sg.clk) *sg.clk = 1;
       top->eval();
       ctx->timeInc(10416);
       dump();
     } else {
-      // the CPU's clock: held while it waits with its inputs as at its last edge
       if (cpu_wait.p && cpu_wait.get() == 0) cpu_busy_at = cycles;  // (as skip_check records it)
+      if (sonar_bridge.p && sonar_bridge.get() != 0) sonar_bus_at = cycles;
+      // the sonar core's clock: held (sonar_hold) until the SoC addresses it or resets it, its
+      // calm ends, or the CPU waits again (where the skip takes over); brought up to date first
+      // (its catch-up evaluates the model)
+      if (sonar_held) {
+        const SonarIn in = sonar_inputs();
+        if (in.req || in.rst || cycles >= sonar_until || !sonar_gate ||
+            (cpu_wait.get() != 0 && cpu_busy_at + kCpuQuiet <= cycles)) {
+          sonar_catch_up();
+        } else {
+          sonar_in[(cycles + 1 - sonar_from) % kSonarInputs] = in;
+          ++sonar_held_clocks;
+        }
+      }
+      // the CPU's clock: held while it waits with its inputs as at its last edge
       const TwinCpuGate::Inputs in = TwinCpuGate::inputs(root);
       const bool hold = TwinCpuGate::kPresent && cpu_gate && cpu_wait.p && cpu_wait.get() != 0 &&
                         cpu_busy_at + kCpuQuiet <= cycles && in == cpu_in;
@@ -519,6 +593,10 @@ struct Twin {
         usb_gate.edges(0);
         usb_run += hold;
       }
+      if (sg.clk && !sonar_held) {
+        *sg.clk = 1;
+        *sg.seen = 0;
+      }
       top->clk_i = 1;
       top->eval();
       if (hold) TwinCpuGate::after(root);
@@ -547,7 +625,7 @@ struct Twin {
       ctx->timeInc(20833);
     }
     ++cycles;
-    tick = static_cast<int64_t>(top->tick_o);
+    tick = sonar_held ? tick + 1 : static_cast<int64_t>(top->tick_o);  // (tick_o stands still)
     observe();
   }
 
@@ -582,6 +660,8 @@ struct Twin {
       } else if (ends(".u_soc")) {
         cpu_wait = probe(sc, "wait_q");
         found += cpu_wait.p != nullptr;
+      } else if (ends(".u_soc.u_sonar_bridge")) {
+        sonar_bridge = probe(sc, "state_q");  // (the sonar core's gate: not counted here)
       }
     }
     return found;
@@ -604,6 +684,7 @@ struct Twin {
     usb_gate.n = usb_in ? 1 : 0;
     bind_skip();
     gate(usb_gate, true);
+    TwinSonarGate::bind(root, &sg);  // (held only by the skip's check: it needs the skip's refs)
   }
   // on or off; returns whether the model has the gate
   bool gate(GatedClocks& g, bool on) {
@@ -692,6 +773,9 @@ struct Twin {
   // scan then sees the head in the next block); clocks the CPU must have waited (its pipeline
   // drained); the shortest skip (the detector's block flags are set from the tick after 64).
   static constexpr int64_t kMargin = 24, kCloseMargin = 64, kMinSkip = 96;
+  // the shortest hold of the sonar core's clock (its catch-up simulates up to a turn + 2 clocks)
+  // and the longest where nothing in the core limits it (it ends when the SoC addresses it)
+  static constexpr int64_t kMinHold = 128, kHoldMax = int64_t{1} << 40;
   static constexpr uint64_t kCpuQuiet = 16, kUsbQuiet = 16;
 
   // The USB device's state after the clocks its clock was held: they change only its receive
@@ -709,6 +793,7 @@ struct Twin {
   // Called after every clock while skipping is on: at the engine's anchor, when every unit is
   // calm, jump over whole turns of the poll loop (at most `budget` clocks) and return how many.
   uint64_t skip_check(uint64_t budget) {
+    if (sonar_held) return 0;
     const uint32_t pc = eng_pc.get();
     if (pc < poll_lo || pc >= poll_hi) eng_busy_at = cycles;
     if (cpu_wait.get() == 0) cpu_busy_at = cycles;
@@ -718,17 +803,20 @@ struct Twin {
     anchor_at[0] = cycles;
     const uint64_t turn = anchor_at[0] - anchor_at[1];
     if (turn != anchor_at[1] - anchor_at[2] || turn < 8 || turn > 20) return 0;
-    if (eng_busy_at >= anchor_at[2] || cpu_busy_at + kCpuQuiet > cycles || usb_busy ||
-        !pending.empty())
+    if (eng_busy_at >= anchor_at[2] || !pending.empty() || sk.eq.get() || !sk.q_empty.get())
       return 0;
-    if (sk.cpu_rst.get() || sk.xact_state.get() || sk.tl_stage.get() || sk.eq.get() ||
-        !sk.q_empty.get())
-      return 0;
+    // the whole device calm: skip; the sonar core calm while the CPU runs: hold its clock
+    const bool quiet = cpu_busy_at + kCpuQuiet <= cycles && !usb_busy && !sk.cpu_rst.get() &&
+                       !sk.xact_state.get() && !sk.tl_stage.get();
+    // (a hold needs no request of the SoC's in progress: its answer would wait for the catch-up)
+    const bool hold = !quiet && sonar_gate && sg.clk && !tracing && cpu_wait.get() == 0 &&
+                      sonar_bridge.p && sonar_bus_at + kReplay <= cycles && !*sg.rst && !*sg.req;
+    if (!quiet && !hold) return 0;
     // the first clock something can happen in, less a margin: a pending trigger, a burst's next
-    // half period, an echo edge, the CPU's wake-up, the watchdog, the engine's armed decision
-    // (td), a window close; and the caller's budget
+    // half period, an echo edge, the engine's armed decision (td), a window close; for a skip
+    // also the CPU's wake-up, the watchdog and the caller's budget
     const int64_t T = tick;
-    int64_t limit = T + static_cast<int64_t>(budget);
+    int64_t limit = T + (quiet ? static_cast<int64_t>(budget) : kHoldMax);
     bool tx_busy = false, tx_run = false;
     const uint32_t h = static_cast<uint32_t>(sk.hm1.get()) + 1;
     const uint32_t phase_nx = static_cast<uint32_t>(sk.phase_nx.get());
@@ -755,12 +843,6 @@ struct Twin {
     if (!tx_busy && (sk.phase.get() != 0 || sk.phase_nx.get() != (sk.hm1.get() != 0 ? 1u : 0u)))
       return 0;
     if (!edges.empty()) limit = std::min(limit, edges.top().tick - kMargin);
-    const uint32_t cyc_lo = static_cast<uint32_t>(sk.cycles.get());
-    limit = std::min(limit, T + static_cast<int32_t>(sk.wake_at.get() - cyc_lo) - kMargin);
-    const uint32_t wdt_to = static_cast<uint32_t>(sk.wdt_timeout.get());
-    if (wdt_to)
-      limit = std::min(limit, T + static_cast<int64_t>(wdt_to) -
-                                  static_cast<int64_t>(sk.wdt_cnt.get()) - kMargin);
     const uint32_t* rf = sk.rf.w();
     const bool armed = rf[6] != 0;
     if (armed)
@@ -778,6 +860,16 @@ struct Twin {
       if (ahead >= (1u << 25)) return 0;
       limit = std::min(limit, T + static_cast<int64_t>(ahead) - kCloseMargin);
     }
+    if (hold) {
+      if (!tx_busy && limit - T >= kMinHold) sonar_hold(cycles + static_cast<uint64_t>(limit - T), turn);
+      return 0;
+    }
+    const uint32_t cyc_lo = static_cast<uint32_t>(sk.cycles.get());
+    limit = std::min(limit, T + static_cast<int32_t>(sk.wake_at.get() - cyc_lo) - kMargin);
+    const uint32_t wdt_to = static_cast<uint32_t>(sk.wdt_timeout.get());
+    if (wdt_to)
+      limit = std::min(limit, T + static_cast<int64_t>(wdt_to) -
+                                  static_cast<int64_t>(sk.wdt_cnt.get()) - kMargin);
     const int64_t n = (limit - T) / static_cast<int64_t>(turn) * static_cast<int64_t>(turn);
     if (n < kMinSkip) return 0;
     advance(static_cast<uint32_t>(n), armed, cyc_lo, tx_busy, tx_run);
@@ -795,17 +887,7 @@ struct Twin {
   // tick (the close detector's block flags, the engine's loaded tick), then the combinational
   // logic recomputed from it.
   void advance(uint32_t N, bool armed, uint32_t cyc_lo, bool tx_busy, bool tx_run) {
-    const uint32_t t1 = static_cast<uint32_t>(tick) + N;
-    sk.tick.set(sk.tick.get() + N);
-    sk.tick_prev.set(sk.tick_prev.get() + N);
-    sk.now.set((sk.now.get() + N) & 0x1FFFFu);
-    sk.now_nx.set((sk.now_nx.get() + N) & 0x1FFFFu);
-    if (tx_busy) {  // the half-period phase counts modulo H while a trigger waits or a burst runs
-      const uint64_t h = sk.hm1.get() + 1;
-      const uint64_t nx = sk.phase_nx.get();
-      sk.phase_nx.set((nx + N) % h);
-      sk.phase.set((nx + N - 1) % h);
-    }
+    advance_sonar(N, static_cast<uint32_t>(tick), armed, tx_busy);
     sk.cycles.set(sk.cycles.get() + N);
     sk.wdt_cnt.set(sk.wdt_cnt.get() + N);
     uint32_t* rb = sk.readback.w();
@@ -817,6 +899,37 @@ struct Twin {
     }
     sk.usb_phase.set((sk.usb_phase.get() + N) & 3u);
     sk.xact_timer.set(std::min<uint64_t>(255, sk.xact_timer.get() + N));
+    if (profiling) {  // calm clocks but for a running burst; the CPU's PC stays at its WAIT read
+      act[kActClocks] += N;
+      if (tx_run) {
+        act[kActTxRun] += N;
+        act[kActSonar] += N;
+        act[kActAny] += N;
+      }
+      const uint32_t w = cpu_pc.get() >> 2;
+      if (w < pc_clocks.size()) pc_clocks[w] += N;
+    }
+    vdly_sync(top->rootp);
+    Vms_twin_top___024root___eval_settle(&top->rootp->vlSymsp->TOP);
+    ctx->timeInc(static_cast<uint64_t>(N) * 20833);
+    cycles += N;
+    tick += N;
+  }
+
+  // The sonar core's part of it, from its tick t0: the tick and what follows it (the phaser's
+  // counters, the engine's loaded tick, the close detector's block flags).
+  void advance_sonar(uint32_t N, uint32_t t0, bool armed, bool tx_busy) {
+    const uint32_t t1 = t0 + N;
+    sk.tick.set(sk.tick.get() + N);
+    sk.tick_prev.set(sk.tick_prev.get() + N);
+    sk.now.set((sk.now.get() + N) & 0x1FFFFu);
+    sk.now_nx.set((sk.now_nx.get() + N) & 0x1FFFFu);
+    if (tx_busy) {  // the half-period phase counts modulo H while a trigger waits or a burst runs
+      const uint64_t h = sk.hm1.get() + 1;
+      const uint64_t nx = sk.phase_nx.get();
+      sk.phase_nx.set((nx + N) % h);
+      sk.phase.set((nx + N - 1) % h);
+    }
     uint32_t* rf = sk.rf.w();
     rf[10] += N;
     if (armed) rf[13] += N;
@@ -833,21 +946,64 @@ struct Twin {
     }
     sk.cur.set(cur);
     sk.nxt.set(nxt);
-    if (profiling) {  // calm clocks but for a running burst; the CPU's PC stays at its WAIT read
-      act[kActClocks] += N;
-      if (tx_run) {
-        act[kActTxRun] += N;
-        act[kActSonar] += N;
-        act[kActAny] += N;
-      }
-      const uint32_t w = cpu_pc.get() >> 2;
-      if (w < pc_clocks.size()) pc_clocks[w] += N;
+  }
+
+  // Hold the sonar core's clock from now (the engine at its anchor, the core calm) until `until`
+  // device clocks at the latest.
+  void sonar_hold(uint64_t until, uint64_t turn) {
+    sonar_held = true;
+    sonar_from = cycles;
+    sonar_until = until;
+    sonar_turn = turn;
+    sonar_tick0 = static_cast<uint32_t>(tick);
+    ++sonar_holds;
+  }
+
+  // Bring the held sonar core up to date and clock it again from the next device clock: the
+  // held clocks' whole turns of the engine's poll loop by the skip's advance (kMinSkip clocks at
+  // least, as a skip), the rest simulated (kReplay clocks at least), the core alone, with the
+  // SoC's outputs of those clocks.
+  // Its register block latches the bus lines in every clock and reads through them up to four
+  // registers deep (address, table word, table read, read-back), whatever the request.
+  void sonar_catch_up() {
+    if (!sonar_held) return;
+    sonar_held = false;
+    std::memset(anchor_at, 0, sizeof(anchor_at));  // (the skip's anchors start again)
+    const uint64_t h = cycles - sonar_from;
+    uint64_t whole = h >= sonar_turn + kReplay ? (h - kReplay) / sonar_turn * sonar_turn : 0;
+    if (whole < static_cast<uint64_t>(kMinSkip)) whole = 0;  // (the skip's shortest advance)
+    Vms_twin_top___024root* const root = top->rootp;
+    if (whole) {
+      advance_sonar(static_cast<uint32_t>(whole), sonar_tick0, sk.rf.w()[6] != 0, false);
+      vdly_sync(root);
+      Vms_twin_top___024root___eval_settle(&root->vlSymsp->TOP);
     }
-    vdly_sync(top->rootp);
-    Vms_twin_top___024root___eval_settle(&top->rootp->vlSymsp->TOP);
-    ctx->timeInc(static_cast<uint64_t>(N) * 20833);
-    cycles += N;
-    tick += N;
+    for (uint64_t j = whole + 1; j <= h; ++j) {
+      const SonarIn& in = sonar_in[j % kSonarInputs];
+      *sg.replay = 1;
+      *sg.r_rst = in.rst;
+      *sg.r_req = in.req;
+      *sg.r_is_wr = in.is_wr;
+      *sg.r_addr = in.addr;
+      *sg.r_wdata = in.wdata;
+      *sg.r_biten = in.biten;
+      root->__Vtrigprevexpr___TOP__clk_i__0 = 1;  // no device clock edge, no CPU edge
+      TwinCpuGate::edge(root, false);
+      *sg.clk = 1;
+      *sg.seen = 0;
+      top->eval();
+      TwinCpuGate::after(root);
+    }
+    if (h > whole) {  // the replay's registers as an ungated run leaves them (zero), settled
+      *sg.replay = *sg.r_rst = *sg.r_req = *sg.r_is_wr = 0;
+      *sg.r_addr = 0;
+      *sg.r_wdata = *sg.r_biten = 0;
+      Vms_twin_top___024root___eval_settle(&root->vlSymsp->TOP);
+    }
+  }
+
+  SonarIn sonar_inputs() const {
+    return {*sg.rst, *sg.req, *sg.is_wr, *sg.addr, *sg.wdata, *sg.biten};
   }
 
   void profile() {
@@ -983,6 +1139,7 @@ void twin_free(void* p) {
 // Hold reset for `cycles` clocks, then release it (inputs idle).
 void twin_reset(void* p, int cycles) {
   auto* t = static_cast<Twin*>(p);
+  t->sonar_catch_up();
   Vms_twin_top* top = t->top.get();
   top->rst_i = 1;
   top->tl_bus_reset_i = 0;
@@ -1006,7 +1163,8 @@ int twin_led(void* p) { return static_cast<Twin*>(p)->top->led_o; }
 // 4 the scheduler's last start tick (running_o rise - 1; -1: never), 5 running_o rises,
 // 6 its first start tick, 7 skips of calm clocks, 8 clocks skipped, 9 clocks the CPU's clock was
 // held, 10 clocks the receive conditioners' clock was held, 11 transmit element clocks held (one
-// per element and clock), 12 clocks the USB device's clock was held.
+// per element and clock), 12 clocks the USB device's clock was held, 13 clocks the sonar core's
+// clock was held, 14 its holds.
 uint64_t twin_counter(void* p, int which) {
   auto* t = static_cast<Twin*>(p);
   switch (which) {
@@ -1023,6 +1181,8 @@ uint64_t twin_counter(void* p, int which) {
     case 10: return t->rx_gate.held_clocks;
     case 11: return t->tx_gate.held_clocks;
     case 12: return t->usb_gate.held_clocks;
+    case 13: return t->sonar_held_clocks;
+    case 14: return t->sonar_holds;
     default: return 0;
   }
 }
@@ -1035,10 +1195,16 @@ int twin_cpu_gate(void* p, int on) {
   return TwinCpuGate::kPresent ? 1 : 0;
 }
 
-// The receiver's (bank 0), the transmitter's (1) or the USB device's (2) clock gates on or off (on
-// by default; off: clocked in every clock). Returns whether the model has them.
+// The receiver's (bank 0), the transmitter's (1), the USB device's (2) or the sonar core's (3) clock
+// gates on or off (on by default; off: clocked in every clock). Returns whether the model has
+// them. The sonar core's is held only while the skip is on (twin_skip).
 int twin_clock_gate(void* p, int bank, int on) {
   auto* t = static_cast<Twin*>(p);
+  if (bank == 3) {
+    t->sonar_gate = on != 0;
+    if (!on) t->sonar_catch_up();
+    return t->sg.clk ? 1 : 0;
+  }
   return t->gate(bank == 0 ? t->rx_gate : bank == 1 ? t->tx_gate : t->usb_gate, on != 0) ? 1 : 0;
 }
 
@@ -1048,6 +1214,7 @@ int twin_clock_gate(void* p, int bank, int on) {
 // channels, the engine's PC, the CPU's, the SoC's WAIT state); it stays off unless all are.
 int twin_profile(void* p, int on, uint32_t poll_lo, uint32_t poll_hi, int words) {
   auto* t = static_cast<Twin*>(p);
+  t->sonar_catch_up();
   const int found = t->bind_probes();
   t->profiling = on != 0 && found == 2 * kNumCh + 3;
   t->poll_lo = poll_lo;
@@ -1075,6 +1242,7 @@ int twin_activity(void* p, uint64_t* out, int n, uint64_t* pc_clocks) {
 int64_t twin_state(void* p, uint8_t* out, int64_t cap) {
   auto* t = static_cast<Twin*>(p);
   t->usb_catch_up();  // (its clock stays held)
+  t->sonar_catch_up();
   const int64_t n = static_cast<int64_t>(sizeof(Vms_twin_top__Syms));
   if (out) std::memcpy(out, t->top->rootp->vlSymsp, static_cast<size_t>(std::min(n, cap)));
   return n;
@@ -1099,6 +1267,7 @@ uint64_t twin_run(void* p, uint64_t cycles) { return static_cast<Twin*>(p)->run(
 // off unless all are.
 int twin_skip(void* p, int on, uint32_t poll_lo, uint32_t poll_hi, uint32_t anchor) {
   auto* t = static_cast<Twin*>(p);
+  t->sonar_catch_up();
   const int found = t->bind_skip() + t->bind_probes();
   t->skipping = on != 0 && found == SkipRefs::kAll + 2 * kNumCh + 3;
   t->skip_stop = on == 2;
@@ -1144,6 +1313,12 @@ void twin_add_echoes(void* p, const int64_t* rows, int n) {
     }
     t->edges.push({start, rx, +1});
     t->edges.push({end, rx, -1});
+    // a held sonar core is clocked again before the edge reaches its receivers
+    if (t->sonar_held) {
+      const int64_t ahead = start - Twin::kMargin - t->tick;
+      if (ahead <= 0) t->sonar_catch_up();
+      else t->sonar_until = std::min(t->sonar_until, t->cycles + static_cast<uint64_t>(ahead));
+    }
   }
 }
 

@@ -330,12 +330,20 @@ class TwinSim:
         whether this build of the model has the gate."""
         return bool(self.lib.twin_clock_gate(self._h, 2, int(on)))
 
+    def set_sonar_core_gate(self, on: bool = True) -> bool:
+        """Hold the sonar core's clock while it is calm and the CPU runs without addressing it
+        (with the skip on only: the skip's checks decide it); it is brought up to date (its
+        counters that run with time advanced, its last few clocks simulated) when the SoC
+        addresses it, its calm ends or the CPU waits again (on by default, docs/twin.md).
+        Returns whether this build of the model has the gate."""
+        return bool(self.lib.twin_clock_gate(self._h, 3, int(on)))
+
     @property
     def clocks_held(self) -> dict[str, int]:
         """Clocks held by each clock gate: the CPU's, the receive conditioners', the transmit
-        elements' (one per element and clock), the USB device's."""
+        elements' (one per element and clock), the USB device's, the sonar core's."""
         return {name: int(self.lib.twin_counter(self._h, i))
-                for name, i in (("cpu", 9), ("rx", 10), ("tx", 11), ("usb", 12))}
+                for name, i in (("cpu", 9), ("rx", 10), ("tx", 11), ("usb", 12), ("sonar", 13))}
 
     def state(self) -> bytes:
         """The model's whole state as bytes (every signal and memory; also pointers to the
