@@ -39,6 +39,7 @@ from multisonar.twin.activity import CLASSES, SIMULATED  # noqa: E402
 
 #: RTL blocks by the instance path of a generated line (first match wins)
 BLOCKS = (
+    (r"^u_soc\.g_vex\.u_cpu", "CPU (VexRiscv)"),
     (r"^u_sonar\.u_tx|^u_tx\b", "sonar: transmit phaser (24 channels)"),
     (r"^u_sonar\.g_rx|^g_rx", "sonar: receive conditioners (24)"),
     (r"^u_sonar\.u_csr|^u_csr", "sonar: registers (ms_csr + PeakRDL regblock)"),
@@ -92,8 +93,10 @@ def aggregate(ann: str, gen_dir: str) -> Counter[str]:
             ident = re.sub(r"^.*?__PVT__|^__Vdly__|^__Vcellinp__", "", ident)
             ident = re.sub(r"__BRA__\d+__KET__", "", ident)
             parts = [p for p in ident.split("__DOT__")[:-1] if p.startswith(("u_", "g_", "IBus", "DBus"))]
+            while parts[:1] in (["u_dev"], ["u_sys"]):  # (the whole design is inlined into the top)
+                parts = parts[1:]
             if parts:
-                path = ".".join(parts[:2])
+                path = ".".join(parts[:3])
                 break
         if not path:
             m2 = re.search(r"__PVT__(u_[a-z]+)", code)
@@ -162,12 +165,23 @@ def main() -> int:
     print("| simulated | clocks | of the simulated |\n|---|---:|---:|")
     for k in SIMULATED:
         print(f"| {k[4:]} | {act.counts[k]:,} | {d['simulated'][k]:.1%} |")
+    # the clock gates (docs/twin.md): clocks in which each unit's clock was held, of those simulated
+    units = {"cpu": ("CPU (VexRiscv)", 1), "sonar": ("sonar core", 1), "rx": ("receive conditioners", 1),
+             "tx": ("transmit elements (24 clocks)", 24), "usb": ("USB device", 1)}
+    sim_clocks = max(r["simulated"], 1)
+    gates = {k: {"held": r["clocks_held"][k], "of_simulated": round(r["clocks_held"][k] / (n * sim_clocks), 4)}
+             for k, (_, n) in units.items()}
+    print(f"\nClock gates: the simulated clocks in which a unit's clock was held ({r['simulated']:,} simulated)\n")
+    print("| unit | clocks held | of the simulated |\n|---|---:|---:|")
+    for k, (name, _) in units.items():
+        print(f"| {name} | {gates[k]['held']:,} | {gates[k]['of_simulated']:.1%} |")
     print()
     print("| firmware function | clocks | of the CPU's |\n|---|---:|---:|")
     for f in d["firmware_functions"]:
         print(f"| {f['function']} | {f['clocks']:,} | {f['fraction']:.1%} |")
     out = {"scene": r["scene"], "warmup_s": args.warmup, "sonar_s": r["sonar_s"], "wall_s": round(r["wall_s"], 2),
-           "sonar_s_per_wall_s_profiled": round(r["sonar_s"] / r["wall_s"], 5), "activity": d}
+           "sonar_s_per_wall_s_profiled": round(r["sonar_s"] / r["wall_s"], 5), "activity": d,
+           "simulated_clocks": r["simulated"], "clock_gates": gates}
     if args.callgrind:
         cg = callgrind_blocks(args.callgrind_seconds)
         out["cost"] = cg

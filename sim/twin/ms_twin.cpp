@@ -239,11 +239,16 @@ struct GatedClocks {
   uint8_t* seen[kNumCh] = {};
   uint32_t held = 0;   // clocks held now
   uint64_t held_clocks = 0;  // clocks held (one per gated clock and device clock)
+  uint32_t counted = 0, held_n = 0;  // (the count of `held`, recounted when it changes)
   // before a device clock's evaluation: wake the clocks in `wake`, a rising edge for the others;
   // returns those given it
   uint32_t edges(uint32_t wake) {
     held = on ? held & ~wake : 0;
-    held_clocks += static_cast<uint32_t>(__builtin_popcount(held));
+    if (held != counted) {
+      counted = held;
+      held_n = static_cast<uint32_t>(__builtin_popcount(held));
+    }
+    held_clocks += held_n;
     const uint32_t clocked = ~held & ((1u << n) - 1);
     for (uint32_t m = clocked; m; m &= m - 1) {
       const int i = __builtin_ctz(m);

@@ -177,20 +177,24 @@ def profile_demo(seconds: float = 0.2, *, scene: str = "corridor", library: str 
         if on and activity:
             tw.sim.start_profile()
         c0, t, frames, sk0 = tw.sim.cycles, time.perf_counter(), 0, tw.sim.skip_stats[1]
+        held0 = tw.sim.clocks_held
         for _ in tw.device.stream(idle_timeout_s=300):
             if not on and tw.sim.cycles - c0 >= warmup_s * TICK_HZ:
                 if activity:
                     tw.sim.start_profile()
                 c0, t, frames, on, sk0 = tw.sim.cycles, time.perf_counter(), 0, True, tw.sim.skip_stats[1]
+                held0 = tw.sim.clocks_held
             frames += on
             if on and tw.sim.cycles - c0 >= seconds * TICK_HZ:
                 break
         wall = time.perf_counter() - t
         act = tw.sim.activity() if activity else None
         cycles, skipped = tw.sim.cycles, tw.sim.skip_stats[1] - sk0
+        held = {k: v - held0[k] for k, v in tw.sim.clocks_held.items()}
     return {"scene": scene, "sensors": len(demo_sensors()), "sonar_s": (cycles - c0) / TICK_HZ, "wall_s": wall,
             "frames": frames, "activity": act, "clocks_from_reset": cycles,
-            "skipped_share": skipped / max(cycles - c0, 1)}
+            "skipped_share": skipped / max(cycles - c0, 1), "simulated": cycles - c0 - skipped,
+            "clocks_held": held}
 
 
 def twin_activity(seconds: float = 0.1) -> dict[str, Any]:
