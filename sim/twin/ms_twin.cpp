@@ -132,7 +132,8 @@ using TwinCpuGate = CpuGate<Vms_twin_top___024root>;
 // gives a rising edge by clearing Verilator's record of the clock at the last evaluation. A
 // model built without the gates compiles to nothing here.
 #define MS_SONAR(x) ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__##x
-#define MS_SONAR_SEEN(x) __Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__##x##__0
+#define MS_SONAR_SEEN(x) \
+  __Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__u_sonar__DOT__##x##__0
 #define MS_TX_BIND(i)                                                              \
   clk[i] = &r->MS_SONAR(u_tx__DOT__g_ch__BRA__##i##__KET____DOT__twin_ch_clk); \
   seen[i] = &r->MS_SONAR_SEEN(u_tx__DOT__g_ch__BRA__##i##__KET____DOT__twin_ch_clk);
@@ -154,7 +155,8 @@ struct TxGate {
   static const void* bind(R*, uint8_t**, uint8_t**) { return nullptr; }
 };
 template <class R>
-struct TxGate<R, std::void_t<decltype(R::MS_SONAR(u_tx__DOT__g_ch__BRA__0__KET____DOT__twin_ch_clk))>> {
+struct TxGate<
+    R, std::void_t<decltype(R::MS_SONAR(u_tx__DOT__g_ch__BRA__0__KET____DOT__twin_ch_clk))>> {
   static const void* bind(R* r, uint8_t** clk, uint8_t** seen) {
     MS_TX_BIND(0) MS_TX_BIND(1) MS_TX_BIND(2) MS_TX_BIND(3) MS_TX_BIND(4) MS_TX_BIND(5)
     MS_TX_BIND(6) MS_TX_BIND(7) MS_TX_BIND(8) MS_TX_BIND(9) MS_TX_BIND(10) MS_TX_BIND(11)
@@ -206,7 +208,8 @@ template <class R>
 struct SonarGate<R, std::void_t<decltype(R::MS_SYS(twin_sonar_clk))>> {
   static void bind(R* r, SonarRefs* g) {
     g->clk = &r->MS_SYS(twin_sonar_clk);
-    g->seen = &r->__Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__twin_sonar_clk__0;
+    g->seen =
+        &r->__Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__twin_sonar_clk__0;
     g->replay = &r->MS_SYS(twin_replay);
     g->r_rst = &r->MS_SYS(twin_r_rst);
     g->r_req = &r->MS_SYS(twin_r_req);
@@ -672,8 +675,9 @@ struct Twin {
     return found;
   }
 
-  // The receiver's and the transmitter's clock gates, when the model has them (their clocks must
-  // then be driven); a gate never holds its clock unless the registers its test reads are 8-bit.
+  // The clock gates of the receiver, the transmitter, the USB device and the sonar core, when the
+  // model has them (their clocks must then be driven); the receiver's or the transmitter's never
+  // holds its clock unless the registers its test reads are 8-bit ones.
   void bind_gates() {
     bind_probes();
     Vms_twin_top___024root* const root = top->rootp;
@@ -866,7 +870,8 @@ struct Twin {
       limit = std::min(limit, T + static_cast<int64_t>(ahead) - kCloseMargin);
     }
     if (hold) {
-      if (!tx_busy && limit - T >= kMinHold) sonar_hold(cycles + static_cast<uint64_t>(limit - T), turn);
+      if (!tx_busy && limit - T >= kMinHold)
+        sonar_hold(cycles + static_cast<uint64_t>(limit - T), turn);
       return 0;
     }
     const uint32_t cyc_lo = static_cast<uint32_t>(sk.cycles.get());
@@ -1200,9 +1205,9 @@ int twin_cpu_gate(void* p, int on) {
   return TwinCpuGate::kPresent ? 1 : 0;
 }
 
-// The receiver's (bank 0), the transmitter's (1), the USB device's (2) or the sonar core's (3) clock
-// gates on or off (on by default; off: clocked in every clock). Returns whether the model has
-// them. The sonar core's is held only while the skip is on (twin_skip).
+// The receiver's (bank 0), the transmitter's (1), the USB device's (2) or the sonar core's (3)
+// clock gates on or off (on by default; off: clocked in every clock). Returns whether the model
+// has them. The sonar core's is held only while the skip is on (twin_skip).
 int twin_clock_gate(void* p, int bank, int on) {
   auto* t = static_cast<Twin*>(p);
   if (bank == 3) {
