@@ -450,6 +450,7 @@ struct Twin {
   uint64_t sonar_until = 0;           // clocked again from this clock count at the latest
   uint64_t sonar_turn = 0;            // the engine's poll-loop turn
   uint32_t sonar_tick0 = 0;           // its tick when held
+  bool sonar_tx_pending = false;      // a transmit element's trigger was pending (the phase runs)
   static constexpr uint64_t kReplay = 6;
   static constexpr int kSonarInputs = 128;  // (more than kMinSkip + a turn + kReplay)
   SonarIn sonar_in[kSonarInputs];     // the SoC's outputs to it in the held clocks
@@ -870,8 +871,9 @@ struct Twin {
       limit = std::min(limit, T + static_cast<int64_t>(ahead) - kCloseMargin);
     }
     if (hold) {
-      if (!tx_busy && limit - T >= kMinHold)
-        sonar_hold(cycles + static_cast<uint64_t>(limit - T), turn);
+      // (not while a burst runs; a pending trigger's phase counter is advanced as in a skip)
+      if (!tx_run && limit - T >= kMinHold)
+        sonar_hold(cycles + static_cast<uint64_t>(limit - T), turn, tx_busy);
       return 0;
     }
     const uint32_t cyc_lo = static_cast<uint32_t>(sk.cycles.get());
@@ -960,11 +962,12 @@ struct Twin {
 
   // Hold the sonar core's clock from now (the engine at its anchor, the core calm) until `until`
   // device clocks at the latest.
-  void sonar_hold(uint64_t until, uint64_t turn) {
+  void sonar_hold(uint64_t until, uint64_t turn, bool tx_pending) {
     sonar_held = true;
     sonar_from = cycles;
     sonar_until = until;
     sonar_turn = turn;
+    sonar_tx_pending = tx_pending;
     sonar_tick0 = static_cast<uint32_t>(tick);
     ++sonar_holds;
   }
@@ -978,13 +981,17 @@ struct Twin {
   void sonar_catch_up() {
     if (!sonar_held) return;
     sonar_held = false;
-    std::memset(anchor_at, 0, sizeof(anchor_at));  // (the skip's anchors start again)
     const uint64_t h = cycles - sonar_from;
+    // the engine stayed in its poll loop: it passed its anchor every turn since the hold began
+    // (the skip's record of the last three passes, as if it had watched them)
+    anchor_at[0] = sonar_from + h / sonar_turn * sonar_turn;
+    anchor_at[1] = anchor_at[0] - sonar_turn;
+    anchor_at[2] = anchor_at[1] - sonar_turn;
     uint64_t whole = h >= sonar_turn + kReplay ? (h - kReplay) / sonar_turn * sonar_turn : 0;
     if (whole < static_cast<uint64_t>(kMinSkip)) whole = 0;  // (the skip's shortest advance)
     Vms_twin_top___024root* const root = top->rootp;
     if (whole) {
-      advance_sonar(static_cast<uint32_t>(whole), sonar_tick0, sk.rf.w()[6] != 0, false);
+      advance_sonar(static_cast<uint32_t>(whole), sonar_tick0, sk.rf.w()[6] != 0, sonar_tx_pending);
       vdly_sync(root);
       Vms_twin_top___024root___eval_settle(&root->vlSymsp->TOP);
     }
