@@ -185,14 +185,16 @@ struct UsbGate<R, std::void_t<decltype(R::ms_twin_top__DOT__u_dev__DOT__twin_usb
 };
 // The sonar core's clock gate (rtl/ms_system.sv, MS_TWIN_SONAR_GATE): its clock, the replay of
 // the SoC's outputs into it, and those outputs.
+template <class T>
+struct SonarPort {
+  const T* live = nullptr;  // the SoC's output
+  T* replay = nullptr;      // what the core sees instead while twin_replay is set
+};
 struct SonarRefs {
   uint8_t *clk = nullptr, *seen = nullptr, *replay = nullptr;
-  uint8_t *r_rst = nullptr, *r_req = nullptr, *r_is_wr = nullptr;
-  uint16_t* r_addr = nullptr;
-  uint32_t *r_wdata = nullptr, *r_biten = nullptr;
-  const uint8_t *rst = nullptr, *req = nullptr, *is_wr = nullptr;
-  const uint16_t* addr = nullptr;
-  const uint32_t *wdata = nullptr, *biten = nullptr;
+  SonarPort<uint8_t> rst, req, is_wr;
+  SonarPort<uint16_t> addr;
+  SonarPort<uint32_t> wdata, biten;
 };
 struct SonarIn {
   uint8_t rst = 0, req = 0, is_wr = 0;
@@ -211,18 +213,12 @@ struct SonarGate<R, std::void_t<decltype(R::MS_SYS(twin_sonar_clk))>> {
     g->seen =
         &r->__Vtrigprevexpr___TOP__ms_twin_top__DOT__u_dev__DOT__u_sys__DOT__twin_sonar_clk__0;
     g->replay = &r->MS_SYS(twin_replay);
-    g->r_rst = &r->MS_SYS(twin_r_rst);
-    g->r_req = &r->MS_SYS(twin_r_req);
-    g->r_is_wr = &r->MS_SYS(twin_r_is_wr);
-    g->r_addr = &r->MS_SYS(twin_r_addr);
-    g->r_wdata = &r->MS_SYS(twin_r_wdata);
-    g->r_biten = &r->MS_SYS(twin_r_biten);
-    g->rst = &r->MS_SYS(rst_sonar);
-    g->req = &r->MS_SYS(req);
-    g->is_wr = &r->MS_SYS(req_is_wr);
-    g->addr = &r->MS_SYS(addr);
-    g->wdata = &r->MS_SYS(wr_data);
-    g->biten = &r->MS_SYS(wr_biten);
+    g->rst = {&r->MS_SYS(rst_sonar), &r->MS_SYS(twin_r_rst)};
+    g->req = {&r->MS_SYS(req), &r->MS_SYS(twin_r_req)};
+    g->is_wr = {&r->MS_SYS(req_is_wr), &r->MS_SYS(twin_r_is_wr)};
+    g->addr = {&r->MS_SYS(addr), &r->MS_SYS(twin_r_addr)};
+    g->wdata = {&r->MS_SYS(wr_data), &r->MS_SYS(twin_r_wdata)};
+    g->biten = {&r->MS_SYS(wr_biten), &r->MS_SYS(twin_r_biten)};
   }
 };
 #undef MS_SYS
@@ -232,8 +228,6 @@ using TwinUsbGate = UsbGate<Vms_twin_top___024root>;
 using TwinTxGate = TxGate<Vms_twin_top___024root>;
 
 constexpr int kNumCh = 24;
-constexpr uint32_t kAllCh = (1u << kNumCh) - 1;
-
 // A bank of gated clocks (up to 24): which are held, and the rising edges of the others.
 struct GatedClocks {
   int n = 0;           // the model has them (they must then be driven)
@@ -556,8 +550,7 @@ struct Twin {
       // (its catch-up evaluates the model)
       if (sonar_held) {
         const SonarIn in = sonar_inputs();
-        if (in.req || in.rst || cycles >= sonar_until || !sonar_gate ||
-            (cpu_wait.get() != 0 && cpu_busy_at + kCpuQuiet <= cycles)) {
+        if (in.req || in.rst || cycles >= sonar_until || !sonar_gate || cpu_waited()) {
           sonar_catch_up();
         } else {
           sonar_in[(cycles + 1 - sonar_from) % kSonarInputs] = in;
@@ -566,8 +559,7 @@ struct Twin {
       }
       // the CPU's clock: held while it waits with its inputs as at its last edge
       const TwinCpuGate::Inputs in = TwinCpuGate::inputs(root);
-      const bool hold = TwinCpuGate::kPresent && cpu_gate && cpu_wait.p && cpu_wait.get() != 0 &&
-                        cpu_busy_at + kCpuQuiet <= cycles && in == cpu_in;
+      const bool hold = TwinCpuGate::kPresent && cpu_gate && cpu_waited() && in == cpu_in;
       if (!hold) cpu_in = in;
       cpu_held += hold;
       TwinCpuGate::edge(root, !hold);
@@ -783,21 +775,38 @@ struct Twin {
   // scan then sees the head in the next block); clocks the CPU must have waited (its pipeline
   // drained); the shortest skip (the detector's block flags are set from the tick after 64).
   static constexpr int64_t kMargin = 24, kCloseMargin = 64, kMinSkip = 96;
-  // the shortest hold of the sonar core's clock (its catch-up simulates up to a turn + 2 clocks)
-  // and the longest where nothing in the core limits it (it ends when the SoC addresses it)
+  // the shortest hold of the sonar core's clock (its catch-up simulates up to kMinSkip + a turn +
+  // kReplay clocks) and the longest where nothing in the core limits it (it ends when the SoC
+  // addresses it)
   static constexpr int64_t kMinHold = 128, kHoldMax = int64_t{1} << 40;
   static constexpr uint64_t kCpuQuiet = 16, kUsbQuiet = 16;
 
-  // The USB device's state after the clocks its clock was held: they change only its receive
-  // bit phase and its transaction timer (as in the skip's advance)
-  void usb_catch_up() {
-    if (!usb_run) return;
-    const uint64_t h = usb_run;
-    usb_run = 0;
-    sk.usb_phase.set((sk.usb_phase.get() + h) & 3u);
-    sk.xact_timer.set(std::min<uint64_t>(255, sk.xact_timer.get() + h));
+  // The CPU has waited in its WAIT read for kCpuQuiet clocks (cpu_busy_at brought up to date
+  // for the current clock): the skip's and the CPU gate's test, and where a sonar hold ends.
+  bool cpu_waited() const {
+    return cpu_wait.p && cpu_wait.get() != 0 && cpu_busy_at + kCpuQuiet <= cycles;
+  }
+
+  // Registers written in place (the skip, the catch-ups): their nonblocking-assignment shadows
+  // set too, then Verilator's settle pass recomputes the combinational logic from them.
+  void settle() {
     vdly_sync(top->rootp);
     Vms_twin_top___024root___eval_settle(&top->rootp->vlSymsp->TOP);
+  }
+
+  // The USB device's two counters that run with time, N clocks on: its receive bit phase and its
+  // transaction timer (the skip's advance and the USB gate's catch-up).
+  void advance_usb(uint64_t N) {
+    sk.usb_phase.set((sk.usb_phase.get() + N) & 3u);
+    sk.xact_timer.set(std::min<uint64_t>(255, sk.xact_timer.get() + N));
+  }
+
+  // The USB device's state after the clocks its clock was held: they change only those counters
+  void usb_catch_up() {
+    if (!usb_run) return;
+    advance_usb(usb_run);
+    usb_run = 0;
+    settle();
   }
 
   // Called after every clock while skipping is on: at the engine's anchor, when every unit is
@@ -816,11 +825,12 @@ struct Twin {
     if (eng_busy_at >= anchor_at[2] || !pending.empty() || sk.eq.get() || !sk.q_empty.get())
       return 0;
     // the whole device calm: skip; the sonar core calm while the CPU runs: hold its clock
-    const bool quiet = cpu_busy_at + kCpuQuiet <= cycles && !usb_busy && !sk.cpu_rst.get() &&
+    const bool quiet = cpu_waited() && !usb_busy && !sk.cpu_rst.get() &&
                        !sk.xact_state.get() && !sk.tl_stage.get();
     // (a hold needs no request of the SoC's in progress: its answer would wait for the catch-up)
     const bool hold = !quiet && sonar_gate && sg.clk && !tracing && cpu_wait.get() == 0 &&
-                      sonar_bridge.p && sonar_bus_at + kReplay <= cycles && !*sg.rst && !*sg.req;
+                      sonar_bridge.p && sonar_bus_at + kReplay <= cycles && !*sg.rst.live &&
+                      !*sg.req.live;
     if (!quiet && !hold) return 0;
     // the first clock something can happen in, less a margin: a pending trigger, a burst's next
     // half period, an echo edge, the engine's armed decision (td), a window close; for a skip
@@ -909,8 +919,7 @@ struct Twin {
       if (c == &sk.drive_cnt && top->drive_o != 0) continue;  // reloaded while a drive is high
       c->set(c->get() > N ? c->get() - N : 0);
     }
-    sk.usb_phase.set((sk.usb_phase.get() + N) & 3u);
-    sk.xact_timer.set(std::min<uint64_t>(255, sk.xact_timer.get() + N));
+    advance_usb(N);
     if (profiling) {  // calm clocks but for a running burst; the CPU's PC stays at its WAIT read
       act[kActClocks] += N;
       if (tx_run) {
@@ -921,8 +930,7 @@ struct Twin {
       const uint32_t w = cpu_pc.get() >> 2;
       if (w < pc_clocks.size()) pc_clocks[w] += N;
     }
-    vdly_sync(top->rootp);
-    Vms_twin_top___024root___eval_settle(&top->rootp->vlSymsp->TOP);
+    settle();
     ctx->timeInc(static_cast<uint64_t>(N) * 20833);
     cycles += N;
     tick += N;
@@ -992,18 +1000,10 @@ struct Twin {
     Vms_twin_top___024root* const root = top->rootp;
     if (whole) {
       advance_sonar(static_cast<uint32_t>(whole), sonar_tick0, sk.rf.w()[6] != 0, sonar_tx_pending);
-      vdly_sync(root);
-      Vms_twin_top___024root___eval_settle(&root->vlSymsp->TOP);
+      settle();
     }
     for (uint64_t j = whole + 1; j <= h; ++j) {
-      const SonarIn& in = sonar_in[j % kSonarInputs];
-      *sg.replay = 1;
-      *sg.r_rst = in.rst;
-      *sg.r_req = in.req;
-      *sg.r_is_wr = in.is_wr;
-      *sg.r_addr = in.addr;
-      *sg.r_wdata = in.wdata;
-      *sg.r_biten = in.biten;
+      sonar_replay(true, sonar_in[j % kSonarInputs]);
       root->__Vtrigprevexpr___TOP__clk_i__0 = 1;  // no device clock edge, no CPU edge
       TwinCpuGate::edge(root, false);
       *sg.clk = 1;
@@ -1012,15 +1012,24 @@ struct Twin {
       TwinCpuGate::after(root);
     }
     if (h > whole) {  // the replay's registers as an ungated run leaves them (zero), settled
-      *sg.replay = *sg.r_rst = *sg.r_req = *sg.r_is_wr = 0;
-      *sg.r_addr = 0;
-      *sg.r_wdata = *sg.r_biten = 0;
+      sonar_replay(false, SonarIn());
       Vms_twin_top___024root___eval_settle(&root->vlSymsp->TOP);
     }
   }
 
+  // The SoC's outputs to the sonar core now, and the replay of some (on) or none
   SonarIn sonar_inputs() const {
-    return {*sg.rst, *sg.req, *sg.is_wr, *sg.addr, *sg.wdata, *sg.biten};
+    return {*sg.rst.live, *sg.req.live, *sg.is_wr.live, *sg.addr.live, *sg.wdata.live,
+            *sg.biten.live};
+  }
+  void sonar_replay(bool on, const SonarIn& in) {
+    *sg.replay = on;
+    *sg.rst.replay = in.rst;
+    *sg.req.replay = in.req;
+    *sg.is_wr.replay = in.is_wr;
+    *sg.addr.replay = in.addr;
+    *sg.wdata.replay = in.wdata;
+    *sg.biten.replay = in.biten;
   }
 
   void profile() {
