@@ -273,6 +273,8 @@ class PointEchoSource:
     receiver r at min_i (t0 + d_i + (|c_i - p| + |p - c_r|) / c), the first wavefront of the
     phased group. No beam pattern; every listed receiver hears it."""
 
+    rows_from_t0 = True  # (TwinSim may call it on its echo thread)
+
     def __init__(self, layout: Layout, point: Sequence[float], *, velocity: Sequence[float] = (0.0, 0.0),
                  temperature_c: float = 20.0, receivers: Iterable[int] | None = None, width_ticks: int = 9600) -> None:
         self.pos = layout.positions
@@ -293,6 +295,8 @@ class SceneEchoSource:
     """Adapter for :mod:`multisonar.acoustics` (imported lazily): ticks <-> seconds. A comparator
     pulse starting at s seconds is first sampled high at tick ceil(s * TICK_HZ); its width is
     round(width * TICK_HZ) ticks (at least 1). ``t_offset_s`` maps tick 0 to scene time."""
+
+    rows_from_t0 = True  # fire()'s rows start at t0 or later, noise()'s within its span
 
     def __init__(self, scene: Any, *, rng: Any = None, burst_cycles: int = 8, t_offset_s: float = 0.0,
                  model: Any = None) -> None:

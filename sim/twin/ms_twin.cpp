@@ -398,6 +398,10 @@ struct Twin {
   uint64_t echoes_late = 0;      // pulses added after their start tick (clipped)
   uint64_t trig_orphans = 0;     // triggers without a pending pulse (should stay 0)
   uint64_t fires_incomplete = 0; // pulses whose triggers never all came (should stay 0)
+  // The echo fence (twin_set_fence): no clock from tick `fence` on is simulated before
+  // `at_fence` has been called (it adds the echoes computed meanwhile and sets the next fence).
+  int64_t fence = INT64_MAX;
+  void (*at_fence)(void) = nullptr;
   bool running = false;
   int64_t run_start = -1;        // tick before the scheduler's running_o rose (its start tick)
   int64_t first_start = -1;      // the same for the first rise
@@ -469,7 +473,8 @@ struct Twin {
       step();
       ++n;
       if (skipping && n < cycles) {
-        const uint64_t k = skip_check(cycles - n);
+        const uint64_t to_fence = fence > tick ? static_cast<uint64_t>(fence - tick) : 0;
+        const uint64_t k = skip_check(std::min(cycles - n, to_fence));
         n += k;
         if (k && skip_stop) break;  // (checking a skip: the caller compares the state now)
       }
@@ -512,8 +517,16 @@ struct Twin {
     return n;
   }
 
+  // The fence is reached: cleared, then the caller's callback adds what it waited for and sets
+  // the next one (a callback that fails leaves it cleared; the caller reports its error).
+  void reach_fence() {
+    fence = INT64_MAX;
+    if (at_fence) at_fence();
+  }
+
   // One clock: inputs for cycle `tick` are already set; falling edge, rising edge, observe.
   void step() {
+    if (__builtin_expect(tick >= fence, 0)) reach_fence();
     while (!edges.empty() && edges.top().tick <= tick) {
       const EchoEdge e = edges.top();
       edges.pop();
@@ -1346,6 +1359,15 @@ void twin_add_echoes(void* p, const int64_t* rows, int n) {
       else t->sonar_until = std::min(t->sonar_until, t->cycles + static_cast<uint64_t>(ahead));
     }
   }
+}
+
+// The echo fence: before the clock of tick `fence` (or a skip past it) `callback` is called,
+// from inside whichever call runs the clocks; it may add echoes and set the next fence.
+// INT64_MAX: none. (The host computes echoes on another thread meanwhile; docs/twin.md.)
+void twin_set_fence(void* p, int64_t fence, void (*callback)(void)) {
+  auto* t = static_cast<Twin*>(p);
+  t->fence = fence;
+  t->at_fence = callback;
 }
 
 // Hold the USB bus in reset for `cycles` clocks (transaction level: tl_bus_reset_i).

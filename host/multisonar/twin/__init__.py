@@ -47,6 +47,7 @@ class Twin:
         """START the device; scene time ``scene_t0`` (s) = now. Returns the tick at START."""
         tick = self.sim.tick
         if self.echo_source is not None and hasattr(self.echo_source, "t_offset"):
+            self.sim.wait_echoes()  # (the echo thread's calls so far use the old offset)
             self.echo_source.t_offset = float(scene_t0) - tick / TICK_HZ
         self.start_tick = tick
         self.device.start()

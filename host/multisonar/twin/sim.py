@@ -19,7 +19,12 @@ import ctypes
 import fcntl
 import os
 import subprocess
+import sys
+import threading
+import time
+from collections import deque
 from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +38,14 @@ _U8P = ctypes.POINTER(ctypes.c_uint8)
 _U64P = ctypes.POINTER(ctypes.c_uint64)
 
 NUM_CH = 24
+_FENCE_CB = ctypes.CFUNCTYPE(None)
+_NO_FENCE = 2**63 - 1
+#: clocks before a pulse's earliest start at which the harness waits for the echo thread: more
+#: than the margin the skip keeps before an echo edge (kMargin, 24, in ms_twin.cpp), so an echo
+#: is never added inside it
+FENCE_LEAD = 32
+_switch = {"users": 0, "saved": 0.0}
+_switch_lock = threading.Lock()
 #: counters of the harness (twin_counter): pulses added after their start (clipped), triggers
 #: the harness could not attribute to a pulse, pulses whose triggers did not all come, mailbox
 #: words, rises of the scheduler's running_o (START; a re-aim restarts the schedule)
@@ -117,6 +130,7 @@ def _load(path: Path) -> ctypes.CDLL:
         "twin_fires_ready": (ctypes.c_int, [vp]),
         "twin_pop_fire": (ctypes.c_int, [vp, _I64P, _INTP, _INTP, _I64P]),
         "twin_add_echoes": (None, [vp, _I64P, ctypes.c_int]),
+        "twin_set_fence": (None, [vp, ctypes.c_int64, _FENCE_CB]),
         "twin_bus_reset": (None, [vp, ctypes.c_int]),
         "twin_usb_packet": (ctypes.c_int, [vp, _U8P, ctypes.c_int, ctypes.c_int, _U8P, ctypes.c_int, _INTP]),
         "twin_usb_in_poll": (ctypes.c_int, [vp, _U8P, ctypes.c_int, ctypes.c_int, _U8P, ctypes.c_int, _INTP,
@@ -142,12 +156,21 @@ class TwinSim:
     (:class:`multisonar.fastfiring.EchoSource`); None = no echoes.
 
     ``fst``: path of an FST waveform to write (needs the tracing build, ``make twin-fst``;
-    several times slower). ``build_first``: run ``make twin`` before loading."""
+    several times slower). ``build_first``: run ``make twin`` before loading.
+
+    ``echo_thread``: call the echo source on a worker thread while the device runs on (the
+    default for sources whose ``rows_from_t0`` is true: every row ``fire(t0, ...)`` gives starts
+    at or after t0, every row ``noise(a, b)`` gives at or after a). The calls keep their order
+    (the source's random draws are those of one thread) and their rows reach the harness before
+    the device's clock comes within :data:`FENCE_LEAD` of their earliest start: the run is the
+    same, clock for clock; the thread overlaps the acoustic model with the simulation. Call
+    :meth:`wait_echoes` before changing the source from another thread."""
 
     NOISE_CHUNK = 48_000  # ticks of noise pulses added ahead of time (1 ms)
 
     def __init__(self, echo_source: Any = None, *, fst: str | os.PathLike[str] | None = None,
-                 library: str | os.PathLike[str] | None = None, build_first: bool = True) -> None:
+                 library: str | os.PathLike[str] | None = None, build_first: bool = True,
+                 echo_thread: bool | None = None) -> None:
         want_fst = fst is not None
         if library is not None:
             path = Path(library)
@@ -166,7 +189,15 @@ class TwinSim:
         self.fires: list[tuple[int, int, np.ndarray, np.ndarray]] = []  #: (t0, vs, elements, delays)
         self.keep_fires = True
         self.on_fire: Callable[[int, int, np.ndarray, np.ndarray], None] | None = None
-        self.echo_rows = 0
+        self.echo_thread = echo_thread
+        self._echo_rows = 0
+        self._pending: deque[tuple[int, Future[Any]]] = deque()  # (earliest start, rows)
+        self._pool: ThreadPoolExecutor | None = None
+        self._echo_error: BaseException | None = None
+        #: the echo source's calls, those made on the echo thread, the fences the harness
+        #: reached and the wall seconds it waited there for the thread
+        self.echo_stats = {"calls": 0, "threaded": 0, "fences": 0, "waited_s": 0.0}
+        self._fence_cb = _FENCE_CB(self._at_fence)
         self._noise_until = 0
         self._t0 = np.zeros(1, np.int64)
         self._vs = ctypes.c_int()
@@ -181,6 +212,14 @@ class TwinSim:
 
     # ------------------------------------------------------------------ lifecycle
     def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+            with _switch_lock:
+                _switch["users"] -= 1
+                if not _switch["users"]:
+                    sys.setswitchinterval(_switch["saved"])
+        self._pending.clear()
         if self._h:
             self.lib.twin_free(self._h)
             self._h = None
@@ -198,6 +237,7 @@ class TwinSim:
             pass
 
     def reset(self, cycles: int = 16) -> None:
+        self.wait_echoes()
         self.lib.twin_reset(self._h, cycles)
         self._noise_until = self.tick
 
@@ -366,7 +406,7 @@ class TwinSim:
         the clocks run."""
         self._noise_ahead()
         n = int(self.lib.twin_run(self._h, cycles))
-        self._serve_fires()
+        self._after_call()
         self._drain_mailbox()
         return n
 
@@ -381,7 +421,7 @@ class TwinSim:
         if self._noise_until < t + self.NOISE_CHUNK:
             start = max(self._noise_until, t + 1)
             end = start + 2 * self.NOISE_CHUNK
-            self._add_rows(src.noise(start, end))
+            self._echoes(start - 1, src.noise, start, end)  # (-1: the rows' rounding from seconds)
             self._noise_until = end
 
     def _serve_fires(self) -> None:
@@ -398,15 +438,101 @@ class TwinSim:
             if self.on_fire is not None:
                 self.on_fire(t0, int(self._vs.value), elements, delays)
             if self.echo_source is not None and n:
-                self._add_rows(self.echo_source.fire(t0, elements, delays))
+                self._echoes(t0, self.echo_source.fire, t0, elements, delays)
 
-    def _add_rows(self, rows: Any) -> None:
+    # ------------------------------------------------------------------ echoes
+    @property
+    def echo_rows(self) -> int:
+        """Comparator pulses the echo source gave (waits for the echo thread)."""
+        self.wait_echoes()
+        return self._echo_rows
+
+    def wait_echoes(self) -> None:
+        """Hand every echo the source is computing to the harness now."""
+        self._collect(_NO_FENCE)
+        self._raise_echo_error()
+
+    def _threaded(self) -> bool:
+        on = self.echo_thread
+        return bool(getattr(self.echo_source, "rows_from_t0", False)) if on is None else on
+
+    def _echoes(self, earliest: int, call: Callable[..., Any], *args: Any) -> None:
+        """The rows of ``call(*args)``, none starting before tick ``earliest``: added now, or
+        computed on the echo thread and added before the clock reaches the fence."""
+        self.echo_stats["calls"] += 1
+        if not self._threaded():
+            self.wait_echoes()  # (in the order of the calls)
+            self._add_rows(call(*args))
+            return
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="twin-echoes")
+            # a thread waiting for the GIL gets it within this (Python's default: 5 ms)
+            with _switch_lock:
+                if not _switch["users"]:
+                    _switch["saved"] = sys.getswitchinterval()
+                    sys.setswitchinterval(min(_switch["saved"], 2e-4))
+                _switch["users"] += 1
+        self._pending.append((earliest, self._pool.submit(call, *args)))
+        self.echo_stats["threaded"] += 1
+        self._set_fence()
+
+    def _set_fence(self) -> None:
+        fence = min(e for e, _ in self._pending) - FENCE_LEAD if self._pending else _NO_FENCE
+        self.lib.twin_set_fence(self._h, fence, self._fence_cb)
+
+    def _collect(self, tick: int) -> None:
+        """Add the rows of every call whose fence is at or before ``tick`` (waiting for them,
+        and for the calls before them), then of those already done; set the next fence."""
+        if not self._pending:
+            return
+        due = [i for i, (e, _) in enumerate(self._pending) if e - FENCE_LEAD <= tick]
+        last = due[-1] if due else -1
+        i = 0
+        while self._pending and (i <= last or self._pending[0][1].done()):
+            earliest, fut = self._pending.popleft()
+            try:
+                rows = fut.result()
+            except Exception as e:
+                raise TwinError(f"the echo source failed on the echo thread: {e!r}") from e
+            self._add_rows(rows, earliest)
+            i += 1
+        self._set_fence()
+
+    def _at_fence(self) -> None:
+        # called by the harness (from inside a ctypes call): an exception cannot cross back into
+        # C++; it is kept and raised when that call returns (the fence stays cleared)
+        try:
+            self.echo_stats["fences"] += 1
+            t = time.perf_counter()
+            self._collect(self.tick)
+            self.echo_stats["waited_s"] += time.perf_counter() - t
+        except BaseException as e:  # noqa: BLE001
+            self._echo_error = e
+            self._pending.clear()
+
+    def _raise_echo_error(self) -> None:
+        if self._echo_error is not None:
+            e, self._echo_error = self._echo_error, None
+            raise e
+
+    def _after_call(self) -> None:
+        """After a call into the harness: its error, the rows ready, the fires to serve."""
+        self._raise_echo_error()
+        if self._pending and self._pending[0][1].done():
+            self._collect(-1)
+        self._serve_fires()
+
+    def _add_rows(self, rows: Any, earliest: int | None = None) -> None:
         from ..fastfiring import _rows
 
         r = np.ascontiguousarray(_rows(rows), dtype=np.int64)
-        if len(r):
-            self.lib.twin_add_echoes(self._h, r.ctypes.data_as(_I64P), len(r))
-            self.echo_rows += len(r)
+        if not len(r):
+            return
+        if earliest is not None and int(r[:, 1].min()) < earliest:
+            raise TwinError(f"the echo source gave a pulse starting at tick {int(r[:, 1].min())}, before "
+                            f"tick {earliest} (its rows_from_t0 promise): use TwinSim(echo_thread=False)")
+        self.lib.twin_add_echoes(self._h, r.ctypes.data_as(_I64P), len(r))
+        self._echo_rows += len(r)
 
     # ------------------------------------------------------------------ USB
     def usb_packet(self, packet: bytes, listen_clocks: int) -> tuple[bytes, int]:
@@ -415,7 +541,7 @@ class TwinSim:
         n = self.lib.twin_usb_packet(self._h, buf, len(packet), listen_clocks, self._rx, len(self._rx),
                                      ctypes.byref(self._delay))
         self.usb_packets += 1
-        self._serve_fires()
+        self._after_call()
         return bytes(self._rx[:min(n, len(self._rx))]), int(self._delay.value)
 
     def usb_in_poll(self, token: bytes, listen_clocks: int, nak_bus: int, poll_clocks: int,
@@ -437,7 +563,7 @@ class TwinSim:
         n = self.lib.twin_usb_in_poll(self._h, buf, len(token), listen_clocks, self._rx, len(self._rx),
                                       ctypes.byref(self._delay), nak_bus, poll_clocks, noise_at, max_clocks, out)
         self.usb_packets += int(out[3]) + (n >= 0)
-        self._serve_fires()
+        self._after_call()
         self._drain_mailbox()
         if n < 0:
             return None, 0, 0, int(out[1]), int(out[2]), int(out[3]), int(out[4])
@@ -446,4 +572,4 @@ class TwinSim:
 
     def bus_reset(self, cycles: int = 256) -> None:
         self.lib.twin_bus_reset(self._h, cycles)
-        self._serve_fires()
+        self._after_call()
