@@ -337,6 +337,10 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
                      f"{int(np.sum(geo_what == 3))} stale (re-aimed twice since).")
         notes.append("Harness: " + ", ".join(f"{k} {v}" for k, v in harness.items()) + f", pulses fired "
                      f"{len(tw.sim.fires)}, comparator pulses driven {tw.sim.echo_rows}.")
+        es = tw.sim.echo_stats
+        notes.append(f"Acoustic model: {es['calls']} calls, {es['threaded']} on the echo thread (docs/twin.md); "
+                     f"the harness reached {es['fences']} fences and waited there {es['waited_s']:.2f} s of the "
+                     f"{wall_run:.1f} s of streaming.")
         if harness["echoes_late"] or harness["trig_orphans"] or harness["fires_incomplete"]:
             notes.append("**Warning: the harness clipped echoes or could not attribute triggers (see counters).**")
         fw_host = _fw_vs_host(scene, resolved, frames, scene.speed_of_sound)
