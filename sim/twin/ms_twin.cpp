@@ -392,6 +392,7 @@ struct Twin {
   int64_t tick = 0;  // tick_o after the last rising edge
   std::deque<Fire> pending;
   std::deque<Fire> ready;
+  int64_t ready_n = 0;  // ready.size(), where the host reads it in place (twin_field)
   std::priority_queue<EchoEdge, std::vector<EchoEdge>, std::greater<EchoEdge>> edges;
   int echo_count[kNumCh] = {};
   uint32_t echo_level = 0;
@@ -1120,6 +1121,7 @@ struct Twin {
       ready.push_back(pending.front());
       pending.pop_front();
     }
+    ready_n = static_cast<int64_t>(ready.size());
     if (top->sim_out_strobe_o) {
       if (mailbox_n < 4096) mailbox[mailbox_n++] = top->sim_out_o;
       ++mailbox_total;
@@ -1190,9 +1192,24 @@ void twin_reset(void* p, int cycles) {
   top->rst_i = 0;
   t->pending.clear();
   t->ready.clear();
+  t->ready_n = 0;
 }
 
 int64_t twin_tick(void* p) { return static_cast<Twin*>(p)->tick; }
+
+// The address of a harness variable the host reads in place between calls, without a call
+// per read: 0 the tick (int64), 1 the clock count (uint64), 2 the fires ready (int64), 3 the
+// mailbox words waiting (uint32).
+void* twin_field(void* p, int which) {
+  auto* t = static_cast<Twin*>(p);
+  switch (which) {
+    case 0: return &t->tick;
+    case 1: return &t->cycles;
+    case 2: return &t->ready_n;
+    case 3: return &t->mailbox_n;
+    default: return nullptr;
+  }
+}
 uint64_t twin_cycles(void* p) { return static_cast<Twin*>(p)->cycles; }
 int twin_trap(void* p) { return static_cast<Twin*>(p)->top->trap_o; }
 int twin_configured(void* p) { return static_cast<Twin*>(p)->top->configured_o; }
@@ -1327,6 +1344,7 @@ int twin_pop_fire(void* p, int64_t* t0, int* vs, int* elements, int64_t* trigger
   if (t->ready.empty()) return -1;
   const Fire f = t->ready.front();
   t->ready.pop_front();
+  t->ready_n = static_cast<int64_t>(t->ready.size());
   *t0 = f.t0;
   *vs = f.vs;
   for (int k = 0; k < f.got; ++k) {

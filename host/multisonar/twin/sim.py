@@ -120,6 +120,7 @@ def _load(path: Path) -> ctypes.CDLL:
         "twin_has_fst": (ctypes.c_int, []),
         "twin_reset": (None, [vp, ctypes.c_int]),
         "twin_tick": (ctypes.c_int64, [vp]),
+        "twin_field": (vp, [vp, ctypes.c_int]),
         "twin_cycles": (ctypes.c_uint64, [vp]),
         "twin_trap": (ctypes.c_int, [vp]),
         "twin_configured": (ctypes.c_int, [vp]),
@@ -184,6 +185,10 @@ class TwinSim:
         if want_fst:
             Path(fst).parent.mkdir(parents=True, exist_ok=True)  # type: ignore[arg-type]
         self._h = self.lib.twin_new(str(fst).encode() if want_fst else None)
+        # the harness's tick, clock count, fires ready and mailbox words, read in place
+        self._tick, self._cycles, self._ready, self._mail_n = (
+            ctype.from_address(self.lib.twin_field(self._h, i))
+            for i, ctype in enumerate((ctypes.c_int64, ctypes.c_uint64, ctypes.c_int64, ctypes.c_uint32)))
         self.set_cpu_gate(True)
         self.echo_source = echo_source
         self.fires: list[tuple[int, int, np.ndarray, np.ndarray]] = []  #: (t0, vs, elements, delays)
@@ -198,8 +203,10 @@ class TwinSim:
         #: reached and the wall seconds it waited there for the thread
         self.echo_stats = {"calls": 0, "threaded": 0, "fences": 0, "waited_s": 0.0}
         self._fence_cb = _FENCE_CB(self._at_fence)
+        self._fence = _NO_FENCE
         self._noise_until = 0
         self._t0 = np.zeros(1, np.int64)
+        self._t0p = self._t0.ctypes.data_as(_I64P)
         self._vs = ctypes.c_int()
         self._el = (ctypes.c_int * NUM_CH)()
         self._trig = (ctypes.c_int64 * NUM_CH)()
@@ -245,11 +252,11 @@ class TwinSim:
     @property
     def tick(self) -> int:
         """The sonar core's tick counter in the current cycle (48 MHz)."""
-        return int(self.lib.twin_tick(self._h))
+        return self._tick.value
 
     @property
     def cycles(self) -> int:
-        return int(self.lib.twin_cycles(self._h))
+        return self._cycles.value
 
     @property
     def seconds(self) -> float:
@@ -283,6 +290,8 @@ class TwinSim:
         return out
 
     def _drain_mailbox(self) -> None:
+        if not self._mail_n.value:
+            return
         n = self.lib.twin_mailbox(self._h, self._mailbuf, len(self._mailbuf))
         if n:
             self._mail += self._mailbuf[:n]
@@ -425,9 +434,8 @@ class TwinSim:
             self._noise_until = end
 
     def _serve_fires(self) -> None:
-        while True:
-            n = self.lib.twin_pop_fire(self._h, self._t0.ctypes.data_as(_I64P), ctypes.byref(self._vs),
-                                       self._el, self._trig)
+        while self._ready.value:
+            n = self.lib.twin_pop_fire(self._h, self._t0p, ctypes.byref(self._vs), self._el, self._trig)
             if n < 0:
                 return
             t0 = int(self._t0[0])
@@ -478,7 +486,9 @@ class TwinSim:
 
     def _set_fence(self) -> None:
         fence = min(e for e, _ in self._pending) - FENCE_LEAD if self._pending else _NO_FENCE
-        self.lib.twin_set_fence(self._h, fence, self._fence_cb)
+        if fence != self._fence:  # (the harness clears it when reached)
+            self.lib.twin_set_fence(self._h, fence, self._fence_cb)
+            self._fence = fence
 
     def _collect(self, tick: int) -> None:
         """Add the rows of every call whose fence is at or before ``tick`` (waiting for them,
@@ -503,6 +513,7 @@ class TwinSim:
         # C++; it is kept and raised when that call returns (the fence stays cleared)
         try:
             self.echo_stats["fences"] += 1
+            self._fence = _NO_FENCE
             t = time.perf_counter()
             self._collect(self.tick)
             self.echo_stats["waited_s"] += time.perf_counter() - t
