@@ -90,3 +90,28 @@ def test_a_broken_echo_source_is_named(source, message):
             fixed_session(sim, 0.05, skip=True)
     finally:
         sim.close()
+
+
+class _NoSuchReflector:
+    rows_from_t0 = True
+
+    def fire(self, t0: int, elements: np.ndarray, delays: np.ndarray) -> np.ndarray:
+        raise ValueError("the scene has no such reflector")
+
+
+def test_a_failing_echo_source_over_usbip_disconnects_with_its_error():
+    """The twin's error reaches the driver at once as a disconnected device (the server answers
+    -ESHUTDOWN and keeps the error), not as a URB that is never answered."""
+    from multisonar.demo import demo_sensors
+    from multisonar.errors import DeviceDisconnected
+    from multisonar.twin import open_twin
+
+    with open_twin("corridor", echo_source=_NoSuchReflector()) as tw:
+        tw.device.configure(demo_sensors())
+        t = time.monotonic()
+        with pytest.raises(DeviceDisconnected):
+            tw.start()  # (its reply may come after the first pulse)
+            for _ in tw.device.stream(duration_s=60.0):
+                pass
+        assert time.monotonic() - t < 30
+        assert isinstance(tw.server.failure, TwinError) and "no such reflector" in str(tw.server.failure)

@@ -31,6 +31,7 @@ from typing import Any, Iterator
 import numpy as np
 
 from .constants import DEVICE_DECISION_LEAD, TICK_HZ
+from .errors import DeviceDisconnected
 
 #: the firmware's busy-budget window (sonar_app main.c BUSY_WINDOW, 10 ms)
 BUSY_WINDOW_TICKS = TICK_HZ // 100
@@ -274,15 +275,20 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
         start = tw.start()
         last = 0.0
         with RecordingWriter(out / "frames.msrec", meta) as rec:
-            for f in dev.stream(idle_timeout_s=600.0):
-                frames.append(f)
-                rec.write(f)
-                done = tw.sim.tick - start
-                if progress and time.time() - last > 0.5:
-                    last = time.time()
-                    _progress(done / TICK_HZ, duration, t_run, "RTL twin ")
-                if done >= total:
-                    break
+            try:
+                for f in dev.stream(idle_timeout_s=600.0):
+                    frames.append(f)
+                    rec.write(f)
+                    done = tw.sim.tick - start
+                    if progress and time.time() - last > 0.5:
+                        last = time.time()
+                        _progress(done / TICK_HZ, duration, t_run, "RTL twin ")
+                    if done >= total:
+                        break
+            except DeviceDisconnected:
+                if tw.server is not None and tw.server.failure is not None:
+                    raise tw.server.failure  # the twin's own error, not the USB symptom
+                raise
         wall_run = time.time() - t_run
         if progress:
             _progress(duration, duration, t_run, "RTL twin ")

@@ -478,7 +478,7 @@ class TwinSim:
             with _switch_lock:
                 if not _switch["users"]:
                     _switch["saved"] = sys.getswitchinterval()
-                    sys.setswitchinterval(min(_switch["saved"], 2e-4))
+                    sys.setswitchinterval(min(_switch["saved"], 5e-5))
                 _switch["users"] += 1
         self._pending.append((earliest, self._pool.submit(call, *args)))
         self.echo_stats["threaded"] += 1

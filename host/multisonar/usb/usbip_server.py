@@ -22,7 +22,9 @@ import errno
 import select
 import socket
 import struct
+import sys
 import threading
+import traceback
 from collections import deque
 from dataclasses import dataclass
 
@@ -69,6 +71,16 @@ class UsbipServer:
         self._threads: list[threading.Thread] = []
         self._conns: list[socket.socket] = []
         self.urbs = 0
+        #: the function's first unexpected exception; from then on every URB is answered
+        #: -ESHUTDOWN (the client sees the device gone) without calling the function again
+        self.failure: BaseException | None = None
+
+    def _fail(self, e: BaseException) -> int:
+        if self.failure is None:
+            self.failure = e
+            sys.stderr.write(f"usbip server: the device function failed, answering -ESHUTDOWN from now on: "
+                             f"{''.join(traceback.format_exception_only(e)).strip()}\n")
+        return -errno.ESHUTDOWN
 
     @property
     def url(self) -> str:
@@ -199,6 +211,9 @@ class UsbipServer:
                     urb.state = "polling"
                 data, status = b"", 0
                 while True:
+                    if self.failure is not None:
+                        data, status = b"", -errno.ESHUTDOWN
+                        break
                     try:
                         data = self.fn.bulk_in(urb.ep | 0x80, urb.length, 0.02)
                         break
@@ -212,6 +227,9 @@ class UsbipServer:
                         break
                     except Disconnected:
                         data, status = b"", -errno.ESHUTDOWN
+                        break
+                    except Exception as e:  # noqa: BLE001 (a broken function: the client sees it gone)
+                        data, status = b"", self._fail(e)
                         break
                 with cv:
                     queue.popleft()
@@ -237,7 +255,9 @@ class UsbipServer:
                 if cmd == CMD_SUBMIT:
                     flags, length, _sf, _np, _iv, setup = SUBMIT_HDR.unpack(recv_exact(conn, SUBMIT_HDR.size))
                     data = recv_exact(conn, length) if direction == DIR_OUT and length > 0 else b""
-                    if ep == 0:
+                    if self.failure is not None and (ep == 0 or direction == DIR_OUT):
+                        ret_submit(seqnum, ep, direction, -errno.ESHUTDOWN)
+                    elif ep == 0:
                         try:
                             out = self.fn.control(setup, data)
                             ret_submit(seqnum, 0, direction, 0, out[:length] if direction == DIR_IN else b"", len(data))
@@ -245,6 +265,8 @@ class UsbipServer:
                             ret_submit(seqnum, 0, direction, -errno.EPIPE)
                         except Disconnected:
                             ret_submit(seqnum, 0, direction, -errno.ESHUTDOWN)
+                        except Exception as e:  # noqa: BLE001
+                            ret_submit(seqnum, 0, direction, self._fail(e))
                     elif direction == DIR_OUT:
                         try:
                             self.fn.bulk_out(ep, data)
@@ -253,6 +275,8 @@ class UsbipServer:
                             ret_submit(seqnum, ep, DIR_OUT, -errno.EPIPE)
                         except Disconnected:
                             ret_submit(seqnum, ep, DIR_OUT, -errno.ESHUTDOWN)
+                        except Exception as e:  # noqa: BLE001
+                            ret_submit(seqnum, ep, DIR_OUT, self._fail(e))
                     else:
                         with cv:
                             queue.append(_InUrb(seqnum, ep, length))
