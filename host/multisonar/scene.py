@@ -59,6 +59,7 @@ import ast
 import math
 import operator
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -274,7 +275,16 @@ class Path2D:
         t = np.asarray(t, dtype=np.float64)
         if self.t.size == 1:
             return np.broadcast_to(self.xy[0], t.shape + (2,)).copy()
-        return np.stack([np.interp(t, self.t, self.xy[:, 0]), np.interp(t, self.t, self.xy[:, 1])], axis=-1)
+        x, y = self._columns
+        out = np.empty(t.shape + (2,))  # np.stack of the two interpolations, without its overhead
+        out[..., 0] = np.interp(t, self.t, x)
+        out[..., 1] = np.interp(t, self.t, y)
+        return out
+
+    @cached_property
+    def _columns(self) -> tuple[np.ndarray, np.ndarray]:
+        """x and y of the waypoints as contiguous arrays (what np.interp works on)."""
+        return np.ascontiguousarray(self.xy[:, 0]), np.ascontiguousarray(self.xy[:, 1])
 
     def speeds(self) -> np.ndarray:
         if self.t.size < 2:
@@ -350,41 +360,66 @@ class Scene:
         return bool(np.all(self.trajectory_pose == self.trajectory_pose[0]))
 
     # ---- motion
+    # pose(), velocity() and element_poses() run thousands of times per second in the acoustic
+    # model's inner loops, so the per-scene constants they need are computed once (a scene's
+    # arrays are treated as immutable after loading).
+    @cached_property
+    def _trajectory_columns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """x, y, heading of the waypoints as contiguous arrays (what np.interp works on)."""
+        return tuple(np.ascontiguousarray(self.trajectory_pose[:, k]) for k in range(3))  # type: ignore[return-value]
+
+    @cached_property
+    def _segment_rates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """vx, vy, heading rate of each segment, padded with a zero entry at both ends so that
+        ``searchsorted(trajectory_t, t, side="right")`` indexes them directly (no motion before
+        the first waypoint and from the last one on)."""
+        tt, p = self.trajectory_t, self.trajectory_pose
+        rates = np.diff(p, axis=0) / np.diff(tt)[:, None]
+        padded = np.concatenate([np.zeros((1, 3)), rates, np.zeros((1, 3))])
+        return tuple(np.ascontiguousarray(padded[:, k]) for k in range(3))  # type: ignore[return-value]
+
     def pose(self, t: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Robot pose (x, y, heading) at scene time(s) ``t`` (any shape, vectorised)."""
         t = np.asarray(t, dtype=np.float64)
         tt, p = self.trajectory_t, self.trajectory_pose
         if tt.size == 1:
             return tuple(np.full(t.shape, p[0, k]) for k in range(3))  # type: ignore[return-value]
-        return tuple(np.interp(t, tt, p[:, k]) for k in range(3))  # type: ignore[return-value]
+        return tuple(np.interp(t, tt, col) for col in self._trajectory_columns)  # type: ignore[return-value]
 
     def velocity(self, t: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Robot velocity (vx, vy, heading rate) at ``t`` (right-continuous at waypoints)."""
         t = np.asarray(t, dtype=np.float64)
-        tt, p = self.trajectory_t, self.trajectory_pose
+        tt = self.trajectory_t
         if tt.size == 1:
             return tuple(np.zeros(t.shape) for _ in range(3))  # type: ignore[return-value]
-        rates = np.diff(p, axis=0) / np.diff(tt)[:, None]
-        seg = np.searchsorted(tt, t, side="right") - 1
-        inside = (seg >= 0) & (seg < tt.size - 1)
-        seg = np.clip(seg, 0, tt.size - 2)
-        return tuple(np.where(inside, rates[seg, k], 0.0) for k in range(3))  # type: ignore[return-value]
+        seg = np.searchsorted(tt, t, side="right")
+        if t.ndim == 0:
+            return tuple(np.asarray(r[seg]) for r in self._segment_rates)  # type: ignore[return-value]
+        return tuple(r.take(seg) for r in self._segment_rates)  # type: ignore[return-value]
 
     def element_poses(self, t: Any, elements: Any = None) -> tuple[np.ndarray, np.ndarray]:
         """World positions (..., E, 2) and axis angles (..., E) of elements at time(s) t.
 
         With ``elements`` an int array broadcastable against ``t``, one element per time."""
-        x, y, h = self.pose(t)
+        return self.place_elements(*self.pose(t), elements)
+
+    def place_elements(self, x: Any, y: Any, h: Any, elements: Any = None) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`element_poses` for robot poses (x, y, heading) already looked up with
+        :meth:`pose` (callers that also need the robot pose look the trajectory up once)."""
         if elements is None:
             pos, ax = self.layout.positions, self.layout.axes
             x, y, h = x[..., None], y[..., None], h[..., None]
         else:
             idx = np.asarray(elements, dtype=np.intp)
-            pos, ax = self.layout.positions[idx], self.layout.axes[idx]
+            pos, ax = self.layout.positions.take(idx, axis=0), self.layout.axes.take(idx)
         c, s = np.cos(h), np.sin(h)
-        wx = x + c * pos[..., 0] - s * pos[..., 1]
-        wy = y + s * pos[..., 0] + c * pos[..., 1]
-        return np.stack([wx, wy], axis=-1), h + ax
+        px, py = pos[..., 0], pos[..., 1]
+        wx = x + c * px - s * py
+        wy = y + s * px + c * py
+        xy = np.empty(np.shape(wx) + (2,))  # np.stack([wx, wy], axis=-1), without its overhead
+        xy[..., 0] = wx
+        xy[..., 1] = wy
+        return xy, h + ax
 
     def people_positions(self, t: Any) -> np.ndarray:
         """Centres of all people at time(s) t: shape t.shape + (n_people, 2)."""
