@@ -2,29 +2,22 @@
 
 Unlike a DEVLIST-only backend it imports the device and reads its **real** descriptors with
 GET_DESCRIPTOR control transfers (device, configuration, strings), so ``dev.product``,
-``dev.serial_number`` etc. work as with libusb. Transfers are synchronous (pyusb's model), but
-bulk IN reads ahead: a read keeps ``read_ahead`` (2) URBs of its length queued on its endpoint,
-as a host controller with queued transfers polls the device while the application handles the
-last one; replies are matched by sequence number. A read of another length, a standard control
-request (clearing a halt, setting the configuration) or closing the device unlinks them first;
-data they brought is returned by the next reads, in order, never dropped (but at close). A bulk IN that times out is unlinked, and if the device
-completed it in the meantime the data is returned rather than lost. Errors map to pyusb's:
-timeout -> ``USBTimeoutError`` (errno ETIMEDOUT), STALL -> ``USBError`` EPIPE, lost connection
--> ``USBError`` ENODEV.
+``dev.serial_number`` etc. work as with libusb. Transfers are synchronous (pyusb's model):
+one URB at a time; a bulk IN that times out is unlinked, and if the device completed it in the
+meantime the data is returned rather than lost. Errors map to pyusb's: timeout ->
+``USBTimeoutError`` (errno ETIMEDOUT), STALL -> ``USBError`` EPIPE, lost connection ->
+``USBError`` ENODEV.
 """
 
 from __future__ import annotations
 
-import contextlib
 import errno
 import select
 import socket
 import struct
 import threading
 import time
-from collections import deque
 from types import SimpleNamespace
-from typing import Iterator
 
 import usb.backend
 import usb.core
@@ -45,14 +38,10 @@ def _nodev(msg: str) -> usb.core.USBError:
 class _Session:
     """One imported device: a TCP connection in the URB phase."""
 
-    def __init__(self, host: str, port: int, busid: str, timeout: float, read_ahead: int = 2) -> None:
+    def __init__(self, host: str, port: int, busid: str, timeout: float) -> None:
         self.lock = threading.Lock()
         self.seq = 0
         self.in_flight: dict[int, int] = {}  # seqnum -> direction of URBs without their RET_SUBMIT
-        self.replies: dict[int, tuple[int, int, bytes]] = {}  # RET_SUBMITs no caller has taken yet
-        self.read_ahead = max(1, int(read_ahead))
-        self.queued: dict[int, deque[tuple[int, int]]] = {}  # IN endpoint -> (seqnum, length), oldest first
-        self.early: dict[int, deque[tuple[int, int, bytes]]] = {}  # IN endpoint -> replies of unlinked reads
         try:
             self.sock = socket.create_connection((host, port), timeout=timeout)
         except OSError as e:
@@ -111,90 +100,28 @@ class _Session:
 
     def transfer(self, ep: int, direction: int, length: int, timeout_s: float | None, setup: bytes = b"\0" * 8,
                  data: bytes = b"") -> tuple[int, int, bytes]:
-        """Submit one URB and wait; returns (status, actual, data). Raises USBTimeoutError.
-        A standard control request first unlinks the reads queued ahead."""
-        with self._session_call():
-            if ep == 0 and setup[0] & 0x60 == 0:
-                self._unqueue_all()
-            seq = self._send_submit(ep, direction, length, setup, data)
-            return self._finish(seq, None if timeout_s is None else time.monotonic() + timeout_s)
-
-    def read(self, ep: int, length: int, timeout_s: float | None) -> tuple[int, int, bytes]:
-        """One bulk IN of ``length`` on ``ep`` (0x80 set), answered from the URBs queued ahead;
-        returns (status, actual, data)."""
-        with self._session_call():
-            queued = self.queued.setdefault(ep, deque())
-            if queued and queued[0][1] != length:
-                self._unqueue(ep)
-            early = self.early.get(ep)
-            if early:
-                status, actual, data = early.popleft()
-                if len(data) > length:
-                    raise usb.core.USBError(f"bulk IN 0x{ep:02X}: {len(data)} bytes read ahead do not fit the "
-                                            f"{length}-byte buffer", errno.EOVERFLOW, errno.EOVERFLOW)
-                return status, actual, data
-            while len(queued) < self.read_ahead:
-                queued.append((self._send_submit(ep, DIR_IN, length), length))
-            seq, _ = queued.popleft()
-            try:
-                return self._finish(seq, None if timeout_s is None else time.monotonic() + timeout_s)
-            except usb.core.USBError:
-                self._unqueue(ep)  # (a timeout: none stays queued behind it)
-                early = self.early.get(ep)
-                if early:
-                    return early.popleft()  # what the ones behind it brought meanwhile
-                raise
-
-    @contextlib.contextmanager
-    def _session_call(self) -> Iterator[None]:
+        """Submit one URB and wait; returns (status, actual, data). Raises USBTimeoutError."""
         if self.closed:
             raise _nodev("connection closed")
         with self.lock:
             try:
-                yield
+                seq = self._send_submit(ep, direction, length, setup, data)
+                deadline = None if timeout_s is None else time.monotonic() + timeout_s
+                while True:
+                    try:
+                        cmd, rseq, status, actual, rdata = self._recv_ret(deadline)
+                    except socket.timeout:
+                        return self._unlink(seq)
+                    if cmd == RET_SUBMIT and rseq == seq:
+                        return status, actual, rdata
+                    # stray RET_UNLINK of an earlier timed-out URB: ignore
             except (OSError, ConnectionError, struct.error) as e:
                 if isinstance(e, usb.core.USBError):
                     raise
                 self.close()
                 raise _nodev(f"connection lost: {e}") from None
 
-    def unqueue(self) -> None:
-        """Unlink every read queued ahead (their data goes to the next reads)."""
-        if not self.closed:
-            with self._session_call():
-                self._unqueue_all()
-
-    def _unqueue_all(self) -> None:
-        for ep in list(self.queued):
-            self._unqueue(ep)
-
-    def _unqueue(self, ep: int) -> None:
-        queued = self.queued.get(ep)
-        while queued:
-            seq, _ = queued.popleft()
-            try:
-                r = self._unlink(seq)
-            except usb.core.USBTimeoutError:
-                continue  # unlinked before it completed
-            if r[0] != 0 or r[2]:
-                self.early.setdefault(ep, deque()).append(r)
-
-    def _finish(self, seq: int, deadline: float | None) -> tuple[int, int, bytes]:
-        """Wait for URB ``seq``'s reply (keeping others' for their callers); past ``deadline``
-        unlink it."""
-        while seq not in self.replies:
-            try:
-                cmd, rseq, status, actual, rdata = self._recv_ret(deadline)
-            except socket.timeout:
-                return self._unlink(seq)
-            if cmd == RET_SUBMIT:
-                self.replies[rseq] = (status, actual, rdata)
-            # else a stray RET_UNLINK of an earlier timed-out URB: ignore
-        return self.replies.pop(seq)
-
     def _unlink(self, target: int) -> tuple[int, int, bytes]:
-        if target in self.replies:
-            return self.replies.pop(target)
         self.seq = (self.seq + 1) & 0xFFFFFFFF or 1
         useq = self.seq
         self.sock.sendall(URB_HDR.pack(CMD_UNLINK, useq, self.devid, 0, 0) + struct.pack(">I24x", target))
@@ -207,8 +134,6 @@ class _Session:
                 raise _nodev("no answer to CMD_UNLINK") from None
             if cmd == RET_SUBMIT and rseq == target:  # completed before the unlink: keep the data
                 return status, actual, rdata
-            if cmd == RET_SUBMIT:
-                self.replies[rseq] = (status, actual, rdata)
             if cmd == RET_UNLINK and rseq == useq:
                 self.in_flight.pop(target, None)  # unlinked: no RET_SUBMIT follows
                 raise usb.core.USBTimeoutError("USB/IP transfer timed out", errno.ETIMEDOUT, errno.ETIMEDOUT)
@@ -316,8 +241,6 @@ class UsbipBackend(usb.backend.IBackend):
 
     def close_device(self, dev_handle: _RemoteDev) -> None:
         if dev_handle.session is not None:
-            with contextlib.suppress(usb.core.USBError):
-                dev_handle.session.unqueue()
             dev_handle.session.close()
             dev_handle.session = None
 
@@ -368,7 +291,7 @@ class UsbipBackend(usb.backend.IBackend):
 
     def bulk_read(self, dev_handle: _RemoteDev, ep: int, intf: int, buff, timeout: int) -> int:
         s = dev_handle.ensure()
-        status, _actual, data = s.read(ep | 0x80, len(buff), (timeout or 60_000) / 1000.0)
+        status, _actual, data = s.transfer(ep | 0x80, DIR_IN, len(buff), (timeout or 60_000) / 1000.0)
         if status != 0:
             code = errno.ENODEV if status == -errno.ESHUTDOWN else errno.EPIPE
             raise usb.core.USBError(f"bulk IN 0x{ep:02X} failed (status {status})", code, code)
