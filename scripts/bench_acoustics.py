@@ -7,7 +7,7 @@ Prints markdown tables:
  2. cost against the number of reflectors of each kind (walls with and without
     second-order reflections, points, cylinders, people), static and moving robot.
 
-    .venv/bin/python scripts/bench_acoustics.py [--quick] [--plot out.png]
+    .venv/bin/python scripts/bench_acoustics.py [--quick] [--plot out.png] [--json out.json]
 
 Timing: best of several batches of ``--firings`` firings each (wall clock, one core).
 """
@@ -33,6 +33,7 @@ def rate(model: AcousticModel, firings: list[Firing], repeats: int) -> float:
     best = math.inf
     model.fire(firings[0])  # warm-up
     for _ in range(repeats):
+        model._components.clear()  # the model keeps recent firings' geometry: time it, not the cache
         t = time.perf_counter()
         for f in firings:
             model.fire(f)
@@ -87,7 +88,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=3, help="batches (best is reported)")
     ap.add_argument("--quick", action="store_true", help="fewer sizes and firings")
     ap.add_argument("--plot", type=Path, help="write a cost-vs-reflectors plot (PNG)")
+    ap.add_argument("--json", type=Path, help="write both tables as JSON")
     args = ap.parse_args(argv)
+    out: dict = {"scenes": [], "reflectors": []}
     nf = 20 if args.quick else args.firings
     reps = 2 if args.quick else args.repeats
 
@@ -102,6 +105,10 @@ def main(argv: list[str] | None = None) -> int:
         r1, r3 = rate(m, f1, reps), rate(m, f3, reps)
         npulse = np.mean([m.fire(f).size for f in f3])
         print(f"| {name} | {sc.n_reflectors} | {'static' if sc.is_static else 'moving'} | {r1:,.0f} | {r3:,.0f} | {npulse:.1f} |")
+        out["scenes"].append({"scene": name, "reflectors": sc.n_reflectors, "moving": not sc.is_static,
+                              "firings_per_s_1_element": r1, "firings_per_s_3_elements": r3,
+                              "ms_per_firing_1_element": 1e3 / r1, "ms_per_firing_3_elements": 1e3 / r3,
+                              "pulses_per_firing_3_elements": float(npulse)})
 
     sizes = [0, 1, 4, 16] if args.quick else [0, 1, 2, 4, 8, 16, 32, 64]
     kinds = ["walls", "walls (no 2nd order)", "points", "cylinders", "people"]
@@ -118,9 +125,16 @@ def main(argv: list[str] | None = None) -> int:
                 fs = firings_for(sc, max(nf // 2, 5), [23, 0, 1])
                 us = 1e6 / rate(m, fs, reps)
                 results.setdefault((k, moving), []).append(us)
+                out["reflectors"].append({"kind": k, "moving": moving, "reflectors": n, "us_per_firing": us})
                 row.append(f"{us:,.0f}")
         print(f"| {n} | " + " | ".join(row) + " |")
 
+    if args.json:
+        import json
+
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(out, indent=2) + "\n")
+        print(f"\nwrote {args.json}")
     if args.plot:
         import matplotlib
 
