@@ -379,6 +379,7 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
     lat_us = commit / (TICK_HZ / 1e6)
     metrics = {
         "sonar_s": duration, "wall_s": round(wall_run, 3), "sonar_s_per_wall_s": round(duration / wall_run, 5),
+        "echo_thread": {k: round(v, 3) if isinstance(v, float) else v for k, v in es.items()},
         "fifo_overflows": int(counters["fifo_overflows"]), "frames_lost": int(counters["host_lost"]),
         "frames_dropped": int(counters["frames_dropped"]), "watchdog": int(counters["watchdog"]),
         "frames_flagged_lost": int(sum(1 for f in pulse_frames if f.flags & P.FRAME_LOST)),
