@@ -248,6 +248,31 @@ def run_golden(scene: Any, duration: float, *, progress: bool = True, sensors: s
                    fixes=fixes, events=ev)
 
 
+def _thread_cpu() -> dict[int, float]:
+    """CPU seconds of each thread of this process by native id (Linux /proc; {} elsewhere)."""
+    import os
+
+    out: dict[int, float] = {}
+    try:
+        hz = os.sysconf("SC_CLK_TCK")
+        for d in Path("/proc/self/task").iterdir():
+            fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
+            out[int(d.name)] = (int(fields[11]) + int(fields[12])) / hz  # utime + stime
+    except (OSError, ValueError, IndexError):
+        return {}
+    return out
+
+
+def _thread_busy(before: dict[int, float], after: dict[int, float], wall: float) -> dict[str, float]:
+    """Each named thread's CPU time over ``wall`` seconds, those above 1 %, busiest first."""
+    import threading
+
+    names = {t.native_id: t.name for t in threading.enumerate()}
+    share = {names.get(tid, str(tid)): (cpu - before.get(tid, 0.0)) / wall for tid, cpu in after.items()} \
+        if wall > 0 else {}
+    return {k: round(v, 3) for k, v in sorted(share.items(), key=lambda kv: -kv[1]) if v >= 0.01}
+
+
 def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, usbip: bool = True,
              progress: bool = True, sensors: str = "demo", echo_source: Any = None) -> DemoRun:
     """The full-system twin on the demo's sensors: configured, started and streamed through the
@@ -271,7 +296,7 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
         meta = {"format": RECORDING_FORMAT, "protocol_version": P.PROTOCOL_VERSION, "url": tw.url, "started_unix": time.time(),
                 "device_info": dev.info().__dict__, "sensors": dev._sensor_meta(), "scene": scene.name,
                 "source": "multisonar demo --backend twin"}
-        t_run = time.time()
+        t_run, cpu0 = time.time(), _thread_cpu()
         start = tw.start()
         last = 0.0
         with RecordingWriter(out / "frames.msrec", meta) as rec:
@@ -290,6 +315,7 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
                     raise tw.server.failure  # the twin's own error, not the USB symptom
                 raise
         wall_run = time.time() - t_run
+        threads_busy = _thread_busy(cpu0, _thread_cpu(), wall_run)
         if progress:
             _progress(duration, duration, t_run, "RTL twin ")
             sys.stderr.write("\n")
@@ -343,6 +369,10 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
                      f"{int(np.sum(geo_what == 3))} stale (re-aimed twice since).")
         notes.append("Harness: " + ", ".join(f"{k} {v}" for k, v in harness.items()) + f", pulses fired "
                      f"{len(tw.sim.fires)}, comparator pulses driven {tw.sim.echo_rows}.")
+        if threads_busy:
+            notes.append("Threads busy while streaming (CPU time / wall time; the twin runs in usbip-in over USB/IP, "
+                         "in MainThread in-process): "
+                         + ", ".join(f"{k} {v:.0%}" for k, v in threads_busy.items()) + ".")
         es = tw.sim.echo_stats
         notes.append(f"Acoustic model: {es['calls']} calls, {es['threaded']} on the echo thread (docs/twin.md); "
                      f"the harness reached {es['fences']} fences and waited there {es['waited_s']:.2f} s of the "
@@ -380,6 +410,7 @@ def run_twin(scene: Any, duration: float, *, out: Path, fst: str | None = None, 
     metrics = {
         "sonar_s": duration, "wall_s": round(wall_run, 3), "sonar_s_per_wall_s": round(duration / wall_run, 5),
         "echo_thread": {k: round(v, 3) if isinstance(v, float) else v for k, v in es.items()},
+        "thread_busy": threads_busy,
         "fifo_overflows": int(counters["fifo_overflows"]), "frames_lost": int(counters["host_lost"]),
         "frames_dropped": int(counters["frames_dropped"]), "watchdog": int(counters["watchdog"]),
         "frames_flagged_lost": int(sum(1 for f in pulse_frames if f.flags & P.FRAME_LOST)),
