@@ -13,7 +13,8 @@
 // A pulse is handed to Python ("fire") once all its elements have been armed: pulse_o gives
 // t0, the sensor and its transmit mask; the elements' triggers follow one per clock in the
 // order the pulses were decided. twin_run() returns as soon as a fire is ready (the decision
-// is LEAD = 4096 ticks before t0, so Python adds the echoes before the first can start).
+// is LEAD = 32768 ticks before t0, so Python adds the echoes before the first can start: at
+// once, or from its echo thread when the clock reaches the fence, twin_set_fence).
 #include <cstdint>
 #include <cstdlib>
 #include <algorithm>
@@ -1195,8 +1196,6 @@ void twin_reset(void* p, int cycles) {
   t->ready_n = 0;
 }
 
-int64_t twin_tick(void* p) { return static_cast<Twin*>(p)->tick; }
-
 // The address of a harness variable the host reads in place between calls, without a call
 // per read: 0 the tick (int64), 1 the clock count (uint64), 2 the fires ready (int64), 3 the
 // mailbox words waiting (uint32).
@@ -1210,7 +1209,7 @@ void* twin_field(void* p, int which) {
     default: return nullptr;
   }
 }
-uint64_t twin_cycles(void* p) { return static_cast<Twin*>(p)->cycles; }
+
 int twin_trap(void* p) { return static_cast<Twin*>(p)->top->trap_o; }
 int twin_configured(void* p) { return static_cast<Twin*>(p)->top->configured_o; }
 int twin_led(void* p) { return static_cast<Twin*>(p)->top->led_o; }
@@ -1334,8 +1333,6 @@ int twin_skip(void* p, int on, uint32_t poll_lo, uint32_t poll_hi, uint32_t anch
   std::memset(t->anchor_at, 0, sizeof(t->anchor_at));
   return found;
 }
-
-int twin_fires_ready(void* p) { return static_cast<int>(static_cast<Twin*>(p)->ready.size()); }
 
 // Pop the oldest ready fire: returns its element count (-1 if none); t0, sensor, elements and
 // their absolute trigger ticks.
