@@ -75,8 +75,13 @@ class UsbipServer:
         #: -ESHUTDOWN (the client sees the device gone) without calling the function again
         self.failure: BaseException | None = None
 
-    def _fail(self, e: BaseException) -> int:
-        if self.failure is None:
+    def _status(self, e: Exception) -> int:
+        """The URB status for the function's exception: a stall or time-out EPIPE, a disconnect
+        ESHUTDOWN; anything else is a broken function (kept in ``failure``, printed once): also
+        ESHUTDOWN, for this URB and every later one."""
+        if isinstance(e, (Stall, UsbTimeout)):
+            return -errno.EPIPE
+        if not isinstance(e, Disconnected) and self.failure is None:
             self.failure = e
             sys.stderr.write(f"usbip server: the device function failed, answering -ESHUTDOWN from now on: "
                              f"{''.join(traceback.format_exception_only(e)).strip()}\n")
@@ -222,14 +227,8 @@ class UsbipServer:
                             if urb.unlink_seq is not None or gone.is_set() or self._stop.is_set():
                                 data, status = b"", None  # type: ignore[assignment]
                                 break
-                    except Stall:
-                        data, status = b"", -errno.EPIPE
-                        break
-                    except Disconnected:
-                        data, status = b"", -errno.ESHUTDOWN
-                        break
-                    except Exception as e:  # noqa: BLE001 (a broken function: the client sees it gone)
-                        data, status = b"", self._fail(e)
+                    except Exception as e:  # noqa: BLE001 (a stall, a disconnect or a broken function)
+                        data, status = b"", self._status(e)
                         break
                 with cv:
                     queue.popleft()
@@ -261,22 +260,14 @@ class UsbipServer:
                         try:
                             out = self.fn.control(setup, data)
                             ret_submit(seqnum, 0, direction, 0, out[:length] if direction == DIR_IN else b"", len(data))
-                        except (Stall, UsbTimeout):
-                            ret_submit(seqnum, 0, direction, -errno.EPIPE)
-                        except Disconnected:
-                            ret_submit(seqnum, 0, direction, -errno.ESHUTDOWN)
                         except Exception as e:  # noqa: BLE001
-                            ret_submit(seqnum, 0, direction, self._fail(e))
+                            ret_submit(seqnum, 0, direction, self._status(e))
                     elif direction == DIR_OUT:
                         try:
                             self.fn.bulk_out(ep, data)
                             ret_submit(seqnum, ep, DIR_OUT, 0, actual=len(data))
-                        except (Stall, UsbTimeout):
-                            ret_submit(seqnum, ep, DIR_OUT, -errno.EPIPE)
-                        except Disconnected:
-                            ret_submit(seqnum, ep, DIR_OUT, -errno.ESHUTDOWN)
                         except Exception as e:  # noqa: BLE001
-                            ret_submit(seqnum, ep, DIR_OUT, self._fail(e))
+                            ret_submit(seqnum, ep, DIR_OUT, self._status(e))
                     else:
                         with cv:
                             queue.append(_InUrb(seqnum, ep, length))
