@@ -166,6 +166,20 @@ struct TxGate<
     return &r->MS_SONAR(u_tx__DOT__twin_wake);  // elements a fire or the reset reaches (32 bits)
   }
 };
+// The sonar core's register block's clock gate (rtl/ms_sonar_core.sv, MS_TWIN_CSR_GATE): its
+// clock and Verilator's record of it (what keeps it clocked is found by scope name).
+template <class R, class = void>
+struct CsrGate {
+  static bool bind(R*, uint8_t**, uint8_t**) { return false; }
+};
+template <class R>
+struct CsrGate<R, std::void_t<decltype(R::MS_SONAR(twin_csr_clk))>> {
+  static bool bind(R* r, uint8_t** clk, uint8_t** seen) {
+    *clk = &r->MS_SONAR(twin_csr_clk);
+    *seen = &r->MS_SONAR_SEEN(twin_csr_clk);
+    return true;
+  }
+};
 #undef MS_SONAR
 #undef MS_SONAR_SEEN
 #undef MS_TX_BIND
@@ -227,6 +241,7 @@ using TwinSonarGate = SonarGate<Vms_twin_top___024root>;
 using TwinRxGate = RxGate<Vms_twin_top___024root>;
 using TwinUsbGate = UsbGate<Vms_twin_top___024root>;
 using TwinTxGate = TxGate<Vms_twin_top___024root>;
+using TwinCsrGate = CsrGate<Vms_twin_top___024root>;
 
 constexpr int kNumCh = 24;
 // A bank of gated clocks (up to 24): which are held, and the rising edges of the others.
@@ -456,6 +471,17 @@ struct Twin {
   SonarIn sonar_in[kSonarInputs];     // the SoC's outputs to it in the held clocks
   uint64_t sonar_held_clocks = 0, sonar_holds = 0;
   uint64_t sonar_bus_at = 0;          // the last clock the SoC's bridge to it was not idle
+  // the sonar core's register block's clock gate: held while nothing is in it (twin_busy) and
+  // its inputs (twin_in) have been those of its last edges for kCsrQuiet clocks; never clocked
+  // while the core's clock is held
+  uint8_t *csr_clk = nullptr, *csr_seen = nullptr;
+  Probe csr_busy;
+  const void* csr_in = nullptr;
+  size_t csr_in_bytes = 0;
+  uint32_t csr_in_last[8] = {};
+  bool csr_gate = true;
+  uint64_t csr_busy_at = 0;           // the last clock it was busy or its inputs changed
+  uint64_t csr_held = 0;              // clocks held (the core clocked)
   uint64_t anchor_at[3] = {};       // the last three clocks at the anchor (newest first)
   uint64_t skips = 0, skipped = 0;
   uint32_t mailbox[4096];
@@ -545,6 +571,7 @@ struct Twin {
       rx_gate.level(0);
       usb_gate.level(0);
       if (sg.clk) *sg.clk = 0;
+      if (csr_clk) *csr_clk = 0;
       top->eval();
       ctx->timeInc(10417);
       dump();
@@ -554,6 +581,7 @@ struct Twin {
       rx_gate.level(1);
       usb_gate.level(1);
       if (sg.clk) *sg.clk = 1;
+      if (csr_clk) *csr_clk = 1;
       top->eval();
       ctx->timeInc(10416);
       dump();
@@ -613,6 +641,7 @@ struct Twin {
         *sg.clk = 1;
         *sg.seen = 0;
       }
+      if (csr_clk && !sonar_held) csr_edge();
       top->clk_i = 1;
       top->eval();
       if (hold) TwinCpuGate::after(root);
@@ -643,6 +672,23 @@ struct Twin {
     ++cycles;
     tick = sonar_held ? tick + 1 : static_cast<int64_t>(top->tick_o);  // (tick_o stands still)
     observe();
+  }
+
+  // The sonar core's register block's clock in a clock the core's has its edge: held (no edge)
+  // from kCsrQuiet clocks after it was last busy or its inputs changed. Its pipelines (request
+  // slice, register block, tables, answer slice: five deep) have drained by then, so with the
+  // same inputs its state would stay as it is.
+  void csr_edge() {
+    if (csr_busy.u8() || std::memcmp(csr_in, csr_in_last, csr_in_bytes) != 0) {
+      csr_busy_at = cycles;
+      std::memcpy(csr_in_last, csr_in, csr_in_bytes);
+    }
+    if (csr_gate && csr_busy_at + kCsrQuiet <= cycles) {
+      ++csr_held;
+      return;
+    }
+    *csr_clk = 1;
+    *csr_seen = 0;
   }
 
   // The profiled registers by scope name (the conditioners', transmit channels', the engine's,
@@ -678,6 +724,11 @@ struct Twin {
         found += cpu_wait.p != nullptr;
       } else if (ends(".u_soc.u_sonar_bridge")) {
         sonar_bridge = probe(sc, "state_q");  // (the sonar core's gate: not counted here)
+      } else if (ends(".u_sonar.u_csr")) {  // (its register block's gate: not counted here)
+        csr_busy = probe(sc, "twin_busy");
+        const VerilatedVar* v = sc->varFind("twin_in");
+        csr_in = v ? v->datap() : nullptr;
+        csr_in_bytes = v ? v->totalSize() : 0;
       }
     }
     return found;
@@ -702,6 +753,11 @@ struct Twin {
     bind_skip();
     gate(usb_gate, true);
     TwinSonarGate::bind(root, &sg);  // (held only by the skip's check: it needs the skip's refs)
+    // the register block's: driven only if the model has all it reads
+    if (!TwinCsrGate::bind(root, &csr_clk, &csr_seen) || csr_busy.bytes != 1 || !csr_in ||
+        csr_in_bytes > sizeof csr_in_last) {
+      csr_clk = csr_seen = nullptr;
+    }
   }
   // on or off; returns whether the model has the gate
   bool gate(GatedClocks& g, bool on) {
@@ -794,7 +850,7 @@ struct Twin {
   // kReplay clocks) and the longest where nothing in the core limits it (it ends when the SoC
   // addresses it)
   static constexpr int64_t kMinHold = 128, kHoldMax = int64_t{1} << 40;
-  static constexpr uint64_t kCpuQuiet = 16, kUsbQuiet = 16;
+  static constexpr uint64_t kCpuQuiet = 16, kUsbQuiet = 16, kCsrQuiet = 16;
 
   // The CPU has waited in its WAIT read for kCpuQuiet clocks (cpu_busy_at brought up to date
   // for the current clock): the skip's and the CPU gate's test, and where a sonar hold ends.
@@ -1023,9 +1079,14 @@ struct Twin {
       TwinCpuGate::edge(root, false);
       *sg.clk = 1;
       *sg.seen = 0;
+      if (csr_clk) {  // (the register block with it: at its calm, an edge changes nothing)
+        *csr_clk = 1;
+        *csr_seen = 0;
+      }
       top->eval();
       TwinCpuGate::after(root);
     }
+    csr_busy_at = cycles;  // (its inputs of the replay were not compared)
     if (h > whole) {  // the replay's registers as an ungated run leaves them (zero), settled
       sonar_replay(false, SonarIn());
       Vms_twin_top___024root___eval_settle(&root->vlSymsp->TOP);
@@ -1219,7 +1280,8 @@ int twin_led(void* p) { return static_cast<Twin*>(p)->top->led_o; }
 // 6 its first start tick, 7 skips of calm clocks, 8 clocks skipped, 9 clocks the CPU's clock was
 // held, 10 clocks the receive conditioners' clock was held, 11 transmit element clocks held (one
 // per element and clock), 12 clocks the USB device's clock was held, 13 clocks the sonar core's
-// clock was held, 14 its holds.
+// clock was held, 14 its holds, 15 clocks its register block's clock was held (the core's
+// clocked).
 uint64_t twin_counter(void* p, int which) {
   auto* t = static_cast<Twin*>(p);
   switch (which) {
@@ -1238,6 +1300,7 @@ uint64_t twin_counter(void* p, int which) {
     case 12: return t->usb_gate.held_clocks;
     case 13: return t->sonar_held_clocks;
     case 14: return t->sonar_holds;
+    case 15: return t->csr_held;
     default: return 0;
   }
 }
@@ -1250,15 +1313,20 @@ int twin_cpu_gate(void* p, int on) {
   return TwinCpuGate::kPresent ? 1 : 0;
 }
 
-// The receiver's (bank 0), the transmitter's (1), the USB device's (2) or the sonar core's (3)
-// clock gates on or off (on by default; off: clocked in every clock). Returns whether the model
-// has them. The sonar core's is held only while the skip is on (twin_skip).
+// The receiver's (bank 0), the transmitter's (1), the USB device's (2), the sonar core's (3) or
+// its register block's (4) clock gates on or off (on by default; off: clocked in every clock).
+// Returns whether the model has them. The sonar core's is held only while the skip is on
+// (twin_skip).
 int twin_clock_gate(void* p, int bank, int on) {
   auto* t = static_cast<Twin*>(p);
   if (bank == 3) {
     t->sonar_gate = on != 0;
     if (!on) t->sonar_catch_up();
     return t->sg.clk ? 1 : 0;
+  }
+  if (bank == 4) {
+    t->csr_gate = on != 0;
+    return t->csr_clk ? 1 : 0;
   }
   return t->gate(bank == 0 ? t->rx_gate : bank == 1 ? t->tx_gate : t->usb_gate, on != 0) ? 1 : 0;
 }
