@@ -166,18 +166,17 @@ struct TxGate<
     return &r->MS_SONAR(u_tx__DOT__twin_wake);  // elements a fire or the reset reaches (32 bits)
   }
 };
-// The sonar core's register block's clock gate (rtl/ms_sonar_core.sv, MS_TWIN_CSR_GATE): its
-// clock and Verilator's record of it (what keeps it clocked is found by scope name).
+// The clock of the sonar core's register block (rtl/ms_sonar_core.sv, MS_TWIN_CSR_GATE) and
+// Verilator's record of it (what keeps it clocked is found by scope name, QuietGate).
 template <class R, class = void>
 struct CsrGate {
-  static bool bind(R*, uint8_t**, uint8_t**) { return false; }
+  static void bind(R*, uint8_t**, uint8_t**) {}
 };
 template <class R>
 struct CsrGate<R, std::void_t<decltype(R::MS_SONAR(twin_csr_clk))>> {
-  static bool bind(R* r, uint8_t** clk, uint8_t** seen) {
+  static void bind(R* r, uint8_t** clk, uint8_t** seen) {
     *clk = &r->MS_SONAR(twin_csr_clk);
     *seen = &r->MS_SONAR_SEEN(twin_csr_clk);
-    return true;
   }
 };
 #undef MS_SONAR
@@ -272,6 +271,52 @@ struct GatedClocks {
   }
   void level(uint8_t v) {  // (tracing: both edges evaluated, nothing held)
     for (int i = 0; i < n; ++i) *clk[i] = v;
+  }
+};
+
+// A unit's clock held while it is quiet (the sonar core's register block, MS_TWIN_CSR_GATE):
+// kQuiet clocks after the unit was last busy (twin_busy: the reset, a request, a strobe) or its
+// other inputs (twin_in) changed. Its pipelines are shorter than that, so with the same inputs
+// its state would stay as it is.
+struct QuietGate {
+  static constexpr uint64_t kQuiet = 16;
+  uint8_t *clk = nullptr, *seen = nullptr;  // its clock and Verilator's record of it
+  const uint8_t* busy = nullptr;
+  const void* in = nullptr;
+  size_t in_bytes = 0;
+  uint32_t in_last[8] = {};
+  bool on = true;
+  uint64_t busy_at = 0;  // the last clock it was busy or its inputs changed
+  uint64_t held = 0;     // clocks held (where its clock domain was clocked)
+  // its twin_busy and twin_in in the scope of the unit, with its clock: usable or not
+  bool bind(const VerilatedScope* sc, uint8_t* c, uint8_t* s) {
+    const VerilatedVar* b = sc ? sc->varFind("twin_busy") : nullptr;
+    const VerilatedVar* v = sc ? sc->varFind("twin_in") : nullptr;
+    const bool ok = c && b && b->vltype() == VLVT_UINT8 && v && v->totalSize() <= sizeof in_last;
+    clk = ok ? c : nullptr;
+    seen = ok ? s : nullptr;
+    busy = ok ? static_cast<const uint8_t*>(b->datap()) : nullptr;
+    in = ok ? v->datap() : nullptr;
+    in_bytes = ok ? v->totalSize() : 0;
+    return ok;
+  }
+  // in a clock its clock domain has its edge: give it one or hold it
+  void edge(uint64_t cycles) {
+    if (*busy || std::memcmp(in, in_last, in_bytes) != 0) {
+      busy_at = cycles;
+      std::memcpy(in_last, in, in_bytes);
+    }
+    if (on && busy_at + kQuiet <= cycles) {
+      ++held;
+      return;
+    }
+    *clk = 1;
+    *seen = 0;
+  }
+  void force(uint64_t cycles) {  // an edge whatever it is, and kQuiet clocks more after it
+    busy_at = cycles;
+    *clk = 1;
+    *seen = 0;
   }
 };
 
@@ -471,17 +516,9 @@ struct Twin {
   SonarIn sonar_in[kSonarInputs];     // the SoC's outputs to it in the held clocks
   uint64_t sonar_held_clocks = 0, sonar_holds = 0;
   uint64_t sonar_bus_at = 0;          // the last clock the SoC's bridge to it was not idle
-  // the sonar core's register block's clock gate: held while nothing is in it (twin_busy) and
-  // its inputs (twin_in) have been those of its last edges for kCsrQuiet clocks; never clocked
-  // while the core's clock is held
-  uint8_t *csr_clk = nullptr, *csr_seen = nullptr;
-  Probe csr_busy;
-  const void* csr_in = nullptr;
-  size_t csr_in_bytes = 0;
-  uint32_t csr_in_last[8] = {};
-  bool csr_gate = true;
-  uint64_t csr_busy_at = 0;           // the last clock it was busy or its inputs changed
-  uint64_t csr_held = 0;              // clocks held (the core clocked)
+  // the sonar core's register block's clock gate (never clocked while the core's is held)
+  QuietGate csr;
+  const VerilatedScope* csr_scope = nullptr;
   uint64_t anchor_at[3] = {};       // the last three clocks at the anchor (newest first)
   uint64_t skips = 0, skipped = 0;
   uint32_t mailbox[4096];
@@ -571,7 +608,7 @@ struct Twin {
       rx_gate.level(0);
       usb_gate.level(0);
       if (sg.clk) *sg.clk = 0;
-      if (csr_clk) *csr_clk = 0;
+      if (csr.clk) *csr.clk = 0;
       top->eval();
       ctx->timeInc(10417);
       dump();
@@ -581,7 +618,7 @@ struct Twin {
       rx_gate.level(1);
       usb_gate.level(1);
       if (sg.clk) *sg.clk = 1;
-      if (csr_clk) *csr_clk = 1;
+      if (csr.clk) *csr.clk = 1;
       top->eval();
       ctx->timeInc(10416);
       dump();
@@ -641,7 +678,7 @@ struct Twin {
         *sg.clk = 1;
         *sg.seen = 0;
       }
-      if (csr_clk && !sonar_held) csr_edge();
+      if (csr.clk && !sonar_held) csr.edge(cycles);
       top->clk_i = 1;
       top->eval();
       if (hold) TwinCpuGate::after(root);
@@ -672,23 +709,6 @@ struct Twin {
     ++cycles;
     tick = sonar_held ? tick + 1 : static_cast<int64_t>(top->tick_o);  // (tick_o stands still)
     observe();
-  }
-
-  // The sonar core's register block's clock in a clock the core's has its edge: held (no edge)
-  // from kCsrQuiet clocks after it was last busy or its inputs changed. Its pipelines (request
-  // slice, register block, tables, answer slice: five deep) have drained by then, so with the
-  // same inputs its state would stay as it is.
-  void csr_edge() {
-    if (csr_busy.u8() || std::memcmp(csr_in, csr_in_last, csr_in_bytes) != 0) {
-      csr_busy_at = cycles;
-      std::memcpy(csr_in_last, csr_in, csr_in_bytes);
-    }
-    if (csr_gate && csr_busy_at + kCsrQuiet <= cycles) {
-      ++csr_held;
-      return;
-    }
-    *csr_clk = 1;
-    *csr_seen = 0;
   }
 
   // The profiled registers by scope name (the conditioners', transmit channels', the engine's,
@@ -724,11 +744,8 @@ struct Twin {
         found += cpu_wait.p != nullptr;
       } else if (ends(".u_soc.u_sonar_bridge")) {
         sonar_bridge = probe(sc, "state_q");  // (the sonar core's gate: not counted here)
-      } else if (ends(".u_sonar.u_csr")) {  // (its register block's gate: not counted here)
-        csr_busy = probe(sc, "twin_busy");
-        const VerilatedVar* v = sc->varFind("twin_in");
-        csr_in = v ? v->datap() : nullptr;
-        csr_in_bytes = v ? v->totalSize() : 0;
+      } else if (ends(".u_sonar.u_csr")) {  // (the quiet gates': not counted here)
+        csr_scope = sc;
       }
     }
     return found;
@@ -754,10 +771,9 @@ struct Twin {
     gate(usb_gate, true);
     TwinSonarGate::bind(root, &sg);  // (held only by the skip's check: it needs the skip's refs)
     // the register block's: driven only if the model has all it reads
-    if (!TwinCsrGate::bind(root, &csr_clk, &csr_seen) || csr_busy.bytes != 1 || !csr_in ||
-        csr_in_bytes > sizeof csr_in_last) {
-      csr_clk = csr_seen = nullptr;
-    }
+    uint8_t *clk = nullptr, *seen = nullptr;
+    TwinCsrGate::bind(root, &clk, &seen);
+    csr.bind(csr_scope, clk, seen);
   }
   // on or off; returns whether the model has the gate
   bool gate(GatedClocks& g, bool on) {
@@ -850,7 +866,7 @@ struct Twin {
   // kReplay clocks) and the longest where nothing in the core limits it (it ends when the SoC
   // addresses it)
   static constexpr int64_t kMinHold = 128, kHoldMax = int64_t{1} << 40;
-  static constexpr uint64_t kCpuQuiet = 16, kUsbQuiet = 16, kCsrQuiet = 16;
+  static constexpr uint64_t kCpuQuiet = 16, kUsbQuiet = 16;
 
   // The CPU has waited in its WAIT read for kCpuQuiet clocks (cpu_busy_at brought up to date
   // for the current clock): the skip's and the CPU gate's test, and where a sonar hold ends.
@@ -1079,14 +1095,10 @@ struct Twin {
       TwinCpuGate::edge(root, false);
       *sg.clk = 1;
       *sg.seen = 0;
-      if (csr_clk) {  // (the register block with it: at its calm, an edge changes nothing)
-        *csr_clk = 1;
-        *csr_seen = 0;
-      }
+      if (csr.clk) csr.force(cycles);  // (with the core: at its calm an edge changes nothing)
       top->eval();
       TwinCpuGate::after(root);
     }
-    csr_busy_at = cycles;  // (its inputs of the replay were not compared)
     if (h > whole) {  // the replay's registers as an ungated run leaves them (zero), settled
       sonar_replay(false, SonarIn());
       Vms_twin_top___024root___eval_settle(&root->vlSymsp->TOP);
@@ -1300,7 +1312,7 @@ uint64_t twin_counter(void* p, int which) {
     case 12: return t->usb_gate.held_clocks;
     case 13: return t->sonar_held_clocks;
     case 14: return t->sonar_holds;
-    case 15: return t->csr_held;
+    case 15: return t->csr.held;
     default: return 0;
   }
 }
@@ -1325,8 +1337,8 @@ int twin_clock_gate(void* p, int bank, int on) {
     return t->sg.clk ? 1 : 0;
   }
   if (bank == 4) {
-    t->csr_gate = on != 0;
-    return t->csr_clk ? 1 : 0;
+    t->csr.on = on != 0;
+    return t->csr.clk ? 1 : 0;
   }
   return t->gate(bank == 0 ? t->rx_gate : bank == 1 ? t->tx_gate : t->usb_gate, on != 0) ? 1 : 0;
 }
