@@ -35,7 +35,7 @@ TWIN_DEPS    := sim/twin/ms_twin_top.sv sim/twin/ms_twin.cpp sim/twin/ms_twin.vl
 # into the input region evaluated at every eval() (sim/twin/ms_twin.vlt names what the harness reads)
 TWIN_VFLAGS  := --cc --exe --build -j 2 -O3 --x-assign fast --x-initial fast -Wno-fatal -Wno-lint -Wno-style --public-ignore \
                 +define+MS_TWIN_CPU_GATE +define+MS_TWIN_TX_GATE +define+MS_TWIN_RX_GATE +define+MS_TWIN_USB_GATE \
-                +define+MS_TWIN_SONAR_GATE +define+MS_TWIN_CSR_GATE \
+                +define+MS_TWIN_SONAR_GATE \
                 --quiet --timescale 1ns/1ps --top-module ms_twin_top -GINIT_FILE='"$(abspath $(TWIN_HEX))"' \
                 -CFLAGS "-fPIC -O2 -std=c++17" -LDFLAGS "-shared" -o libmstwin.so
 

@@ -390,16 +390,4 @@ module ms_csr
       delay_wr_pending_q <= hwif_out.DELAY.req &  hwif_out.DELAY.req_is_wr;
     end
   end
-
-`ifdef MS_TWIN_CSR_GATE
-  // Simulation only (the twin's clock gate of this block, rtl/ms_sonar_core.sv): what keeps it
-  // clocked (the reset and the table's refill after it, a request, a counter's strobe) and its
-  // other inputs, which the harness compares from clock to clock.
-  logic                twin_busy;
-  logic [ADDR_W+143:0] twin_in;
-  assign twin_busy = rst_i | bus_req_i | rq_valid_q | vs_init_busy | event_i | overflow_i
-                     | pulse_i | tx_collision_i;
-  assign twin_in   = {bus_req_is_wr_i, bus_addr_i, bus_wr_data_i, bus_wr_biten_i, evt_rvalid_i,
-                      evt_rdata_i, running_i, sched_overrun_i, fifo_level_i};
-`endif
 endmodule

@@ -59,22 +59,9 @@ module ms_sonar_core #(
   logic                          evt_valid;
   logic [63:0]                   evt_data;
 
-`ifdef MS_TWIN_CSR_GATE
-  // Simulation only (the full-system twin, sim/twin; mk/twin.mk defines it): the register block
-  // is clocked by a variable the harness drives, held while nothing is in it (u_csr.twin_busy)
-  // and its inputs (u_csr.twin_in) have stayed those of its last edges long enough for its
-  // pipelines to drain, so its state would not change (docs/twin.md). Never defined for
-  // synthesis, lint or the RTL tests.
-  logic twin_csr_clk;
-`endif
   ms_csr #(.NUM_CH(NUM_CH), .DELAY_W(DELAY_W), .NUM_VS(NUM_VS), .WSLOTS(WSLOTS),
            .EVT_DEPTH_W(EVT_DEPTH_W)) u_csr (
-`ifdef MS_TWIN_CSR_GATE
-    .clk_i (twin_csr_clk),
-`else
-    .clk_i,
-`endif
-    .rst_i,
+    .clk_i, .rst_i,
     .bus_req_i, .bus_req_is_wr_i, .bus_addr_i, .bus_wr_data_i, .bus_wr_biten_i,
     .bus_req_stall_wr_o, .bus_req_stall_rd_o, .bus_rd_ack_o, .bus_rd_err_o, .bus_rd_data_o,
     .bus_wr_ack_o, .bus_wr_err_o,

@@ -142,8 +142,7 @@ def test_holding_the_usb_devices_clock_changes_nothing():
     bulk traffic (commands, frames, NAKed polls)."""
     (a, a_held), (b, b_held) = _gated_and_clocked(
         19, lambda sim, on: sim.set_usb_gate(on), lambda sim: sim.clocks_held["usb"])
-    simulated = 0.08 * TICK_HZ - b.skip_stats[1]
-    assert a_held == 0 and b_held > 0.2 * simulated, (a_held, b_held, simulated)
+    assert a_held == 0 and b_held > 0.1 * 0.08 * TICK_HZ, (a_held, b_held)
     _same_session(a, b)
 
 
@@ -185,20 +184,6 @@ def test_the_sonar_core_caught_up_at_any_clock_equals_the_clocked_one():
     finally:
         plain.close()
         gated.close()
-
-
-def test_holding_the_register_blocks_clock_changes_nothing():
-    """The sonar core's register block's clock gate (MS_TWIN_CSR_GATE in ms_sonar_core;
-    TwinSim.set_csr_gate): held while no request, counter strobe or reset is in it and its
-    inputs have not changed for 16 clocks. The same session, byte for byte and state for state,
-    as with the block clocked with the core; the firmware reads events, writes the table and
-    re-aims through it many times, and the core's pulses and events wake it."""
-    (a, a_held), (b, b_held) = _gated_and_clocked(
-        31, lambda sim, on: sim.set_csr_gate(on), lambda sim: sim.clocks_held["csr"])
-    simulated = 0.08 * TICK_HZ - b.skip_stats[1]
-    assert a_held == 0 and b_held > 0.2 * simulated, (a_held, b_held, simulated)
-    assert b.skip_stats[0] > 0 and len(b.fires) > 10 and len(b.mailbox) > 20
-    _same_session(a, b)
 
 
 def test_holding_the_sonar_clocks_changes_nothing():

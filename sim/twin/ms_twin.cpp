@@ -166,19 +166,6 @@ struct TxGate<
     return &r->MS_SONAR(u_tx__DOT__twin_wake);  // elements a fire or the reset reaches (32 bits)
   }
 };
-// The clock of the sonar core's register block (rtl/ms_sonar_core.sv, MS_TWIN_CSR_GATE) and
-// Verilator's record of it (what keeps it clocked is found by scope name, QuietGate).
-template <class R, class = void>
-struct CsrGate {
-  static void bind(R*, uint8_t**, uint8_t**) {}
-};
-template <class R>
-struct CsrGate<R, std::void_t<decltype(R::MS_SONAR(twin_csr_clk))>> {
-  static void bind(R* r, uint8_t** clk, uint8_t** seen) {
-    *clk = &r->MS_SONAR(twin_csr_clk);
-    *seen = &r->MS_SONAR_SEEN(twin_csr_clk);
-  }
-};
 #undef MS_SONAR
 #undef MS_SONAR_SEEN
 #undef MS_TX_BIND
@@ -240,7 +227,6 @@ using TwinSonarGate = SonarGate<Vms_twin_top___024root>;
 using TwinRxGate = RxGate<Vms_twin_top___024root>;
 using TwinUsbGate = UsbGate<Vms_twin_top___024root>;
 using TwinTxGate = TxGate<Vms_twin_top___024root>;
-using TwinCsrGate = CsrGate<Vms_twin_top___024root>;
 
 constexpr int kNumCh = 24;
 // A bank of gated clocks (up to 24): which are held, and the rising edges of the others.
@@ -271,52 +257,6 @@ struct GatedClocks {
   }
   void level(uint8_t v) {  // (tracing: both edges evaluated, nothing held)
     for (int i = 0; i < n; ++i) *clk[i] = v;
-  }
-};
-
-// A unit's clock held while it is quiet (the sonar core's register block, MS_TWIN_CSR_GATE):
-// kQuiet clocks after the unit was last busy (twin_busy: the reset, a request, a strobe) or its
-// other inputs (twin_in) changed. Its pipelines are shorter than that, so with the same inputs
-// its state would stay as it is.
-struct QuietGate {
-  static constexpr uint64_t kQuiet = 16;
-  uint8_t *clk = nullptr, *seen = nullptr;  // its clock and Verilator's record of it
-  const uint8_t* busy = nullptr;
-  const void* in = nullptr;
-  size_t in_bytes = 0;
-  uint32_t in_last[8] = {};
-  bool on = true;
-  uint64_t busy_at = 0;  // the last clock it was busy or its inputs changed
-  uint64_t held = 0;     // clocks held (where its clock domain was clocked)
-  // its twin_busy and twin_in in the scope of the unit, with its clock: usable or not
-  bool bind(const VerilatedScope* sc, uint8_t* c, uint8_t* s) {
-    const VerilatedVar* b = sc ? sc->varFind("twin_busy") : nullptr;
-    const VerilatedVar* v = sc ? sc->varFind("twin_in") : nullptr;
-    const bool ok = c && b && b->vltype() == VLVT_UINT8 && v && v->totalSize() <= sizeof in_last;
-    clk = ok ? c : nullptr;
-    seen = ok ? s : nullptr;
-    busy = ok ? static_cast<const uint8_t*>(b->datap()) : nullptr;
-    in = ok ? v->datap() : nullptr;
-    in_bytes = ok ? v->totalSize() : 0;
-    return ok;
-  }
-  // in a clock its clock domain has its edge: give it one or hold it
-  void edge(uint64_t cycles) {
-    if (*busy || std::memcmp(in, in_last, in_bytes) != 0) {
-      busy_at = cycles;
-      std::memcpy(in_last, in, in_bytes);
-    }
-    if (on && busy_at + kQuiet <= cycles) {
-      ++held;
-      return;
-    }
-    *clk = 1;
-    *seen = 0;
-  }
-  void force(uint64_t cycles) {  // an edge whatever it is, and kQuiet clocks more after it
-    busy_at = cycles;
-    *clk = 1;
-    *seen = 0;
   }
 };
 
@@ -516,9 +456,6 @@ struct Twin {
   SonarIn sonar_in[kSonarInputs];     // the SoC's outputs to it in the held clocks
   uint64_t sonar_held_clocks = 0, sonar_holds = 0;
   uint64_t sonar_bus_at = 0;          // the last clock the SoC's bridge to it was not idle
-  // the sonar core's register block's clock gate (never clocked while the core's is held)
-  QuietGate csr;
-  const VerilatedScope* csr_scope = nullptr;
   uint64_t anchor_at[3] = {};       // the last three clocks at the anchor (newest first)
   uint64_t skips = 0, skipped = 0;
   uint32_t mailbox[4096];
@@ -608,7 +545,6 @@ struct Twin {
       rx_gate.level(0);
       usb_gate.level(0);
       if (sg.clk) *sg.clk = 0;
-      if (csr.clk) *csr.clk = 0;
       top->eval();
       ctx->timeInc(10417);
       dump();
@@ -618,7 +554,6 @@ struct Twin {
       rx_gate.level(1);
       usb_gate.level(1);
       if (sg.clk) *sg.clk = 1;
-      if (csr.clk) *csr.clk = 1;
       top->eval();
       ctx->timeInc(10416);
       dump();
@@ -678,7 +613,6 @@ struct Twin {
         *sg.clk = 1;
         *sg.seen = 0;
       }
-      if (csr.clk && !sonar_held) csr.edge(cycles);
       top->clk_i = 1;
       top->eval();
       if (hold) TwinCpuGate::after(root);
@@ -744,8 +678,6 @@ struct Twin {
         found += cpu_wait.p != nullptr;
       } else if (ends(".u_soc.u_sonar_bridge")) {
         sonar_bridge = probe(sc, "state_q");  // (the sonar core's gate: not counted here)
-      } else if (ends(".u_sonar.u_csr")) {  // (the quiet gates': not counted here)
-        csr_scope = sc;
       }
     }
     return found;
@@ -770,10 +702,6 @@ struct Twin {
     bind_skip();
     gate(usb_gate, true);
     TwinSonarGate::bind(root, &sg);  // (held only by the skip's check: it needs the skip's refs)
-    // the register block's: driven only if the model has all it reads
-    uint8_t *clk = nullptr, *seen = nullptr;
-    TwinCsrGate::bind(root, &clk, &seen);
-    csr.bind(csr_scope, clk, seen);
   }
   // on or off; returns whether the model has the gate
   bool gate(GatedClocks& g, bool on) {
@@ -1095,7 +1023,6 @@ struct Twin {
       TwinCpuGate::edge(root, false);
       *sg.clk = 1;
       *sg.seen = 0;
-      if (csr.clk) csr.force(cycles);  // (with the core: at its calm an edge changes nothing)
       top->eval();
       TwinCpuGate::after(root);
     }
@@ -1292,8 +1219,7 @@ int twin_led(void* p) { return static_cast<Twin*>(p)->top->led_o; }
 // 6 its first start tick, 7 skips of calm clocks, 8 clocks skipped, 9 clocks the CPU's clock was
 // held, 10 clocks the receive conditioners' clock was held, 11 transmit element clocks held (one
 // per element and clock), 12 clocks the USB device's clock was held, 13 clocks the sonar core's
-// clock was held, 14 its holds, 15 clocks its register block's clock was held (the core's
-// clocked).
+// clock was held, 14 its holds.
 uint64_t twin_counter(void* p, int which) {
   auto* t = static_cast<Twin*>(p);
   switch (which) {
@@ -1312,7 +1238,6 @@ uint64_t twin_counter(void* p, int which) {
     case 12: return t->usb_gate.held_clocks;
     case 13: return t->sonar_held_clocks;
     case 14: return t->sonar_holds;
-    case 15: return t->csr.held;
     default: return 0;
   }
 }
@@ -1325,20 +1250,15 @@ int twin_cpu_gate(void* p, int on) {
   return TwinCpuGate::kPresent ? 1 : 0;
 }
 
-// The receiver's (bank 0), the transmitter's (1), the USB device's (2), the sonar core's (3) or
-// its register block's (4) clock gates on or off (on by default; off: clocked in every clock).
-// Returns whether the model has them. The sonar core's is held only while the skip is on
-// (twin_skip).
+// The receiver's (bank 0), the transmitter's (1), the USB device's (2) or the sonar core's (3)
+// clock gates on or off (on by default; off: clocked in every clock). Returns whether the model
+// has them. The sonar core's is held only while the skip is on (twin_skip).
 int twin_clock_gate(void* p, int bank, int on) {
   auto* t = static_cast<Twin*>(p);
   if (bank == 3) {
     t->sonar_gate = on != 0;
     if (!on) t->sonar_catch_up();
     return t->sg.clk ? 1 : 0;
-  }
-  if (bank == 4) {
-    t->csr.on = on != 0;
-    return t->csr.clk ? 1 : 0;
   }
   return t->gate(bank == 0 ? t->rx_gate : bank == 1 ? t->tx_gate : t->usb_gate, on != 0) ? 1 : 0;
 }

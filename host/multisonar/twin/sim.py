@@ -384,21 +384,12 @@ class TwinSim:
         Returns whether this build of the model has the gate."""
         return bool(self.lib.twin_clock_gate(self._h, 3, int(on)))
 
-    def set_csr_gate(self, on: bool = True) -> bool:
-        """Hold the sonar core's register block's clock while no request, counter strobe or
-        reset is in it and its inputs have not changed for 16 clocks (its state cannot change
-        then; on by default, docs/twin.md). Returns whether this build of the model has the
-        gate."""
-        return bool(self.lib.twin_clock_gate(self._h, 4, int(on)))
-
     @property
     def clocks_held(self) -> dict[str, int]:
         """Clocks held by each clock gate: the CPU's, the receive conditioners', the transmit
-        elements' (one per element and clock), the USB device's, the sonar core's, its register
-        block's (while the core is clocked)."""
+        elements' (one per element and clock), the USB device's, the sonar core's."""
         return {name: int(self.lib.twin_counter(self._h, i))
-                for name, i in (("cpu", 9), ("rx", 10), ("tx", 11), ("usb", 12), ("sonar", 13),
-                                ("csr", 15))}
+                for name, i in (("cpu", 9), ("rx", 10), ("tx", 11), ("usb", 12), ("sonar", 13))}
 
     def state(self) -> bytes:
         """The model's whole state as bytes (every signal and memory; also pointers to the
