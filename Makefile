@@ -24,7 +24,8 @@ SIM   ?= verilator
 WAVES ?= 0
 export SIM WAVES
 
-APT_PACKAGES := g++ make ccache perl iverilog gcc-riscv64-unknown-elf picolibc-riscv64-unknown-elf libusb-1.0-0 liblz4-dev zlib1g-dev
+APT_PACKAGES := g++ make ccache perl iverilog gcc-riscv64-unknown-elf picolibc-riscv64-unknown-elf libusb-1.0-0 liblz4-dev zlib1g-dev \
+                clang-14 llvm-14 libclang-rt-14-dev
 
 # ---------------------------------------------------------------- set-up steps
 # fail STEP: print which set-up step failed, then stop.

@@ -1,11 +1,13 @@
 """The training run of the twin's profile-guided build (mk/twin.mk, ``make twin``).
 
 ``python -m multisonar.twin.pgo LIBRARY`` runs the instrumented harness (built with
-``-fprofile-generate``) on the demo's workload: boot, then 0.05 s of the deterministic session
-of multisonar.twin.check.fixed_session (noisy corridor, the compiled-in demo table, the exact
-skip on). At exit the library writes its profile, from which the fast build is compiled
-(``-fprofile-use``): 1.3x the clocks per second of a plain -O2 build (scripts/bench_twin_skip.py,
-docs/twin.md). The run is deterministic, so the profile and the build are too."""
+``-fprofile-generate``, by g++ or clang: mk/twin.mk) on the demo's workload: boot, then 0.05 s
+of the deterministic session of multisonar.twin.check.fixed_session (noisy corridor, the
+compiled-in demo table, the exact skip on). At exit the library writes its profile, from which
+the fast build is compiled (``-fprofile-use``; clang's raw profile is merged first): 1.3x the
+clocks per second of a plain -O2 build (scripts/bench_twin_skip.py, docs/twin.md). The device's
+run is the same every time; the profile's counts can differ a little between runs, where the
+harness meets the echo thread's fences (a skip split at one)."""
 
 from __future__ import annotations
 
