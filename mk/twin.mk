@@ -45,31 +45,26 @@ twin-fst: $(TWIN_HEX) $(TWIN_DIR)/fst/libmstwin.so
 twin-prof: $(TWIN_HEX) $(TWIN_DIR)/prof/libmstwin.so
 
 # Profile-guided: the harness is built instrumented (build/twin/pgo), runs the demo's workload
-# for 0.05 sonar-s (multisonar.twin.pgo: deterministic, so the profile is too), and the fast
-# build compiles from that profile: 1.3x the clocks per second of a plain -O2 build
-# (docs/twin.md).
+# for 0.05 sonar-s (multisonar.twin.pgo), and the fast build compiles from that profile: 1.3x
+# the clocks per second of a plain -O2 build (docs/twin.md).
 TWIN_PGO     := $(abspath $(TWIN_DIR)/pgo)
 # The compiler of those two builds: clang where Debian's clang-14 with its profile runtime is
-# installed (the set-up installs it; its profile-guided build runs the demo's session ~10 %
-# faster than gcc's, docs/twin.md), else g++ (whose profile's file names are taken relative to
-# each build's folder). TWIN_CLANG= (empty) forces g++.
+# installed (the set-up installs it; its profile-guided build runs the demo's session ~6 %
+# faster than g++'s, docs/twin.md), else g++ (whose profile's file names are taken relative to
+# each build's folder). TWIN_CLANG= (empty) forces g++. Recursive variables, expanded in the
+# recipes: after the set-up has installed the packages, also in make's first run.
 TWIN_CLANG   ?= $(shell command -v clang++-14 >/dev/null && command -v llvm-profdata-14 >/dev/null && \
                   [ -f "$$(clang++-14 --print-runtime-dir)/libclang_rt.profile-x86_64.a" ] && echo clang++-14)
-ifneq ($(TWIN_CLANG),)
-TWIN_CXX     := --compiler clang -MAKEFLAGS CXX=$(TWIN_CLANG) -MAKEFLAGS LINK=$(TWIN_CLANG) \
-                -CFLAGS -Wno-unknown-warning-option
-TWIN_PGO_GEN := -CFLAGS -fprofile-generate=$(TWIN_PGO)/data -LDFLAGS -fprofile-generate=$(TWIN_PGO)/data
-TWIN_PGO_MERGE := llvm-profdata-14 merge -o $(TWIN_PGO)/twin.profdata $(TWIN_PGO)/data/*.profraw
-TWIN_PGO_USE  = -CFLAGS -fprofile-use=$(TWIN_PGO)/twin.profdata -CFLAGS -Wno-profile-instr-unprofiled \
-                -CFLAGS -Wno-profile-instr-out-of-date
-else
-TWIN_CXX     :=
-TWIN_PGO_GEN := -CFLAGS -fprofile-generate=$(TWIN_PGO)/data -CFLAGS -fprofile-prefix-path=$(TWIN_PGO) \
-                -LDFLAGS -fprofile-generate=$(TWIN_PGO)/data
-TWIN_PGO_MERGE := true
-TWIN_PGO_USE  = -CFLAGS -fprofile-use=$(TWIN_PGO)/data -CFLAGS -fprofile-prefix-path=$(abspath $(@D)) \
-                -CFLAGS -fprofile-partial-training -CFLAGS -Wno-missing-profile
-endif
+TWIN_CXX      = $(if $(TWIN_CLANG),--compiler clang -MAKEFLAGS CXX=$(TWIN_CLANG) \
+                  -MAKEFLAGS LINK=$(TWIN_CLANG) -CFLAGS -Wno-unknown-warning-option)
+TWIN_PGO_GEN  = -CFLAGS -fprofile-generate=$(TWIN_PGO)/data -LDFLAGS -fprofile-generate=$(TWIN_PGO)/data \
+                $(if $(TWIN_CLANG),,-CFLAGS -fprofile-prefix-path=$(TWIN_PGO))
+TWIN_PGO_MERGE = $(if $(TWIN_CLANG),llvm-profdata-14 merge -o $(TWIN_PGO)/twin.profdata \
+                  $(TWIN_PGO)/data/*.profraw,true)
+TWIN_PGO_USE  = $(if $(TWIN_CLANG),-CFLAGS -fprofile-use=$(TWIN_PGO)/twin.profdata \
+                  -CFLAGS -Wno-profile-instr-unprofiled -CFLAGS -Wno-profile-instr-out-of-date,\
+                  -CFLAGS -fprofile-use=$(TWIN_PGO)/data -CFLAGS -fprofile-prefix-path=$(abspath $(@D)) \
+                  -CFLAGS -fprofile-partial-training -CFLAGS -Wno-missing-profile)
 
 $(TWIN_DIR)/pgo/libmstwin.so: $(TWIN_DEPS)
 	@mkdir -p $(@D)
