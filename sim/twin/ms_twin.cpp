@@ -1299,7 +1299,8 @@ int64_t twin_state(void* p, uint8_t* out, int64_t cap) {
   t->usb_catch_up();  // (its clock stays held)
   t->sonar_catch_up();
   const int64_t n = static_cast<int64_t>(sizeof(Vms_twin_top__Syms));
-  if (out) std::memcpy(out, t->top->rootp->vlSymsp, static_cast<size_t>(std::min(n, cap)));
+  const void* syms = t->top->rootp->vlSymsp;  // (the bytes, its vtable pointers too)
+  if (out) std::memcpy(out, syms, static_cast<size_t>(std::min(n, cap)));
   return n;
 }
 
@@ -1317,14 +1318,15 @@ uint64_t twin_run(void* p, uint64_t cycles) { return static_cast<Twin*>(p)->run(
 
 // The exact skip of calm clocks (docs/twin.md): on (the engine's poll loop is ROM [poll_lo,
 // poll_hi), a skip starts and ends with the engine at `anchor`; on = 2: twin_run also returns
-// after each skip, for checking it) or off. Returns the variables
-// found for it plus the profile's registers (SkipRefs::kAll + 51 when all are there); it stays
-// off unless all are.
-int twin_skip(void* p, int on, uint32_t poll_lo, uint32_t poll_hi, uint32_t anchor) {
+// after each skip, for checking it) or off. Returns the variables found for it plus the
+// profile's registers, and in *want how many there are (SkipRefs::kAll + 51); it stays off
+// unless all are found.
+int twin_skip(void* p, int on, uint32_t poll_lo, uint32_t poll_hi, uint32_t anchor, int* want) {
   auto* t = static_cast<Twin*>(p);
   t->sonar_catch_up();
   const int found = t->bind_skip() + t->bind_probes();
-  t->skipping = on != 0 && found == SkipRefs::kAll + 2 * kNumCh + 3;
+  *want = SkipRefs::kAll + 2 * kNumCh + 3;
+  t->skipping = on != 0 && found == *want;
   t->skip_stop = on == 2;
   t->poll_lo = poll_lo;
   t->poll_hi = poll_hi;

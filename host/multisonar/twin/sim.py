@@ -135,7 +135,8 @@ def _load(path: Path) -> ctypes.CDLL:
                                             ctypes.c_uint64, ctypes.c_uint64, ctypes.c_uint64, ctypes.c_uint64,
                                             _U64P]),
         "twin_profile": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_int]),
-        "twin_skip": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
+        "twin_skip": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32,
+                                     ctypes.POINTER(ctypes.c_int)]),
         "twin_cpu_gate": (ctypes.c_int, [vp, ctypes.c_int]),
         "twin_clock_gate": (ctypes.c_int, [vp, ctypes.c_int, ctypes.c_int]),
         "twin_state": (ctypes.c_int64, [vp, _U8P, ctypes.c_int64]),
@@ -334,14 +335,12 @@ class TwinSim:
         from .activity import poll_labels
 
         lo, hi, anchor = poll_labels()
-        want = self._SKIP_REFS + 2 * NUM_CH + 3
+        want = ctypes.c_int()
         mode = (2 if stop_after else 1) if on else 0
-        found = self.lib.twin_skip(self._h, mode, lo, hi, anchor)
-        if on and found != want:
-            raise TwinError(f"the exact skip found {found} of its {want} variables in the model "
+        found = self.lib.twin_skip(self._h, mode, lo, hi, anchor, ctypes.byref(want))
+        if on and found != want.value:
+            raise TwinError(f"the exact skip found {found} of its {want.value} variables in the model "
                             "(sim/twin/ms_twin.vlt names them): rebuild the twin (make twin)")
-
-    _SKIP_REFS = 31  # SkipRefs::kAll in ms_twin.cpp
 
     @property
     def skip_stats(self) -> tuple[int, int]:
