@@ -26,7 +26,7 @@ from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -148,6 +148,17 @@ def _load(path: Path) -> ctypes.CDLL:
         f.restype, f.argtypes = res, args
     return lib
 
+
+
+class InPoll(NamedTuple):
+    """What :meth:`TwinSim.usb_in_poll` returns."""
+    answer: bytes | None  #: the first answer other than a NAK (None: handed back to Python)
+    delay: int            #: its delay after the token, in clocks
+    token_at: int         #: the clock count before its token
+    settle_left: int      #: (answer None) clocks of the last NAK's transaction still to run
+    poll_left: int        #: (answer None) clocks of idle bus still to run, after those
+    naks: int             #: NAKs meanwhile
+    nak_clocks: int       #: their bus clocks
 
 class TwinSim:
     """One running device. ``echo_source``: an object with ``fire(t0_tick, elements,
@@ -552,14 +563,13 @@ class TwinSim:
         return bytes(self._rx[:min(n, len(self._rx))]), int(self._delay.value)
 
     def usb_in_poll(self, token: bytes, listen_clocks: int, nak_bus: int, poll_clocks: int,
-                    max_clocks: int) -> tuple[bytes | None, int, int, int, int, int, int]:
+                    max_clocks: int) -> InPoll:
         """Bulk-IN polling inside the harness (``twin_usb_in_poll``): the IN ``token`` while the
         device NAKs, each NAK's transaction lasting ``nak_bus`` clocks plus the answer's delay, then
         ``poll_clocks`` of idle bus, as :meth:`usb_packet` and :meth:`run` called from Python would
-        run them, but without a return to Python per NAK. Returns (answer, its delay, the clock
-        count before its token, settle clocks left, poll clocks left, NAKs, their bus clocks);
-        answer None: handed back where Python has work (a fire to serve, noise to add, or
-        ``max_clocks`` passed) with the settle and poll clocks still to :meth:`run`, in order."""
+        run them, but without a return to Python per NAK. Answer None: handed back where Python
+        has work (a fire to serve, noise to add, or ``max_clocks`` passed) with the settle and
+        poll clocks still to :meth:`run`, in order."""
         if poll_clocks > self.NOISE_CHUNK:  # run() would split the wait where noise may be added
             raise ValueError(f"usb_in_poll: poll_clocks {poll_clocks} > NOISE_CHUNK {self.NOISE_CHUNK}")
         src = self.echo_source
@@ -573,9 +583,9 @@ class TwinSim:
         self._after_call()
         self._drain_mailbox()
         if n < 0:
-            return None, 0, 0, int(out[1]), int(out[2]), int(out[3]), int(out[4])
-        return (bytes(self._rx[:min(n, len(self._rx))]), int(self._delay.value), int(out[0]), 0, 0,
-                int(out[3]), int(out[4]))
+            return InPoll(None, 0, 0, int(out[1]), int(out[2]), int(out[3]), int(out[4]))
+        return InPoll(bytes(self._rx[:min(n, len(self._rx))]), int(self._delay.value), int(out[0]), 0, 0,
+                      int(out[3]), int(out[4]))
 
     def bus_reset(self, cycles: int = 256) -> None:
         self.lib.twin_bus_reset(self._h, cycles)

@@ -97,17 +97,17 @@ class TwinUsbHost:
         token = token_bytes(PID_IN, addr, ep)
         listen = CLOCKS_PER_BIT * HOST_TIMEOUT_BITS
         nak_bus = CLOCKS_PER_BIT * (bus_bits(len(token)) + bus_bits(1) + 2 * INTER_PACKET_BITS)
-        raw, delay, t0, settle, idle, naks, nak_clocks = self.sim.usb_in_poll(token, listen, nak_bus,
-                                                                              poll_clocks, max_clocks)
+        p = self.sim.usb_in_poll(token, listen, nak_bus, poll_clocks, max_clocks)
+        raw, delay, naks = p.answer, p.delay, p.naks
         self.packets += naks
-        self.bus_clocks += nak_clocks
+        self.bus_clocks += p.nak_clocks
         if raw is None:
-            for clocks in (settle, idle):
+            for clocks in (p.settle_left, p.poll_left):
                 if clocks:
                     self.sim.run(clocks)
             return None, naks
         # the answer's transaction from its token on, as send() and in_token() account it
-        self._t0 = t0
+        self._t0 = p.token_at
         self.packets += 1
         bus = bus_bits(len(token)) + INTER_PACKET_BITS
         bus += (max(delay, 0) // CLOCKS_PER_BIT + bus_bits(len(raw)) + INTER_PACKET_BITS) if raw else HOST_TIMEOUT_BITS
