@@ -17,11 +17,9 @@ from typing import Any, Callable
 import numpy as np
 import pytest
 
-from multisonar import protocol as P
 from multisonar.constants import TICK_HZ
-from multisonar.twin.check import booted_corridor, fixed_session
+from multisonar.twin.check import booted_corridor, fixed_session, start_table
 from multisonar.twin.sim import NUM_CH, TwinSim, state_differences
-from multisonar.twin.usbhost import ADDR, TwinUsbFunction
 
 pytestmark = pytest.mark.sim
 
@@ -52,11 +50,7 @@ def test_the_state_after_every_skip_equals_the_simulated_clocks():
     try:
         boot = (plain.state(), skipping.state())
         for sim in (plain, skipping):
-            fn = TwinUsbFunction(sim)
-            fn.host.control_nodata(ADDR, 0x00, 9, 1, 0)
-            if sim is skipping:
-                sim.set_skip(True, stop_after=True)
-            fn.bulk_out(0x01, P.encode_command(P.Opcode.START, seq=1))
+            start_table(sim, skip=sim is skipping, stop_after=True)
         end = plain.tick + int(0.04 * TICK_HZ)
         while plain.tick < end:
             n = skipping.run_chunk(4000)  # returns right after a skip
@@ -81,10 +75,7 @@ def test_the_harness_nak_loop_runs_what_the_python_loop_runs():
         sim = booted_corridor(11)
         try:
             boot = sim.state()
-            sim.set_skip(True)
-            fn = TwinUsbFunction(sim, harness_poll=harness)
-            fn.host.control_nodata(ADDR, 0x00, 9, 1, 0)  # SET_CONFIGURATION 1
-            fn.bulk_out(0x01, P.encode_command(P.Opcode.START, seq=1))
+            fn = start_table(sim, skip=True, harness_poll=harness)
             end = sim.tick + int(0.06 * TICK_HZ)
             reads = []
             while sim.tick < end:
@@ -167,10 +158,7 @@ def test_the_sonar_core_caught_up_at_any_clock_equals_the_clocked_one():
         plain.set_sonar_core_gate(False)
         boot = (plain.state(), gated.state())
         for sim in (plain, gated):
-            fn = TwinUsbFunction(sim)
-            fn.host.control_nodata(ADDR, 0x00, 9, 1, 0)
-            sim.set_skip(True)
-            fn.bulk_out(0x01, P.encode_command(P.Opcode.START, seq=1))
+            start_table(sim, skip=True)
         end, k = plain.tick + int(0.02 * TICK_HZ), 0
         while plain.tick < end:
             k += 1

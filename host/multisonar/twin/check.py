@@ -88,6 +88,19 @@ def booted_corridor(seed: int, *, library: Any = None) -> Any:
     return sim
 
 
+def start_table(sim: Any, *, skip: bool = False, stop_after: bool = False, harness_poll: bool = True) -> Any:
+    """The start of a deterministic session on the booted twin ``sim``: enumerate,
+    SET_CONFIGURATION 1, the exact skip on or off (TwinSim.set_skip, ``stop_after`` too), START
+    the compiled-in table. Returns the twin's USB function (TwinUsbFunction)."""
+    from .usbhost import ADDR, TwinUsbFunction
+
+    fn = TwinUsbFunction(sim, harness_poll=harness_poll)
+    fn.host.control_nodata(ADDR, 0x00, 9, 1, 0)  # SET_CONFIGURATION 1
+    sim.set_skip(skip, stop_after=stop_after)
+    fn.bulk_out(0x01, P.encode_command(P.Opcode.START, seq=1))
+    return fn
+
+
 def fixed_session(sim: Any, seconds: float, *, skip: bool = False, poll_s: float = 0.5e-3) -> FixedRun:
     """Run the booted twin ``sim`` deterministically in device time: enumerate, SET_CONFIGURATION,
     START the compiled-in table, then every ``poll_s`` of device time read bulk IN until it
@@ -95,13 +108,10 @@ def fixed_session(sim: Any, seconds: float, *, skip: bool = False, poll_s: float
     wall-clock deadlines make :func:`stream`'s USB timing vary run to run). The same sim and echo
     source give the same run, byte for byte, with or without ``skip`` (TwinSim.set_skip) if the
     skip is exact (tests/test_twin_skip.py)."""
-    from .usbhost import ADDR, PID_DATA0, PID_DATA1, TwinUsbFunction
+    from .usbhost import ADDR, PID_DATA0, PID_DATA1
 
     boot = sim.state()
-    fn = TwinUsbFunction(sim)
-    fn.host.control_nodata(ADDR, 0x00, 9, 1, 0)  # SET_CONFIGURATION 1
-    sim.set_skip(skip)
-    fn.bulk_out(0x01, P.encode_command(P.Opcode.START, seq=1))
+    fn = start_table(sim, skip=skip)
     end = sim.tick + int(seconds * TICK_HZ)
     data = bytearray()
     poll = int(poll_s * TICK_HZ)
