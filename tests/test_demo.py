@@ -54,15 +54,28 @@ def test_reaim_log_decodes_the_firmwares_mailbox_records():
 
 
 def test_a_class_decided_at_a_threshold_is_no_mismatch():
-    """The demo's firmware-vs-host check counts a class that differs only because one model's
-    chi-square lies at its threshold (within the fixed-point accuracy) apart, as borderline:
-    seen in a demo run, the point model's chi-square 11.150 against 11.157 (host: edge,
-    firmware: uncertain)."""
-    from multisonar.demo import CLASS_THRESHOLD_BAND, _at_threshold
+    """The demo's firmware-vs-host check counts a class that differs only because one of the
+    host's tests lies at its bound (within the fixed-point accuracy) apart, as borderline; two
+    seen in demo runs: the point model's chi-square 11.150 against 11.157 (host: edge,
+    firmware: uncertain) and 11.155 against 11.157 with the wall accepted too (host: uncertain,
+    both models explain the data; firmware: wall, the point rejected)."""
+    from multisonar.demo import CLASS_THRESHOLD_BAND, LR_GAP, _at_threshold
 
-    near, far = CLASS_THRESHOLD_BAND / 2, 4.0
-    assert _at_threshold(4, 1, (near, far)) and _at_threshold(1, 4, (near, far))   # edge / uncertain
-    assert not _at_threshold(4, 1, (far, near))                                     # the wall's is no excuse
-    assert _at_threshold(2, 4, (far, near)) and not _at_threshold(2, 4, (near, far))
-    assert _at_threshold(1, 2, (far, near)) and not _at_threshold(1, 2, (far, far))
-    assert not _at_threshold(1, 1, (near, near)) and not _at_threshold(3, 4, (near, near))
+    t = (11.157245, 11.157245)
+    near = t[0] * (1 - CLASS_THRESHOLD_BAND / 2)
+    # the point at its threshold: edge <-> uncertain (wall rejected), wall <-> uncertain (wall accepted)
+    assert _at_threshold(4, 1, (near, 40.0), t, (True, False))
+    assert _at_threshold(1, 4, (near * 1.01, 40.0), t, (False, False))
+    assert _at_threshold(2, 4, (11.15497, 2.84148), t, (True, True))       # the second demo case
+    assert not _at_threshold(1, 4, (11.15497, 2.84148), t, (True, True))   # the wall far from its bound
+    # the wall at its threshold
+    assert _at_threshold(4, 2, (40.0, near), t, (False, True))
+    assert not _at_threshold(4, 2, (40.0, 5.0), t, (False, True))
+    # the likelihood-ratio test at its bound, both accepted: wall <-> uncertain, edge <-> uncertain
+    assert _at_threshold(4, 2, (LR_GAP + 0.5 + 0.02, 0.5), t, (True, True))
+    assert _at_threshold(1, 4, (0.5, LR_GAP + 0.5 - 0.02), t, (True, True))
+    assert not _at_threshold(4, 2, (LR_GAP + 0.5 + 2.0, 0.5), t, (True, True))
+    # nothing near a bound, the same class, a class outside edge / wall / uncertain
+    assert not _at_threshold(1, 2, (2.0, 3.0), t, (True, False))
+    assert not _at_threshold(1, 1, (near, near), t, (True, True))
+    assert not _at_threshold(3, 4, (near, near), t, (True, True))

@@ -26,6 +26,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from collections.abc import Sequence
 from typing import Any, Iterator
 
 import numpy as np
@@ -505,24 +506,48 @@ def _host_fixes_of_frames(scene: Any, resolved: list[Any], frames: list[Any], sc
     return _host_fixes(scene, todo)
 
 
-#: a firmware class other than the host's is no mismatch where the host's chi-square of the point
-#: or the wall model lies within this fraction of its threshold: the firmware's fixed-point
-#: chi-square is accurate to 1e-2 (tests/test_fw_geometry.py, test_classify_matches_python), so
-#: its accept test there may go either way
+#: a firmware class other than the host's is no mismatch where it is the host's with one test
+#: decided the other way, the host's value lying within this fraction of the test's bound: the
+#: firmware's fixed-point chi-square is accurate to 1e-2 (tests/test_fw_geometry.py,
+#: test_classify_matches_python), so its tests there may go either way
 CLASS_THRESHOLD_BAND = 0.01
+#: geometry.classify's likelihood-ratio test: with both models accepted, the one whose
+#: chi-square is lower by more than this wins, else 'uncertain' (the firmware's decide() too)
+LR_GAP = 9.21
 
 
-def _at_threshold(fw_cls: int, host_cls: int, margin: tuple[float, float]) -> bool:
-    """Whether two different geometry classes (GEO_CLASSES: 1 edge, 2 wall, 4 uncertain) are
-    one model's accept test decided either way: edge / uncertain at the point model's threshold,
-    wall / uncertain at the wall model's, edge / wall at either (``margin``: |chi2 / threshold
-    - 1| of the point and the wall model, the host's)."""
-    pair = {fw_cls, host_cls}
-    if fw_cls == host_cls or not pair <= {1, 2, 4}:
+def _geo_class(edge: bool, wall: bool, gap: float) -> int:
+    """GEO_CLASSES index of geometry.classify's decision from the edge (point) and wall models'
+    accept tests and their chi-square gap (point - wall); a cylinder counts as uncertain."""
+    if edge and wall:
+        return 1 if gap < -LR_GAP else 2 if gap > LR_GAP else 4
+    return 1 if edge else 2 if wall else 4
+
+
+def _at_threshold(fw_cls: int, host_cls: int, chi2: Sequence[float], threshold: Sequence[float],
+                  accepted: Sequence[bool]) -> bool:
+    """Whether the firmware's geometry class (GEO_CLASSES: 1 edge, 2 wall, 4 uncertain) differs
+    from the host's only by one of the host's tests decided the other way where its value lies
+    within CLASS_THRESHOLD_BAND of the bound: the point (edge) or the wall model's accept test
+    (its chi-square against its threshold), or, both accepted, the likelihood-ratio test (their
+    chi-square gap against LR_GAP, to the band of their sum). ``chi2``, ``threshold``,
+    ``accepted``: the host's (geometry.classify_batch) for the point and the wall model."""
+    if fw_cls == host_cls or not {fw_cls, host_cls} <= {1, 2, 4}:
         return False
-    point, wall = margin
-    at = {frozenset((1, 4)): point, frozenset((2, 4)): wall, frozenset((1, 2)): min(point, wall)}
-    return at[frozenset(pair)] <= CLASS_THRESHOLD_BAND
+    (x_p, x_w), (t_p, t_w), (e, w) = chi2[:2], threshold[:2], (bool(accepted[0]), bool(accepted[1]))
+    gap, band = x_p - x_w, CLASS_THRESHOLD_BAND
+
+    def near(x: float, bound: float, scale: float) -> bool:
+        return math.isfinite(x) and abs(x - bound) <= band * scale
+
+    flipped = []
+    if near(x_p, t_p, t_p):
+        flipped.append(_geo_class(not e, w, gap))
+    if near(x_w, t_w, t_w):
+        flipped.append(_geo_class(e, not w, gap))
+    if e and w and near(abs(gap), LR_GAP, x_p + x_w):
+        flipped.append(4 if abs(gap) > LR_GAP else 1 if gap < 0 else 2)
+    return fw_cls in flipped
 
 
 def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) -> dict[str, Any]:
@@ -555,17 +580,17 @@ def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) ->
         if got is not None:
             pairs.append((f, *got))
     wants: list[Any] = [None] * len(pairs)
-    margins = [(math.inf, math.inf)] * len(pairs)  # |chi2 / threshold - 1| of the point, wall model
+    tests: list[Any] = [None] * len(pairs)  # the host's (chi2, threshold, accepted) of the point, wall
     for rows, C, R, S in _by_receiver_count(layout.positions, [(rxs, paths, source)
                                                                for _, _, rxs, source, paths in pairs]):
         for i, rec in zip(rows, geo_records(C, R, S)):
             wants[i] = rec
         with np.errstate(all="ignore"):
             cb = geometry.classify_batch(C, R, S)
-        rel = np.abs(cb.chi2[:, :2] / np.maximum(cb.threshold[..., :2], 1e-12) - 1.0)
-        for i, m in zip(rows, np.where(np.isfinite(rel), rel, np.inf)):
-            margins[i] = (float(m[0]), float(m[1]))
-    for (f, r, rxs, source, paths), want, margin in zip(pairs, wants, margins):
+        for k, i in enumerate(rows):
+            tests[i] = (cb.chi2[k, :2].tolist(), np.broadcast_to(cb.threshold, cb.chi2.shape)[k, :2].tolist(),
+                        cb.accepted[k, :2].tolist())
+    for (f, r, rxs, source, paths), want, test in zip(pairs, wants, tests):
         for g in f.geo:
             compared += 1
             if want is None:
@@ -578,7 +603,7 @@ def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) ->
                 max_mm = max(max_mm, d)
             elif int(g["cls"]) == want_cls:
                 uncertain_max_mm = max(uncertain_max_mm, d)
-            if _at_threshold(int(g["cls"]), want_cls, margin):
+            if test is not None and _at_threshold(int(g["cls"]), want_cls, *test):
                 borderline += 1  # either answer is right at a threshold
                 continue
             if int(g["cls"]) != want_cls or (is_fix and (abs(int(g["x_mm"]) - int(want["x_mm"])) > 1
