@@ -149,7 +149,6 @@ def _load(path: Path) -> ctypes.CDLL:
     return lib
 
 
-
 class InPoll(NamedTuple):
     """What :meth:`TwinSim.usb_in_poll` returns."""
     answer: bytes | None  #: the first answer other than a NAK (None: handed back to Python)
@@ -159,6 +158,7 @@ class InPoll(NamedTuple):
     poll_left: int        #: (answer None) clocks of idle bus still to run, after those
     naks: int             #: NAKs meanwhile
     nak_clocks: int       #: their bus clocks
+
 
 class TwinSim:
     """One running device. ``echo_source``: an object with ``fire(t0_tick, elements,
