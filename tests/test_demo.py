@@ -75,6 +75,9 @@ def test_a_class_decided_at_a_threshold_is_no_mismatch():
     assert _at_threshold(4, 2, (LR_GAP + 0.5 + 0.02, 0.5), t, (True, True))
     assert _at_threshold(1, 4, (0.5, LR_GAP + 0.5 - 0.02), t, (True, True))
     assert not _at_threshold(4, 2, (LR_GAP + 0.5 + 2.0, 0.5), t, (True, True))
+    # both accept tests at their bounds: edge <-> wall
+    assert _at_threshold(2, 1, (near, near * 1.01), t, (True, False))
+    assert not _at_threshold(2, 1, (near, 40.0), t, (True, False))
     # nothing near a bound, the same class, a class outside edge / wall / uncertain
     assert not _at_threshold(1, 2, (2.0, 3.0), t, (True, False))
     assert not _at_threshold(1, 1, (near, near), t, (True, True))

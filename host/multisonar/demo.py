@@ -527,10 +527,11 @@ def _geo_class(edge: bool, wall: bool, gap: float) -> int:
 def _at_threshold(fw_cls: int, host_cls: int, chi2: Sequence[float], threshold: Sequence[float],
                   accepted: Sequence[bool]) -> bool:
     """Whether the firmware's geometry class (GEO_CLASSES: 1 edge, 2 wall, 4 uncertain) differs
-    from the host's only by one of the host's tests decided the other way where its value lies
-    within CLASS_THRESHOLD_BAND of the bound: the point (edge) or the wall model's accept test
-    (its chi-square against its threshold), or, both accepted, the likelihood-ratio test (their
-    chi-square gap against LR_GAP, to the band of their sum). ``chi2``, ``threshold``,
+    from the host's only by the host's tests decided the other way where their values lie
+    within CLASS_THRESHOLD_BAND of their bounds: the point (edge) or the wall model's accept test
+    (its chi-square against its threshold; the two together where both are at theirs), or, both
+    accepted, the likelihood-ratio test (their chi-square gap against LR_GAP, to the band of their
+    sum). ``chi2``, ``threshold``,
     ``accepted``: the host's (geometry.classify_batch) for the point and the wall model."""
     if fw_cls == host_cls or not {fw_cls, host_cls} <= {1, 2, 4}:
         return False
@@ -545,6 +546,8 @@ def _at_threshold(fw_cls: int, host_cls: int, chi2: Sequence[float], threshold: 
         flipped.append(_geo_class(not e, w, gap))
     if near(x_w, t_w, t_w):
         flipped.append(_geo_class(e, not w, gap))
+        if near(x_p, t_p, t_p):  # (both at their bounds)
+            flipped.append(_geo_class(not e, not w, gap))
     if e and w and near(abs(gap), LR_GAP, x_p + x_w):
         flipped.append(4 if abs(gap) > LR_GAP else 1 if gap < 0 else 2)
     return fw_cls in flipped
