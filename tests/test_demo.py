@@ -59,7 +59,8 @@ def test_a_class_decided_at_a_threshold_is_no_mismatch():
     seen in demo runs: the point model's chi-square 11.150 against 11.157 (host: edge,
     firmware: uncertain) and 11.155 against 11.157 with the wall accepted too (host: uncertain,
     both models explain the data; firmware: wall, the point rejected)."""
-    from multisonar.demo import CLASS_THRESHOLD_BAND, LR_GAP, _at_threshold
+    from multisonar.demo import CLASS_THRESHOLD_BAND, _at_threshold
+    from multisonar.geometry import LR_GAP
 
     t = (11.157245, 11.157245)
     near = t[0] * (1 - CLASS_THRESHOLD_BAND / 2)

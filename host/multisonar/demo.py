@@ -24,9 +24,9 @@ import json
 import math
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from collections.abc import Sequence
 from typing import Any, Iterator
 
 import numpy as np
@@ -511,17 +511,15 @@ def _host_fixes_of_frames(scene: Any, resolved: list[Any], frames: list[Any], sc
 #: firmware's fixed-point chi-square is accurate to 1e-2 (tests/test_fw_geometry.py,
 #: test_classify_matches_python), so its tests there may go either way
 CLASS_THRESHOLD_BAND = 0.01
-#: geometry.classify's likelihood-ratio test: with both models accepted, the one whose
-#: chi-square is lower by more than this wins, else 'uncertain' (the firmware's decide() too)
-LR_GAP = 9.21
 
 
 def _geo_class(edge: bool, wall: bool, gap: float) -> int:
     """GEO_CLASSES index of geometry.classify's decision from the edge (point) and wall models'
-    accept tests and their chi-square gap (point - wall); a cylinder counts as uncertain."""
-    if edge and wall:
-        return 1 if gap < -LR_GAP else 2 if gap > LR_GAP else 4
-    return 1 if edge else 2 if wall else 4
+    accept tests and their chi-square gap (point - wall), the cylinder not accepted (the
+    firmware has no cylinder model)."""
+    from .geometry import decide_kind
+
+    return int(decide_kind(edge, wall, False, gap)) + 1  # KINDS index -> GEO_CLASSES index
 
 
 def _at_threshold(fw_cls: int, host_cls: int, chi2: Sequence[float], threshold: Sequence[float],
@@ -530,9 +528,11 @@ def _at_threshold(fw_cls: int, host_cls: int, chi2: Sequence[float], threshold: 
     from the host's only by the host's tests decided the other way where their values lie
     within CLASS_THRESHOLD_BAND of their bounds: the point (edge) or the wall model's accept test
     (its chi-square against its threshold; the two together where both are at theirs), or, both
-    accepted, the likelihood-ratio test (their chi-square gap against LR_GAP, to the band of their
-    sum). ``chi2``, ``threshold``,
-    ``accepted``: the host's (geometry.classify_batch) for the point and the wall model."""
+    accepted, the likelihood-ratio test (their chi-square gap against geometry.LR_GAP, to the
+    band of their sum). ``chi2``, ``threshold``, ``accepted``: the host's
+    (geometry.classify_batch) for the point and the wall model."""
+    from .geometry import LR_GAP
+
     if fw_cls == host_cls or not {fw_cls, host_cls} <= {1, 2, 4}:
         return False
     (x_p, x_w), (t_p, t_w), (e, w) = chi2[:2], threshold[:2], (bool(accepted[0]), bool(accepted[1]))
@@ -590,9 +590,9 @@ def _fw_vs_host(scene: Any, resolved: list[Any], frames: list[Any], c: float) ->
             wants[i] = rec
         with np.errstate(all="ignore"):
             cb = geometry.classify_batch(C, R, S)
+        thr = cb.threshold[:2].tolist()  # (the same for every row of a receiver count)
         for k, i in enumerate(rows):
-            tests[i] = (cb.chi2[k, :2].tolist(), np.broadcast_to(cb.threshold, cb.chi2.shape)[k, :2].tolist(),
-                        cb.accepted[k, :2].tolist())
+            tests[i] = (cb.chi2[k, :2].tolist(), thr, cb.accepted[k, :2].tolist())
     for (f, r, rxs, source, paths), want, test in zip(pairs, wants, tests):
         for g in f.geo:
             compared += 1

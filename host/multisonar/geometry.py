@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -909,6 +910,18 @@ def solve_cylinder(receivers, path_lengths, source=(0.0, 0.0), radius=None, *, a
 KINDS: tuple[str, ...] = ("edge", "wall", "cylinder", "uncertain")
 #: Default path-length noise: 1 us of time of flight at 20 degC (~0.34 mm).
 DEFAULT_NOISE_SIGMA = 331.3 * math.sqrt(1.0 + 20.0 / 273.15) * 1e-6
+#: With the edge and the wall model both accepted, the one whose chi-square is lower by more
+#: than this wins (likelihood ratio 100 between equal-size models), else 'uncertain'.
+LR_GAP = 9.21
+
+
+def decide_kind(edge: Any, wall: Any, cylinder: Any, gap: Any) -> np.ndarray:
+    """KINDS index of :func:`classify`'s decision from the accept tests of the edge, wall and
+    cylinder models and the chi-square gap edge - wall (arrays of one shape, or scalars)."""
+    e, w, cy = np.asarray(edge, bool), np.asarray(wall, bool), np.asarray(cylinder, bool)
+    both = e & w
+    return np.select([e & ~w, w & ~e, both & (gap < -LR_GAP), both & (gap > LR_GAP), ~e & ~w & cy],
+                     [0, 1, 0, 1, 2], 3).astype(np.int8)
 
 
 def _chi2_quantile(p: float, k: np.ndarray) -> np.ndarray:
@@ -966,15 +979,7 @@ def classify_batch(receivers, path_lengths, source=(0.0, 0.0), *, noise_sigma: f
             okm = np.stack([(sp == OK) | (sp == AMBIG), (sw == OK) | (sw == AMBIG),
                             (sc == OK) & (th[:, 2] > 0.0) & (th[:, 2] < 0.5 * _A_MAX)], -1)
             a = okm & (x2 <= thr)
-            kd = np.full(a.shape[0], 3, np.int8)
-            e, w, cy = a[:, 0], a[:, 1], a[:, 2]
-            kd[e & ~w] = 0
-            kd[w & ~e] = 1
-            both = e & w
-            gap = x2[:, 0] - x2[:, 1]
-            kd[both & (gap < -9.21)] = 0  # likelihood ratio > 100 between equal-size models
-            kd[both & (gap > 9.21)] = 1
-            kd[~e & ~w & cy] = 2
+            kd = decide_kind(a[:, 0], a[:, 1], a[:, 2], x2[:, 0] - x2[:, 1])
             chi2[sl], acc[sl], kind[sl] = np.where(np.isfinite(x2), x2, 1e300), a, kd
     kind = np.where(bad, 3, kind).astype(np.int8)
     return ClassifyBatch(kind=kind, chi2=chi2, threshold=thr, accepted=acc & ~bad[:, None])
@@ -990,7 +995,7 @@ def classify(receivers, path_lengths, source=(0.0, 0.0), noise_sigma: float = DE
     N - p_k degrees of freedom (p = 2 for edge and wall, 3 for cylinder; with N = 3 the
     cylinder is exactly determined and accepted only if it fits exactly, radius in (0, 500 m)).
       * only the edge accepted -> 'edge'; only the wall -> 'wall';
-      * both accepted -> the one whose chi-square is lower by more than 9.21 (likelihood
+      * both accepted -> the one whose chi-square is lower by more than LR_GAP = 9.21 (likelihood
         ratio 100) or else 'uncertain' (the array cannot see the curvature difference);
       * neither accepted but the cylinder -> 'cylinder' (edge and wall are its limits
         radius -> 0 and radius -> inf, so it is only chosen when both are rejected);
