@@ -484,28 +484,36 @@ struct Twin {
     return n;
   }
 
+  // A clock of a USB packet: the skip's check watches it too (no skip while a packet is under
+  // way, but its record of the engine's anchor passes stays current, so a skip can follow the
+  // packet at once, and the sonar core's clock can be held through it)
+  void usb_step() {
+    step();
+    if (skipping) skip_check(0);
+  }
+
   // One USB packet from the host into the packet layer (twin_usb_packet).
   int usb_packet(const uint8_t* tx, int len, int listen, uint8_t* rx, int cap, int* delay) {
     Vms_twin_top* const dut = top.get();
     usb_busy = true;
     dut->tl_rx_start_i = 1;
-    step();
+    usb_step();
     dut->tl_rx_start_i = 0;
     for (int i = 0; i < len; ++i) {
       dut->tl_rx_valid_i = 1;
       dut->tl_rx_byte_i = tx[i];
-      step();
+      usb_step();
     }
     dut->tl_rx_valid_i = 0;
     dut->tl_rx_end_i = 1;
-    step();
+    usb_step();
     dut->tl_rx_end_i = 0;
     int n = 0;
     *delay = -1;
     bool receiving = false;
     for (int waited = 0; waited <= listen || receiving; ++waited) {
       if (listen <= 0) break;
-      step();
+      usb_step();
       if (dut->tl_tx_valid_o) {
         if (!receiving) *delay = waited;
         receiving = true;
@@ -896,8 +904,9 @@ struct Twin {
       limit = std::min(limit, T + static_cast<int64_t>(ahead) - kCloseMargin);
     }
     if (hold) {
-      // (not while a burst runs; a pending trigger's phase counter is advanced as in a skip)
-      if (!tx_run && limit - T >= kMinHold)
+      // (a running burst's or a pending trigger's phase counter is advanced as in a skip; the
+      // elements stay clocked and compare it frozen, short of their next edge within the limit)
+      if (limit - T >= kMinHold)
         sonar_hold(cycles + static_cast<uint64_t>(limit - T), turn, tx_busy);
       return 0;
     }
