@@ -15,7 +15,8 @@ order the golden model runs them, one logical tick at a time (docs/sched_engine.
   current epoch), closes (receivers ascending; a valid head closing now: CLOSE, its slot freed,
   the sensor woken, a safety cancel wakes every sensor and runs SAFE; then HEAD), then SCHED
   for sensors 0..7: a sensor decides when it is active, not in its init phase and woken, or
-  not held and due (cur + P >= its next evaluation). Not due: next evaluation = due; quiet:
+  not held and due (cur + P >= its next evaluation); only the woken ones are visited when
+  none can be due (IDLE's td is after eng and cur is before it). Not due: next evaluation = due; quiet:
   = the quiet tick; held (EDF): hold; otherwise CAND + ORDER (tracking) or the init ping's
   windows, CONF (a conflict: next evaluation = the retry), ISSUE + IEL (next evaluation = the
   new due, every other sensor woken). A forced re-initialisation runs SAFE first.
@@ -106,14 +107,27 @@ def _wake(p: Program, sensor: int) -> Program:
     return _put(p, 18, M_WAKE)
 
 
-def _wake_others(p: Program, sensor: int) -> Program:
-    """Every sensor of the table but ``sensor`` re-evaluates. Uses r17, r18."""
-    p.ld(17, sensor, ONEHOT)
+def _wake_others_sub(p: Program) -> Program:
+    """The subroutine ``wake_others``: every sensor of the table but r7 (the SCHED phase's)
+    re-evaluates, those above r7 in this SCHED phase: they join the sensors it has still to
+    visit (a phase that started with the woken sensors only visits them all, as one that
+    started with every sensor does). Uses r17, r18."""
+    p.label("wake_others")
+    p.ld(17, 7, ONEHOT)
+    p.add(17, 17, 17)
+    p.sub(17, 0, 17)                                    # the sensors above r7
+    _get(p, 18, M_ACT)
+    p.and_(17, 17, 18)
+    _get(p, 18, M_SREM)
+    p.or_(18, 18, 17)
+    _put(p, 18, M_SREM)
+    p.ld(17, 7, ONEHOT)
     _get(p, 18, M_ACT)
     p.andn(18, 18, 17)
     _get(p, 17, M_WAKE)
     p.or_(18, 18, 17)
-    return _put(p, 18, M_WAKE)
+    _put(p, 18, M_WAKE)
+    return p.ret()
 
 
 # ------------------------------------------------------------------ INIT and IDLE
@@ -285,8 +299,23 @@ def _closes(p: Program) -> None:
 
 # ------------------------------------------------------------------ SCHED
 def _sched(p: Program) -> None:
+    # The sensors to visit: every one of the table, or only the woken ones where no other can be
+    # due: IDLE found none due by eng (td > eng, so every sensor td depends on has its next
+    # evaluation after td + P) and this tick comes before td. (Only SCHED changes a next
+    # evaluation, a hold or the init flag; a close that ends an init ping wakes its sensor.)
     p.label("sp_phase")
     _get(p, 9, M_ACT)
+    _get(p, 15, M_WAKE)
+    _get(p, 6, M_ARMED)
+    _get(p, 5, M_TD)
+    _get(p, 1, M_ENG)
+    _get(p, 2, M_CUR)
+    p.and_(15, 15, 9)
+    p.tst(6).b("eq", "sp_few")                          # none armed: none due
+    p.cb("le", 5, 1, "sp_all")                          # td <= eng: one may be due now
+    p.cb("ge", 2, 5, "sp_all")                          # this tick is td or later
+    p.label("sp_few").mov(9, 15)
+    p.label("sp_all")
     _put(p, 9, M_SREM)
     p.label("sp_s")
     _next_of(p, M_SREM, 7, 9, "sp_end", M_S)
@@ -380,7 +409,7 @@ def _decision(p: Program) -> None:
     _get(p, 25, M_P)
     p.add(24, 24, 25)                                   # due = the close tick + P (a t0)
     p.st(24, 8, S_DUE).st(24, 8, S_NXT)
-    _wake_others(p, 7)                                  # the sensors its earlier due held
+    p.call("wake_others")                               # the sensors its earlier due held
     p.jmp("sp_s")
     p.label("dec_order0").li(1, 0)
     p.label("dec_order")
@@ -425,7 +454,7 @@ def _decision(p: Program) -> None:
     p.add(13, 13, 15)
     p.st(13, 8, S_CLR)                                  # t0 + te_max + T_N - 1 + L
     p.label("dec_clr")
-    _wake_others(p, 7)
+    p.call("wake_others")
     # the windows' meta word: the pulse's seq (before ISSUE's + 1), init, the new epoch, sensor
     p.ld(13, 8, S_SEQ).ld(14, 8, S_FLAGS)
     _get(p, 4, M_INIT)
@@ -463,6 +492,7 @@ def main_program() -> Program:
     p.label("safe_sub")
     safe_kernel(p)
     p.ret()
+    _wake_others_sub(p)
     for insn in p.items:                 # the bus decodes I/O writes from r0-based stores only
         if not isinstance(insn, str) and insn.op == "st" and insn.ra and insn.imm >= SU_TA:
             raise UcodeError(f"{insn.where}: I/O store through r{insn.ra}")
