@@ -795,9 +795,11 @@ struct Twin {
 
   // Clocks kept before the first thing that can happen (more than a poll-loop turn plus the
   // engine's 3-tick decision test; before a window close two blocks of the close detector, whose
-  // scan then sees the head in the next block); clocks the CPU must have waited (its pipeline
-  // drained); the shortest skip (the detector's block flags are set from the tick after 64).
-  static constexpr int64_t kMargin = 24, kCloseMargin = 64, kMinSkip = 96;
+  // scan then sees the head in the next block; before a transmit element's trigger or half
+  // period's end two, the element compares the phaser's registered counts and nothing else
+  // reads them ahead); clocks the CPU must have waited (its pipeline drained); the shortest
+  // skip (the detector's block flags are set from the tick after 64).
+  static constexpr int64_t kMargin = 24, kCloseMargin = 64, kTxMargin = 2, kMinSkip = 96;
   // the shortest hold of the sonar core's clock (its catch-up simulates up to kMinSkip + a turn +
   // kReplay clocks) and the longest where nothing in the core limits it (it ends when the SoC
   // addresses it)
@@ -871,13 +873,13 @@ struct Twin {
         const uint32_t since = (phase_nx + h - phi) % h, ahead = (phi + h - phase_nx) % h;
         if (since < 4 || phi >= h) return 0;  // (and the drive's registered copies settled)
         tx_busy = tx_run = true;
-        limit = std::min(limit, T + static_cast<int64_t>(ahead) - kMargin);
+        limit = std::min(limit, T + static_cast<int64_t>(ahead) - kTxMargin);
       }
       if (t.pend.get()) {  // due in the clock after the one with T = tgt - 1 (mod 2^17)
         tx_busy = true;
         const uint32_t tgt = static_cast<uint32_t>(t.tgt.get());
         const uint32_t ahead = (tgt - 1u - static_cast<uint32_t>(T)) & 0x1FFFFu;
-        limit = std::min(limit, T + static_cast<int64_t>(ahead) - kMargin);
+        limit = std::min(limit, T + static_cast<int64_t>(ahead) - kTxMargin);
       }
       if (!rx_settled(i)) return 0;
     }
