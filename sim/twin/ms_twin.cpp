@@ -797,9 +797,11 @@ struct Twin {
   // engine's 3-tick decision test; before a window close two blocks of the close detector, whose
   // scan then sees the head in the next block; before a transmit element's trigger or half
   // period's end two, the element compares the phaser's registered counts and nothing else
-  // reads them ahead); clocks the CPU must have waited (its pipeline drained); the shortest
-  // skip (the detector's block flags are set from the tick after 64).
-  static constexpr int64_t kMargin = 24, kCloseMargin = 64, kTxMargin = 2, kMinSkip = 96;
+  // reads them ahead; before an echo edge two, the receivers see it at its tick, the rest of
+  // the core later through them); clocks the CPU must have waited (its pipeline drained); the
+  // shortest skip (the detector's block flags are set from the tick after 64).
+  static constexpr int64_t kMargin = 24, kCloseMargin = 64, kTxMargin = 2, kEdgeMargin = 2,
+                           kMinSkip = 96;
   // the shortest hold of the sonar core's clock (its catch-up simulates up to kMinSkip + a turn +
   // kReplay clocks) and the longest where nothing in the core limits it (it ends when the SoC
   // addresses it)
@@ -887,7 +889,7 @@ struct Twin {
     // the last busy one)
     if (!tx_busy && (sk.phase.get() != 0 || sk.phase_nx.get() != (sk.hm1.get() != 0 ? 1u : 0u)))
       return 0;
-    if (!edges.empty()) limit = std::min(limit, edges.top().tick - kMargin);
+    if (!edges.empty()) limit = std::min(limit, edges.top().tick - kEdgeMargin);
     const uint32_t* rf = sk.rf.w();
     const bool armed = rf[6] != 0;
     if (armed)
@@ -1382,7 +1384,7 @@ void twin_add_echoes(void* p, const int64_t* rows, int n) {
     t->edges.push({end, rx, -1});
     // a held sonar core is clocked again before the edge reaches its receivers
     if (t->sonar_held) {
-      const int64_t ahead = start - Twin::kMargin - t->tick;
+      const int64_t ahead = start - Twin::kEdgeMargin - t->tick;
       if (ahead <= 0) t->sonar_catch_up();
       else t->sonar_until = std::min(t->sonar_until, t->cycles + static_cast<uint64_t>(ahead));
     }
