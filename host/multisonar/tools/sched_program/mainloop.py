@@ -16,10 +16,11 @@ order the golden model runs them, one logical tick at a time (docs/sched_engine.
   the sensor woken, a safety cancel wakes every sensor and runs SAFE; then HEAD), then SCHED
   for sensors 0..7: a sensor decides when it is active, not in its init phase and woken, or
   not held and due (cur + P >= its next evaluation); only the woken ones are visited when
-  none can be due (IDLE's td is after eng and cur is before it). Not due: next evaluation = due; quiet:
-  = the quiet tick; held (EDF): hold; otherwise CAND + ORDER (tracking) or the init ping's
-  windows, CONF (a conflict: next evaluation = the retry), ISSUE + IEL (next evaluation = the
-  new due, every other sensor woken). A forced re-initialisation runs SAFE first.
+  none can be due (IDLE's td is after eng and cur is before it). Not due: next evaluation =
+  due; quiet: = the quiet tick; held (EDF): hold; otherwise CAND + ORDER (tracking) or the
+  init ping's windows, CONF (a conflict: next evaluation = the retry), ISSUE + IEL (next
+  evaluation = the new due, every other sensor woken). A forced re-initialisation runs SAFE
+  first.
 
 Kernels that are subroutines (SAFE) end in ``ret``; the engine has one link register, so no
 subroutine calls another and CONF (which calls its own fold) stays inline. The program's
