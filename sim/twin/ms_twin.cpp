@@ -1413,7 +1413,8 @@ void twin_bus_reset(void* p, int cycles) {
 // byte per clock; then, with listen > 0, wait up to `listen` clocks for the device's packet.
 // Returns the answer's length (0: no answer), its bytes in rx (up to cap) and the clocks from
 // the end of the host packet to the answer's first byte in *delay.
-int twin_usb_packet(void* p, const uint8_t* tx, int len, int listen, uint8_t* rx, int cap, int* delay) {
+int twin_usb_packet(void* p, const uint8_t* tx, int len, int listen, uint8_t* rx, int cap,
+                    int* delay) {
   return static_cast<Twin*>(p)->usb_packet(tx, len, listen, rx, cap, delay);
 }
 
